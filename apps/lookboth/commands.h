@@ -1,0 +1,20 @@
+// The subcommands of the `lookboth` command line. Each family registers its
+// subcommands on the CLI11 app; each subcommand parses and validates its own
+// options, then calls the libraries. No estimation logic lives here.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <functional>
+
+namespace lookboth::app {
+
+/// A subcommand's body; returns the process exit code. Exceptions of type
+/// lookboth::Error are caught by main and printed as "lookboth: error: ...".
+using CommandBody = std::function<int()>;
+
+/// Called once per family from main; `set_body` records what to run when the
+/// user picked one of the family's subcommands.
+void registerVersionCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
+void registerCameraCommands(CLI::App& app, const std::function<void(CommandBody)>& set_body);
+
+}  // namespace lookboth::app

@@ -1,0 +1,37 @@
+// lookboth: registration of a network of fixed cameras with a robot that
+// looks both ways. One binary, one subcommand per job (see `lookboth --help`).
+#include <clocale>
+#include <iostream>
+
+#include "commands.h"
+#include "lookboth/core/error.h"
+
+int main(int argc, char** argv) {
+  // Numbers are read and written with a decimal point whatever the user's locale.
+  std::setlocale(LC_NUMERIC, "C");
+
+  CLI::App app{"lookboth: register a network of fixed, ceiling-mounted cameras with a robot that "
+               "carries an upward fisheye and a backlit marker."};
+  app.require_subcommand(1);
+  app.set_help_all_flag("--help-all", "Help for every subcommand");
+
+  lookboth::app::CommandBody body;
+  const auto set_body = [&body](lookboth::app::CommandBody b) { body = std::move(b); };
+  lookboth::app::registerVersionCommand(app, set_body);
+  lookboth::app::registerCameraCommands(app, set_body);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    return body ? body() : 0;
+  } catch (const lookboth::Error& e) {
+    std::cerr << "lookboth: error: " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "lookboth: internal error: " << e.what() << "\n";
+    return 2;
+  }
+}

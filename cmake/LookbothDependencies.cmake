@@ -1,0 +1,21 @@
+# Every dependency is a Debian package installed by scripts/setup.sh.
+find_package(Eigen3 3.3 REQUIRED NO_MODULE)
+find_package(Ceres REQUIRED)
+find_package(OpenCV 4 REQUIRED COMPONENTS core imgproc calib3d)
+find_package(yaml-cpp REQUIRED)
+find_package(CLI11 REQUIRED)
+find_package(nlohmann_json 3 REQUIRED)
+find_package(mrpt-core REQUIRED)
+find_package(mrpt-poses REQUIRED)
+find_package(mrpt-img REQUIRED)
+if(LOOKBOTH_BUILD_TESTS)
+  find_package(GTest REQUIRED)
+endif()
+if(LOOKBOTH_BUILD_BENCHMARKS)
+  find_package(benchmark REQUIRED)
+endif()
+
+# yaml-cpp 0.7 in Debian 12 exports the target "yaml-cpp" without a namespace.
+if(TARGET yaml-cpp AND NOT TARGET yaml-cpp::yaml-cpp)
+  add_library(yaml-cpp::yaml-cpp ALIAS yaml-cpp)
+endif()

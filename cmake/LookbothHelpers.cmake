@@ -1,0 +1,64 @@
+# Helper functions that declare the project's targets with explicit source lists.
+#
+#   lookboth_add_library(<module> SOURCES ... [PUBLIC_DEPS ...] [PRIVATE_DEPS ...] [SHARED])
+#     -> target lookboth_<module>, alias lookboth::<module>, headers in
+#        libs/<module>/include/lookboth/<module>/.
+#   lookboth_add_test(<module>/<name> SOURCES ... DEPS ... [LABELS ...])
+#     -> a GoogleTest executable registered with ctest under the name <module>/<name>.
+#   lookboth_add_benchmark(<name> SOURCES ... DEPS ...)
+#     -> a Google Benchmark executable (not run by ctest; see doc/benchmarks.md).
+
+function(lookboth_target_defaults target)
+  target_compile_options(${target} PRIVATE ${LOOKBOTH_WARNING_FLAGS})
+  target_compile_features(${target} PUBLIC cxx_std_17)
+endfunction()
+
+function(lookboth_add_library module)
+  cmake_parse_arguments(ARG "SHARED" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
+  set(target lookboth_${module})
+  if(ARG_SHARED)
+    add_library(${target} SHARED ${ARG_SOURCES})
+  else()
+    add_library(${target} ${ARG_SOURCES})
+  endif()
+  add_library(lookboth::${module} ALIAS ${target})
+  target_include_directories(${target} PUBLIC
+    $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
+  target_link_libraries(${target} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
+  set_target_properties(${target} PROPERTIES OUTPUT_NAME lookboth-${module}
+    VERSION ${PROJECT_VERSION} SOVERSION ${PROJECT_VERSION_MAJOR}.${PROJECT_VERSION_MINOR})
+  lookboth_target_defaults(${target})
+  install(TARGETS ${target} EXPORT lookbothTargets
+    LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+    ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
+  install(DIRECTORY include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+endfunction()
+
+function(lookboth_add_test name)
+  if(NOT LOOKBOTH_BUILD_TESTS)
+    return()
+  endif()
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;LABELS" ${ARGN})
+  string(REPLACE "/" "_" target "test_${name}")
+  add_executable(${target} ${ARG_SOURCES})
+  target_link_libraries(${target} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main)
+  target_compile_definitions(${target} PRIVATE
+    LOOKBOTH_SHARE_DIR="${LOOKBOTH_SHARE_DIR}"
+    LOOKBOTH_TEST_DATA_DIR="${LOOKBOTH_TEST_DATA_DIR}")
+  lookboth_target_defaults(${target})
+  add_test(NAME ${name} COMMAND ${target})
+  set_tests_properties(${name} PROPERTIES LABELS "unit;${ARG_LABELS}" TIMEOUT 300)
+endfunction()
+
+function(lookboth_add_benchmark name)
+  if(NOT LOOKBOTH_BUILD_BENCHMARKS)
+    return()
+  endif()
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  set(target bench_${name})
+  add_executable(${target} ${ARG_SOURCES})
+  target_link_libraries(${target} PRIVATE ${ARG_DEPS} benchmark::benchmark)
+  target_compile_definitions(${target} PRIVATE LOOKBOTH_SHARE_DIR="${LOOKBOTH_SHARE_DIR}")
+  lookboth_target_defaults(${target})
+endfunction()

@@ -1,0 +1,54 @@
+// Time in lookboth: signed 64-bit nanoseconds (`TimeNs`), for instants (since
+// the Unix epoch, 1970-01-01T00:00:00 UTC, in the clock of the node that
+// stamped them) and for durations alike. +-292 years of range.
+//
+// MRPT stamps are `mrpt::Clock::time_point`: 100 ns ticks since 1601-01-01
+// (Windows FILETIME). The conversion is exact from MRPT to lookboth; from
+// lookboth to MRPT it rounds to the nearest 100 ns tick (ties away from zero)
+// unless the caller asks for an exact conversion.
+#pragma once
+
+#include <cstdint>
+#include <mrpt/core/Clock.h>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace lookboth {
+
+using TimeNs = std::int64_t;
+
+constexpr TimeNs kNanosecondsPerSecond = 1'000'000'000;
+constexpr TimeNs kNanosecondsPerMrptTick = 100;
+/// MRPT ticks (100 ns) from 1601-01-01 to 1970-01-01.
+constexpr std::int64_t kMrptTicksAtUnixEpoch = 116'444'736'000'000'000LL;
+
+constexpr TimeNs millisecondsToNs(std::int64_t ms) { return ms * 1'000'000; }
+constexpr TimeNs secondsToNs(std::int64_t s) { return s * kNanosecondsPerSecond; }
+
+/// Seconds as a double (for printing and for arithmetic on short durations:
+/// a double holds an absolute Unix time only to ~0.2 us).
+double nsToSeconds(TimeNs t);
+/// Nearest nanosecond of a time in seconds. Throws lookboth::Error when out of range or not finite.
+TimeNs secondsToNsRounded(double seconds);
+
+/// Exact parse of a decimal number of seconds ("1305031102.175304",
+/// "-0.5", "12") into nanoseconds, without going through a double. Up to 9
+/// decimals; more decimals are rounded to the nearest nanosecond. nullopt on
+/// anything that is not such a number or is out of range.
+std::optional<TimeNs> parseSeconds(std::string_view text);
+/// "1305031102.175304000": seconds with exactly 9 decimals; reads back exactly with parseSeconds.
+std::string formatSeconds(TimeNs t);
+
+/// True when t is a whole number of MRPT ticks (a multiple of 100 ns).
+constexpr bool isExactMrptTime(TimeNs t) { return t % kNanosecondsPerMrptTick == 0; }
+
+/// Nearest MRPT tick (ties away from zero).
+mrpt::Clock::time_point toMrptTime(TimeNs t);
+/// Exact conversion; throws lookboth::Error when t is not a multiple of 100 ns.
+mrpt::Clock::time_point toMrptTimeExact(TimeNs t);
+/// Exact. Throws lookboth::Error for MRPT's invalid (default-constructed, 0)
+/// stamp and for stamps outside the range of TimeNs.
+TimeNs fromMrptTime(mrpt::Clock::time_point t);
+
+}  // namespace lookboth

@@ -1,0 +1,73 @@
+#include "lookboth/geometry/time.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "lookboth/core/error.h"
+
+namespace lookboth {
+namespace {
+
+TEST(Time, MrptEpochIsTheUnixEpochAtTheDocumentedOffset) {
+  EXPECT_EQ(toMrptTime(0), mrpt::Clock::fromDouble(0.0));
+  EXPECT_EQ(fromMrptTime(mrpt::Clock::fromDouble(1.5)), 1'500'000'000);
+  EXPECT_DOUBLE_EQ(mrpt::Clock::toDouble(toMrptTime(secondsToNs(1700000000))), 1700000000.0);
+}
+
+TEST(Time, RoundTripsExactlyThroughMrptTicks) {
+  std::mt19937_64 rng(7);
+  std::uniform_int_distribution<TimeNs> u(-secondsToNs(1'000'000'000), secondsToNs(4'000'000'000));
+  for (int i = 0; i < 10000; ++i) {
+    const TimeNs t = u(rng) / 100 * 100;
+    EXPECT_EQ(fromMrptTime(toMrptTimeExact(t)), t);
+    EXPECT_EQ(fromMrptTime(toMrptTime(t)), t);
+  }
+}
+
+TEST(Time, RoundsToNearestTickAndRefusesInexactWhenAsked) {
+  const TimeNs base = secondsToNs(1700000000);
+  EXPECT_EQ(fromMrptTime(toMrptTime(base + 49)), base);
+  EXPECT_EQ(fromMrptTime(toMrptTime(base + 50)), base + 100);
+  EXPECT_EQ(fromMrptTime(toMrptTime(-149)), -100);
+  EXPECT_EQ(fromMrptTime(toMrptTime(-150)), -200);
+  EXPECT_FALSE(isExactMrptTime(base + 1));
+  EXPECT_THROW(toMrptTimeExact(base + 1), Error);
+}
+
+TEST(Time, InvalidMrptStampIsAnError) {
+  EXPECT_THROW(fromMrptTime(mrpt::Clock::time_point()), Error);
+}
+
+TEST(Time, ParsesDecimalSecondsExactly) {
+  EXPECT_EQ(parseSeconds("1305031102.175304"), 1305031102175304000LL);
+  EXPECT_EQ(parseSeconds("1305031102.175304123"), 1305031102175304123LL);
+  EXPECT_EQ(parseSeconds("1305031102.1753041236"), 1305031102175304124LL);  // rounded
+  EXPECT_EQ(parseSeconds("12"), 12'000'000'000LL);
+  EXPECT_EQ(parseSeconds("-0.5"), -500'000'000LL);
+  EXPECT_EQ(parseSeconds(".25"), 250'000'000LL);
+  EXPECT_FALSE(parseSeconds(""));
+  EXPECT_FALSE(parseSeconds("1.2.3"));
+  EXPECT_FALSE(parseSeconds("1e9"));
+  EXPECT_FALSE(parseSeconds("abc"));
+  EXPECT_FALSE(parseSeconds("99999999999999"));
+}
+
+TEST(Time, FormatsSecondsThatParseBackExactly) {
+  for (TimeNs t : {TimeNs(0), TimeNs(1), TimeNs(-1), TimeNs(1305031102175304123LL),
+                   TimeNs(-1305031102175304123LL)}) {
+    EXPECT_EQ(parseSeconds(formatSeconds(t)), t) << formatSeconds(t);
+  }
+  EXPECT_EQ(formatSeconds(1'500'000'000), "1.500000000");
+  EXPECT_EQ(formatSeconds(-1), "-0.000000001");
+}
+
+TEST(Time, DoubleSecondsConversions) {
+  EXPECT_DOUBLE_EQ(nsToSeconds(1'250'000'000), 1.25);
+  EXPECT_EQ(secondsToNsRounded(1.25), 1'250'000'000);
+  EXPECT_EQ(secondsToNsRounded(-0.0000000014), -1);
+  EXPECT_THROW(secondsToNsRounded(std::nan("")), Error);
+}
+
+}  // namespace
+}  // namespace lookboth

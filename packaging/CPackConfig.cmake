@@ -1,0 +1,10 @@
+# Packaging (CPack). A Debian package and a tarball of the installed tree.
+set(CPACK_PACKAGE_NAME "lookboth")
+set(CPACK_PACKAGE_VENDOR "lookboth developers")
+set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})
+set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "${PROJECT_DESCRIPTION}")
+set(CPACK_GENERATOR "TGZ;DEB")
+set(CPACK_DEBIAN_PACKAGE_MAINTAINER "lookboth developers")
+set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
+set(CPACK_PACKAGE_FILE_NAME "lookboth-${PROJECT_VERSION}-${CMAKE_SYSTEM_PROCESSOR}")
+include(CPack)
