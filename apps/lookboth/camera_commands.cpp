@@ -18,8 +18,8 @@ namespace lookboth::app {
 namespace {
 
 const std::map<std::string, CameraFileFormat> kFormats = {
-    {"auto", CameraFileFormat::kAuto},     {"lookboth", CameraFileFormat::kLookboth},
-    {"ros", CameraFileFormat::kRosCameraInfo}, {"kalibr", CameraFileFormat::kKalibr},
+    {"auto", CameraFileFormat::kAuto},           {"lookboth", CameraFileFormat::kLookboth},
+    {"ros", CameraFileFormat::kRosCameraInfo},   {"kalibr", CameraFileFormat::kKalibr},
     {"ocamcalib", CameraFileFormat::kOCamCalib}, {"opencv", CameraFileFormat::kOpenCV}};
 
 struct NamedCamera {
@@ -28,12 +28,15 @@ struct NamedCamera {
 };
 
 // Every camera in a file: all cameras of a Kalibr camchain, else the one camera.
-std::vector<NamedCamera> loadAllCameras(const std::filesystem::path& path, CameraFileFormat format) {
+std::vector<NamedCamera> loadAllCameras(const std::filesystem::path& path,
+                                        CameraFileFormat format) {
   std::vector<NamedCamera> cameras;
-  const CameraFileFormat detected = format == CameraFileFormat::kAuto ? detectCameraFileFormat(path) : format;
+  const CameraFileFormat detected =
+      format == CameraFileFormat::kAuto ? detectCameraFileFormat(path) : format;
   const std::string label = path.filename().string();
   if (detected == CameraFileFormat::kKalibr) {
-    for (auto& [name, camera] : loadKalibrCamchain(path)) cameras.push_back({label + ":" + name, camera});
+    for (auto& [name, camera] : loadKalibrCamchain(path))
+      cameras.push_back({label + ":" + name, camera});
   } else {
     cameras.push_back({label, loadCamera(path, detected)});
   }
@@ -58,13 +61,15 @@ std::string scientific(double v) {
   return buffer;
 }
 
-int runInfo(const std::string& file, const std::string& format_name, const std::string& camera_name) {
+int runInfo(const std::string& file, const std::string& format_name,
+            const std::string& camera_name) {
   const Camera camera = loadCamera(file, kFormats.at(format_name), camera_name);
   std::cout << "file:       " << file << "\n"
             << "format:     " << cameraFileFormatName(detectCameraFileFormat(file)) << "\n"
             << "model:      " << camera.modelName() << "\n"
             << "size:       " << camera.width() << " x " << camera.height() << " px\n"
-            << "fov:        " << fixed(camera.fieldOfView() * 180.0 / M_PI, 1) << " deg across the image\n"
+            << "fov:        " << fixed(camera.fieldOfView() * 180.0 / M_PI, 1)
+            << " deg across the image\n"
             << "valid up to " << fixed(camera.maxIncidenceAngle() * 180.0 / M_PI, 1)
             << " deg from the optical axis\n"
             << "parameters:\n";
@@ -75,8 +80,8 @@ int runInfo(const std::string& file, const std::string& format_name, const std::
   return 0;
 }
 
-int runConvert(const std::string& file, const std::string& format_name, const std::string& camera_name,
-               const std::string& out) {
+int runConvert(const std::string& file, const std::string& format_name,
+               const std::string& camera_name, const std::string& out) {
   const Camera camera = loadCamera(file, kFormats.at(format_name), camera_name);
   saveCamera(camera, out);
   std::cout << "wrote " << out << " (" << camera.description() << ")\n";
@@ -96,29 +101,35 @@ int runCheck(std::vector<std::string> files, const std::string& format_name, int
   for (const auto& path : paths) {
     for (const NamedCamera& named : loadAllCameras(path, kFormats.at(format_name))) {
       const CameraSelfCheck check = selfCheckCamera(named.camera, options);
-      const std::string size = std::to_string(named.camera.width()) + "x" + std::to_string(named.camera.height());
-      std::printf("%-34s %-20s %-11s %8s %8s %11s %11s  %s\n", named.label.c_str(),
-                  named.camera.modelName().c_str(), size.c_str(), fixed(check.field_of_view_deg, 1).c_str(),
-                  fixed(check.max_incidence_deg, 1).c_str(), scientific(check.max_ray_error_rad).c_str(),
-                  scientific(check.max_pixel_error_px).c_str(), check.passed ? "ok" : "FAILED");
+      const std::string size =
+          std::to_string(named.camera.width()) + "x" + std::to_string(named.camera.height());
+      std::printf(
+          "%-34s %-20s %-11s %8s %8s %11s %11s  %s\n", named.label.c_str(),
+          named.camera.modelName().c_str(), size.c_str(), fixed(check.field_of_view_deg, 1).c_str(),
+          fixed(check.max_incidence_deg, 1).c_str(), scientific(check.max_ray_error_rad).c_str(),
+          scientific(check.max_pixel_error_px).c_str(), check.passed ? "ok" : "FAILED");
       if (!check.passed) {
         ++failures;
-        std::printf("    rays that did not project: %d of %d; pixels without a ray: %d; rejects rays past the FoV: %s\n",
-                    check.rays_failed, check.rays_tested, check.pixels_without_ray,
-                    check.rejects_beyond_fov ? "yes" : "no");
+        std::printf(
+            "    rays that did not project: %d of %d; pixels without a ray: %d; rejects rays past "
+            "the FoV: %s\n",
+            check.rays_failed, check.rays_tested, check.pixels_without_ray,
+            check.rejects_beyond_fov ? "yes" : "no");
       }
     }
   }
-  std::printf("%d camera(s) checked with %d rays and %d pixels each (bounds: %s rad, %s px): %s\n",
-              static_cast<int>(paths.size()), samples, samples, scientific(options.max_ray_error).c_str(),
-              scientific(options.max_pixel_error).c_str(), failures == 0 ? "all passed" : "FAILURES");
+  std::printf(
+      "%d camera(s) checked with %d rays and %d pixels each (bounds: %s rad, %s px): %s\n",
+      static_cast<int>(paths.size()), samples, samples, scientific(options.max_ray_error).c_str(),
+      scientific(options.max_pixel_error).c_str(), failures == 0 ? "all passed" : "FAILURES");
   return failures == 0 ? 0 : 1;
 }
 
 }  // namespace
 
 void registerCameraCommands(CLI::App& app, const std::function<void(CommandBody)>& set_body) {
-  CLI::App* camera = app.add_subcommand("camera", "Inspect, check and convert camera calibration files");
+  CLI::App* camera =
+      app.add_subcommand("camera", "Inspect, check and convert camera calibration files");
   camera->require_subcommand(1);
 
   struct Options {
@@ -127,24 +138,32 @@ void registerCameraCommands(CLI::App& app, const std::function<void(CommandBody)
     int samples = 5000;
   };
   auto options = std::make_shared<Options>();
-  const auto format_check = CLI::IsMember({"auto", "lookboth", "ros", "kalibr", "ocamcalib", "opencv"});
+  const auto format_check =
+      CLI::IsMember({"auto", "lookboth", "ros", "kalibr", "ocamcalib", "opencv"});
 
   CLI::App* info = camera->add_subcommand("info", "Load a calibration file and print the model");
-  info->add_option("file", options->file, "Calibration file (lookboth YAML, ROS camera_info, Kalibr, "
-                                          "OCamCalib calib_results.txt, OpenCV YAML/XML)")
+  info->add_option("file", options->file,
+                   "Calibration file (lookboth YAML, ROS camera_info, Kalibr, "
+                   "OCamCalib calib_results.txt, OpenCV YAML/XML)")
       ->required()
       ->check(CLI::ExistingFile);
-  info->add_option("--format", options->format, "File format (default: detected)")->check(format_check);
+  info->add_option("--format", options->format, "File format (default: detected)")
+      ->check(format_check);
   info->add_option("--camera", options->camera_name, "Camera in a multi-camera file (e.g. cam1)");
   info->callback([options, set_body] {
     set_body([options] { return runInfo(options->file, options->format, options->camera_name); });
   });
 
-  CLI::App* convert = camera->add_subcommand("convert", "Convert a calibration file to lookboth's YAML");
-  convert->add_option("file", options->file, "Calibration file")->required()->check(CLI::ExistingFile);
+  CLI::App* convert =
+      camera->add_subcommand("convert", "Convert a calibration file to lookboth's YAML");
+  convert->add_option("file", options->file, "Calibration file")
+      ->required()
+      ->check(CLI::ExistingFile);
   convert->add_option("--out", options->out, "Output lookboth camera YAML")->required();
-  convert->add_option("--format", options->format, "Input format (default: detected)")->check(format_check);
-  convert->add_option("--camera", options->camera_name, "Camera in a multi-camera file (e.g. cam1)");
+  convert->add_option("--format", options->format, "Input format (default: detected)")
+      ->check(format_check);
+  convert->add_option("--camera", options->camera_name,
+                      "Camera in a multi-camera file (e.g. cam1)");
   convert->callback([options, set_body] {
     set_body([options] {
       return runConvert(options->file, options->format, options->camera_name, options->out);
@@ -152,11 +171,14 @@ void registerCameraCommands(CLI::App& app, const std::function<void(CommandBody)
   });
 
   CLI::App* check = camera->add_subcommand(
-      "check", "Self-check camera models: project/unproject round trips over the whole field of view");
-  check->add_option("files", options->files,
-                    "Calibration files (default: every sample under share/lookboth/cameras)")
+      "check",
+      "Self-check camera models: project/unproject round trips over the whole field of view");
+  check
+      ->add_option("files", options->files,
+                   "Calibration files (default: every sample under share/lookboth/cameras)")
       ->check(CLI::ExistingFile);
-  check->add_option("--format", options->format, "File format (default: detected)")->check(format_check);
+  check->add_option("--format", options->format, "File format (default: detected)")
+      ->check(format_check);
   check->add_option("--samples", options->samples, "Random rays and pixels per camera")
       ->check(CLI::PositiveNumber);
   check->callback([options, set_body] {

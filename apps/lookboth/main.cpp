@@ -1,5 +1,7 @@
 // lookboth: registration of a network of fixed cameras with a robot that
 // looks both ways. One binary, one subcommand per job (see `lookboth --help`).
+// Exit codes: 0 success, 1 bad input data (lookboth::Error), 2 usage error,
+// 3 internal error.
 #include <clocale>
 #include <iostream>
 
@@ -10,8 +12,9 @@ int main(int argc, char** argv) {
   // Numbers are read and written with a decimal point whatever the user's locale.
   std::setlocale(LC_NUMERIC, "C");
 
-  CLI::App app{"lookboth: register a network of fixed, ceiling-mounted cameras with a robot that "
-               "carries an upward fisheye and a backlit marker."};
+  CLI::App app{
+      "lookboth: register a network of fixed, ceiling-mounted cameras with a robot that "
+      "carries an upward fisheye and a backlit marker."};
   app.require_subcommand(1);
   app.set_help_all_flag("--help-all", "Help for every subcommand");
 
@@ -23,7 +26,8 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version exit 0; any usage error exits 2.
+    return app.exit(e) == 0 ? 0 : 2;
   }
   try {
     return body ? body() : 0;
@@ -32,6 +36,6 @@ int main(int argc, char** argv) {
     return 1;
   } catch (const std::exception& e) {
     std::cerr << "lookboth: internal error: " << e.what() << "\n";
-    return 2;
+    return 3;
   }
 }

@@ -6,7 +6,8 @@
 namespace lookboth::app {
 
 void registerVersionCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body) {
-  CLI::App* cmd = app.add_subcommand("version", "Print the version and the libraries lookboth was built with");
+  CLI::App* cmd =
+      app.add_subcommand("version", "Print the version and the libraries lookboth was built with");
   app.set_version_flag("--version", std::string("lookboth ") + versionString());
   cmd->callback([set_body] {
     set_body([] {

@@ -241,7 +241,8 @@ class YamlFields {
     std::vector<double> out;
     if (node.IsNull()) return out;
     if (!node.IsSequence()) {
-      throw Error(context(node, name), std::string("expected a list of numbers, got ") + nodeKind(node));
+      throw Error(context(node, name),
+                  std::string("expected a list of numbers, got ") + nodeKind(node));
     }
     for (size_t i = 0; i < node.size(); ++i) {
       out.push_back(number(node[i], name + "[" + std::to_string(i) + "]"));
@@ -252,7 +253,8 @@ class YamlFields {
   std::vector<int> integers(const YAML::Node& node, const std::string& name) const {
     std::vector<int> out;
     if (!node.IsSequence()) {
-      throw Error(context(node, name), std::string("expected a list of integers, got ") + nodeKind(node));
+      throw Error(context(node, name),
+                  std::string("expected a list of integers, got ") + nodeKind(node));
     }
     for (size_t i = 0; i < node.size(); ++i) {
       out.push_back(integer(node[i], name + "[" + std::to_string(i) + "]"));
@@ -272,6 +274,18 @@ class YamlFields {
   std::string prefix_;
 };
 
+/// Runs a YAML reader; yaml-cpp exceptions that slip past the checks (e.g. a
+/// subscript into a value that is not a map) become errors naming the file.
+template <typename Function>
+auto guardYaml(const std::string& file, Function&& function) -> decltype(function()) {
+  try {
+    return function();
+  } catch (const YAML::Exception& error) {
+    const int line = error.mark.is_null() ? 0 : error.mark.line + 1;
+    throw Error(at(file, line, ""), "unexpected YAML structure: " + error.msg);
+  }
+}
+
 // ---------------------------------------------------------------------------
 // lookboth YAML
 
@@ -279,13 +293,14 @@ constexpr int kLookbothFormatVersion = 1;
 
 Camera parseLookbothYaml(const std::string& yaml, const std::string& source) {
   const YamlFields in(source);
+  const YamlFields in_params(source, "params.");
   const YAML::Node root = parseYaml(yaml, source);
   if (!root.IsMap()) {
     throw Error(at(source, lineOf(root), ""),
                 std::string("expected a lookboth camera (a map with 'lookboth_camera: 1'), got ") +
                     nodeKind(root));
   }
-  static const std::vector<std::string> kKeys = {"lookboth_camera", "model", "width", "height",
+  static const std::vector<std::string> kKeys = {"lookboth_camera", "model", "width",   "height",
                                                  "params",          "poly",  "inv_poly"};
   for (const auto& entry : root) {
     const std::string key = entry.first.Scalar();
@@ -315,7 +330,8 @@ Camera parseLookbothYaml(const std::string& yaml, const std::string& source) {
     scalar_names = scaramuzzaScalarNames();
     const YAML::Node poly_node = in.require(root, "poly");
     poly = in.numbers(poly_node, "poly");
-    if (poly.empty()) throw Error(in.context(poly_node, "poly"), "must hold at least one coefficient");
+    if (poly.empty())
+      throw Error(in.context(poly_node, "poly"), "must hold at least one coefficient");
     if (root["inv_poly"].IsDefined()) inv_poly = in.numbers(root["inv_poly"], "inv_poly");
     model = makeScaramuzza(static_cast<int>(poly.size()), static_cast<int>(inv_poly.size()));
   } else {
@@ -337,14 +353,14 @@ Camera parseLookbothYaml(const std::string& yaml, const std::string& source) {
   for (const auto& entry : params_node) {
     const std::string key = entry.first.Scalar();
     if (std::find(scalar_names.begin(), scalar_names.end(), key) == scalar_names.end()) {
-      throw Error(in.context(entry.first, "params." + key),
-                  "unknown parameter for model " + model_name + " (expected " +
-                      joinNames(scalar_names) + ")");
+      throw Error(in.context(entry.first, "params." + key), "unknown parameter for model " +
+                                                                model_name + " (expected " +
+                                                                joinNames(scalar_names) + ")");
     }
   }
   std::vector<double> params;
   for (const std::string& name : scalar_names) {
-    params.push_back(in.number(in.require(params_node, name), name));
+    params.push_back(in_params.number(in_params.require(params_node, name), name));
   }
   params.insert(params.end(), poly.begin(), poly.end());
   params.insert(params.end(), inv_poly.begin(), inv_poly.end());
@@ -368,7 +384,8 @@ std::string writeLookbothYaml(const Camera& camera) {
     }
     auto writeList = [&](const char* key, size_t begin, size_t count) {
       out << key << ": [";
-      for (size_t i = 0; i < count; ++i) out << (i > 0 ? ", " : "") << formatDouble(params[begin + i]);
+      for (size_t i = 0; i < count; ++i)
+        out << (i > 0 ? ", " : "") << formatDouble(params[begin + i]);
       out << "]\n";
     };
     const size_t num_poly = static_cast<size_t>(model.num_poly);
@@ -387,8 +404,8 @@ std::string writeLookbothYaml(const Camera& camera) {
 // ROS camera_info YAML (camera_calibration_parsers)
 
 /// A {rows, cols, data} matrix; checks rows * cols == data size.
-std::vector<double> readRosMatrix(const YamlFields& in, const YAML::Node& root, const std::string& key,
-                                  int* rows_out, int* cols_out) {
+std::vector<double> readRosMatrix(const YamlFields& in, const YAML::Node& root,
+                                  const std::string& key, int* rows_out, int* cols_out) {
   const YAML::Node node = in.require(root, key);
   in.requireMap(node, key);
   const int rows = in.integer(in.require(node, "rows"), key + ".rows");
@@ -396,7 +413,8 @@ std::vector<double> readRosMatrix(const YamlFields& in, const YAML::Node& root, 
   const YAML::Node data_node = node["data"];
   if (!data_node.IsDefined()) throw Error(at(in.file(), lineOf(node), key + ".data"), "missing");
   std::vector<double> data = in.numbers(data_node, key + ".data");
-  if (rows < 0 || cols < 0 || static_cast<size_t>(rows) * static_cast<size_t>(cols) != data.size()) {
+  if (rows < 0 || cols < 0 ||
+      static_cast<size_t>(rows) * static_cast<size_t>(cols) != data.size()) {
     throw Error(in.context(data_node, key + ".data"),
                 "rows x cols = " + std::to_string(rows) + " x " + std::to_string(cols) + " but " +
                     std::to_string(data.size()) + " numbers are given");
@@ -431,9 +449,10 @@ Camera loadRosCameraInfo(const std::string& text, const std::string& file) {
                     " is not zero; lookboth camera models have no skew");
   }
   if (k[3] != 0.0 || k[6] != 0.0 || k[7] != 0.0 || k[8] != 1.0) {
-    throw Error(at(file, k_line, "camera_matrix.data", subject),
-                "not a camera matrix [fx 0 cx; 0 fy cy; 0 0 1]: K[1][0], K[2][0], K[2][1] must be 0 and "
-                "K[2][2] must be 1");
+    throw Error(
+        at(file, k_line, "camera_matrix.data", subject),
+        "not a camera matrix [fx 0 cx; 0 fy cy; 0 0 1]: K[1][0], K[2][0], K[2][1] must be 0 and "
+        "K[2][2] must be 1");
   }
 
   const YAML::Node model_node = in.require(root, "distortion_model");
@@ -524,8 +543,9 @@ Camera loadKalibrCamera(const YAML::Node& node, const std::string& name, const s
   auto expectCount = [&](const YAML::Node& where, const std::string& field, size_t got, size_t want,
                          const std::string& what) {
     if (got != want) {
-      throw Error(in.context(where, field), combination + " needs " + std::to_string(want) + " numbers " +
-                                                what + ", got " + std::to_string(got));
+      throw Error(in.context(where, field), combination + " needs " + std::to_string(want) +
+                                                " numbers " + what + ", got " +
+                                                std::to_string(got));
     }
   };
   CameraModel model = PinholeModel{};
@@ -558,7 +578,8 @@ Camera loadKalibrCamera(const YAML::Node& node, const std::string& name, const s
     expectCount(coeffs_node, "distortion_coeffs", coeffs.size(), 0, "(no distortion)");
     model = DoubleSphereModel{};
     // lookboth order: fx fy cx cy xi alpha.
-    params = {intrinsics[2], intrinsics[3], intrinsics[4], intrinsics[5], intrinsics[0], intrinsics[1]};
+    params = {intrinsics[2], intrinsics[3], intrinsics[4],
+              intrinsics[5], intrinsics[0], intrinsics[1]};
   } else {
     throw Error(at(file, lineOf(model_node), name + ".camera_model"),
                 "camera model " + combination + " is not supported (" + supported + ")");
@@ -579,12 +600,14 @@ std::map<std::string, Camera> loadKalibr(const std::string& text, const std::str
   std::map<std::string, Camera> cameras;
   if (!only.empty()) {
     if (std::find(names.begin(), names.end(), only) == names.end()) {
-      throw Error(at(file, 0, only), "no such camera in the camchain (it has " + joinNames(names) + ")");
+      throw Error(at(file, 0, only),
+                  "no such camera in the camchain (it has " + joinNames(names) + ")");
     }
     cameras.emplace(only, loadKalibrCamera(root[only], only, file));
     return cameras;
   }
-  for (const std::string& name : names) cameras.emplace(name, loadKalibrCamera(root[name], name, file));
+  for (const std::string& name : names)
+    cameras.emplace(name, loadKalibrCamera(root[name], name, file));
   return cameras;
 }
 
@@ -622,7 +645,8 @@ std::vector<double> ocamCountedList(const OCamLine& data, const std::string& fil
   const size_t got = data.tokens.size() - 1;
   if (got != static_cast<size_t>(*count)) {
     throw Error(at(file, data.line, block), "expected " + std::to_string(*count) +
-                                                " numbers after the count, got " + std::to_string(got));
+                                                " numbers after the count, got " +
+                                                std::to_string(got));
   }
   return ocamNumbers(data, 1, file, block);
 }
@@ -630,8 +654,9 @@ std::vector<double> ocamCountedList(const OCamLine& data, const std::string& fil
 std::vector<double> ocamFixedList(const OCamLine& data, size_t count, const std::string& file,
                                   const std::string& block, const std::string& what) {
   if (data.tokens.size() != count) {
-    throw Error(at(file, data.line, block), "expected " + std::to_string(count) + " numbers (" + what +
-                                                "), got " + std::to_string(data.tokens.size()));
+    throw Error(at(file, data.line, block), "expected " + std::to_string(count) + " numbers (" +
+                                                what + "), got " +
+                                                std::to_string(data.tokens.size()));
   }
   return ocamNumbers(data, 0, file, block);
 }
@@ -639,36 +664,35 @@ std::vector<double> ocamFixedList(const OCamLine& data, size_t count, const std:
 Camera loadOCamCalib(const std::string& text, const std::string& file) {
   // Blocks in the order OCamCalib writes them; comments ('#') and blank
   // lines between them are skipped, each block is one line of numbers.
-  static const char* const kBlocks[] = {"polynomial coefficients", "inverse polynomial coefficients",
-                                        "center", "affine parameters", "image size"};
+  static const char* const kBlocks[] = {"polynomial coefficients",
+                                        "inverse polynomial coefficients", "center",
+                                        "affine parameters", "image size"};
   constexpr size_t kNumBlocks = sizeof(kBlocks) / sizeof(kBlocks[0]);
   std::vector<OCamLine> data;
   const std::vector<std::string> lines = splitLines(text);
   for (size_t i = 0; i < lines.size(); ++i) {
     const std::string content = trim(lines[i]);
     if (content.empty() || content[0] == '#') continue;
-    const int line_number = static_cast<int>(i) + 1;
-    if (data.size() == kNumBlocks) {
-      throw Error(at(file, line_number, ""),
-                  "unexpected data after the image size (calib_results.txt has five blocks: " +
-                      std::string("polynomial, inverse polynomial, center, affine, image size)"));
+    data.push_back({static_cast<int>(i) + 1, splitWhitespace(content)});
+  }
+  auto block = [&](size_t index) -> const OCamLine& {
+    if (index >= data.size()) {
+      throw Error(
+          at(file, static_cast<int>(lines.size()), kBlocks[index]),
+          "missing: the file ends before it (calib_results.txt has five blocks: polynomial, "
+          "inverse polynomial, center, affine, image size)");
     }
-    data.push_back({line_number, splitWhitespace(content)});
-  }
-  if (data.size() < kNumBlocks) {
-    const int last_line = static_cast<int>(lines.size());
-    throw Error(at(file, last_line, kBlocks[data.size()]),
-                "missing: the file ends before it (calib_results.txt has five blocks: polynomial, "
-                "inverse polynomial, center, affine, image size)");
-  }
-  const std::vector<double> poly = ocamCountedList(data[0], file, kBlocks[0]);
-  const std::vector<double> inv_poly = ocamCountedList(data[1], file, kBlocks[1]);
-  const std::vector<double> center = ocamFixedList(data[2], 2, file, kBlocks[2], "row and column");
-  const std::vector<double> affine = ocamFixedList(data[3], 3, file, kBlocks[3], "c d e");
-  const OCamLine& size_line = data[4];
+    return data[index];
+  };
+  const std::vector<double> poly = ocamCountedList(block(0), file, kBlocks[0]);
+  const std::vector<double> inv_poly = ocamCountedList(block(1), file, kBlocks[1]);
+  const std::vector<double> center = ocamFixedList(block(2), 2, file, kBlocks[2], "row and column");
+  const std::vector<double> affine = ocamFixedList(block(3), 3, file, kBlocks[3], "c d e");
+  const OCamLine& size_line = block(4);
   if (size_line.tokens.size() != 2) {
-    throw Error(at(file, size_line.line, kBlocks[4]),
-                "expected 2 numbers (height and width), got " + std::to_string(size_line.tokens.size()));
+    throw Error(
+        at(file, size_line.line, kBlocks[4]),
+        "expected 2 numbers (height and width), got " + std::to_string(size_line.tokens.size()));
   }
   int size[2] = {0, 0};
   for (int i = 0; i < 2; ++i) {
@@ -679,6 +703,12 @@ Camera loadOCamCalib(const std::string& text, const std::string& file) {
     }
     size[i] = *value;
   }
+  if (data.size() > kNumBlocks) {
+    throw Error(
+        at(file, data[kNumBlocks].line, ""),
+        "unexpected data after the image size (calib_results.txt has five blocks: polynomial, "
+        "inverse polynomial, center, affine, image size)");
+  }
   const int height = size[0];
   const int width = size[1];
   // OCamCalib's centre is (row, column), 0-based with pixel centres on
@@ -687,7 +717,8 @@ Camera loadOCamCalib(const std::string& text, const std::string& file) {
   std::vector<double> params = {center[1], center[0], affine[0], affine[1], affine[2]};
   params.insert(params.end(), poly.begin(), poly.end());
   params.insert(params.end(), inv_poly.begin(), inv_poly.end());
-  CameraModel model = makeScaramuzza(static_cast<int>(poly.size()), static_cast<int>(inv_poly.size()));
+  CameraModel model =
+      makeScaramuzza(static_cast<int>(poly.size()), static_cast<int>(inv_poly.size()));
   return makeCamera(std::move(model), width, height, std::move(params), at(file, 0, ""));
 }
 
@@ -698,13 +729,15 @@ Camera loadOpenCv(const std::string& text, const std::string& file) {
   std::string field;  // what is being read, for OpenCV's own exceptions
   try {
     cv::FileStorage storage(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
-    if (!storage.isOpened()) throw Error(at(file, 0, ""), "OpenCV could not open it as FileStorage");
+    if (!storage.isOpened())
+      throw Error(at(file, 0, ""), "OpenCV could not open it as FileStorage");
 
     auto readSize = [&](const char* key) {
       field = key;
       const cv::FileNode node = storage[key];
       if (node.empty() || node.isNone()) {
-        throw Error(at(file, 0, key), "missing (OpenCV calibration files must give the image size)");
+        throw Error(at(file, 0, key),
+                    "missing (OpenCV calibration files must give the image size)");
       }
       double value = 0.0;
       if (node.isInt()) {
@@ -735,7 +768,8 @@ Camera loadOpenCv(const std::string& text, const std::string& file) {
         node >> values;
         matrix = cv::Mat(values, true).reshape(1, 1);
       }
-      if (matrix.empty() && required) throw Error(at(file, 0, key), "expected a matrix, found none");
+      if (matrix.empty() && required)
+        throw Error(at(file, 0, key), "expected a matrix, found none");
       if (!matrix.empty()) {
         if (matrix.channels() != 1) throw Error(at(file, 0, key), "expected a one-channel matrix");
         matrix.convertTo(matrix, CV_64F);
@@ -755,9 +789,10 @@ Camera loadOpenCv(const std::string& text, const std::string& file) {
     }
     if (k.at<double>(1, 0) != 0.0 || k.at<double>(2, 0) != 0.0 || k.at<double>(2, 1) != 0.0 ||
         k.at<double>(2, 2) != 1.0) {
-      throw Error(at(file, 0, "camera_matrix"),
-                  "not a camera matrix [fx 0 cx; 0 fy cy; 0 0 1]: K[1][0], K[2][0], K[2][1] must be 0 "
-                  "and K[2][2] must be 1");
+      throw Error(
+          at(file, 0, "camera_matrix"),
+          "not a camera matrix [fx 0 cx; 0 fy cy; 0 0 1]: K[1][0], K[2][0], K[2][1] must be 0 "
+          "and K[2][2] must be 1");
     }
     const cv::Mat d_matrix = readMatrix("distortion_coefficients", false);
     if (!d_matrix.empty() && d_matrix.rows != 1 && d_matrix.cols != 1) {
@@ -803,17 +838,20 @@ Camera loadOpenCv(const std::string& text, const std::string& file) {
     const std::string count = std::to_string(d.size());
     if (fisheye) {
       if (d.size() != 4) {
-        throw Error(at(file, 0, "distortion_coefficients"),
-                    "a fisheye (Kannala-Brandt) camera needs 4 coefficients k1 k2 k3 k4, got " + count);
+        throw Error(
+            at(file, 0, "distortion_coefficients"),
+            "a fisheye (Kannala-Brandt) camera needs 4 coefficients k1 k2 k3 k4, got " + count);
       }
       model = KannalaBrandtModel{};
     } else if (d.size() == 12 || d.size() == 14) {
       // OpenCV's thin prism (s1..s4) and tilted sensor (tauX, tauY) terms.
-      const bool extras_zero = std::all_of(d.begin() + 8, d.end(), [](double v) { return v == 0.0; });
+      const bool extras_zero =
+          std::all_of(d.begin() + 8, d.end(), [](double v) { return v == 0.0; });
       if (!extras_zero) {
         throw Error(at(file, 0, "distortion_coefficients"),
-                    count + " coefficients: thin prism / tilted sensor distortion is not supported "
-                            "(only k1 k2 p1 p2 k3 [k4 k5 k6])");
+                    count +
+                        " coefficients: thin prism / tilted sensor distortion is not supported "
+                        "(only k1 k2 p1 p2 k3 [k4 k5 k6])");
       }
       d.resize(8);
       model = RationalPolynomialModel{};
@@ -832,6 +870,16 @@ Camera loadOpenCv(const std::string& text, const std::string& file) {
     params.insert(params.end(), d.begin(), d.end());
     return makeCamera(std::move(model), width, height, std::move(params), at(file, 0, ""));
   } catch (const cv::Exception& error) {
+    // OpenCV's parsers report "(<line>): <problem>"; OpenCV 4.6 puts that in
+    // `func` and the parser function's name in `err`, later versions in `err`.
+    for (const std::string& part : {error.err, error.func}) {
+      const size_t close = part.find("): ");
+      const size_t open = part.rfind('(', close);
+      if (close == std::string::npos || open == std::string::npos) continue;
+      if (const auto line = parseIntegral(part.substr(open + 1, close - open - 1))) {
+        throw Error(at(file, *line, field), "OpenCV could not read it: " + part.substr(close + 3));
+      }
+    }
     throw Error(at(file, 0, field), "OpenCV could not read it: " + error.err);
   }
 }
@@ -841,8 +889,8 @@ Camera loadOpenCv(const std::string& text, const std::string& file) {
 
 CameraFileFormat detectFromText(const std::string& text, const std::string& file) {
   const std::string head = trim(std::string_view(text).substr(0, 64));
-  if (startsWith(head, "%YAML") || startsWith(head, "<?xml") || startsWith(head, "<opencv_storage") ||
-      text.find("!!opencv-matrix") != std::string::npos) {
+  if (startsWith(head, "%YAML") || startsWith(head, "<?xml") ||
+      startsWith(head, "<opencv_storage") || text.find("!!opencv-matrix") != std::string::npos) {
     return CameraFileFormat::kOpenCV;
   }
   bool ocam = false;
@@ -859,7 +907,8 @@ CameraFileFormat detectFromText(const std::string& text, const std::string& file
       continue;
     }
     const size_t colon = raw.find(':');
-    if (colon == std::string::npos || raw.empty() || std::isspace(static_cast<unsigned char>(raw[0]))) {
+    if (colon == std::string::npos || raw.empty() ||
+        std::isspace(static_cast<unsigned char>(raw[0]))) {
       continue;
     }
     const std::string key = trim(raw.substr(0, colon));
@@ -912,12 +961,12 @@ Camera loadCamera(const fs::path& path, CameraFileFormat format, const std::stri
   if (format == CameraFileFormat::kAuto) format = detectFromText(text, file);
   switch (format) {
     case CameraFileFormat::kLookboth:
-      return parseLookbothYaml(text, file);
+      return guardYaml(file, [&] { return parseLookbothYaml(text, file); });
     case CameraFileFormat::kRosCameraInfo:
-      return loadRosCameraInfo(text, file);
+      return guardYaml(file, [&] { return loadRosCameraInfo(text, file); });
     case CameraFileFormat::kKalibr: {
       const std::string name = camera_name.empty() ? "cam0" : camera_name;
-      return loadKalibr(text, file, name).at(name);
+      return guardYaml(file, [&] { return loadKalibr(text, file, name).at(name); });
     }
     case CameraFileFormat::kOCamCalib:
       return loadOCamCalib(text, file);
@@ -931,7 +980,8 @@ Camera loadCamera(const fs::path& path, CameraFileFormat format, const std::stri
 
 std::map<std::string, Camera> loadKalibrCamchain(const fs::path& path) {
   const std::string file = path.string();
-  return loadKalibr(readFile(path), file, "");
+  const std::string text = readFile(path);
+  return guardYaml(file, [&] { return loadKalibr(text, file, ""); });
 }
 
 void saveCamera(const Camera& camera, const fs::path& path) {
@@ -941,7 +991,7 @@ void saveCamera(const Camera& camera, const fs::path& path) {
 std::string cameraToYaml(const Camera& camera) { return writeLookbothYaml(camera); }
 
 Camera cameraFromYaml(const std::string& yaml, const std::string& source) {
-  return parseLookbothYaml(yaml, source);
+  return guardYaml(source, [&] { return parseLookbothYaml(yaml, source); });
 }
 
 mrpt::img::TCamera toMrptCamera(const Camera& camera) {
@@ -973,7 +1023,8 @@ mrpt::img::TCamera toMrptCamera(const Camera& camera) {
 }
 
 Camera fromMrptCamera(const mrpt::img::TCamera& camera) {
-  const ErrorContext context = at("", 0, "", camera.cameraName.empty() ? "TCamera" : camera.cameraName);
+  const ErrorContext context =
+      at("", 0, "", camera.cameraName.empty() ? "TCamera" : camera.cameraName);
   const auto& k = camera.intrinsicParams;
   if (k(0, 1) != 0.0) {
     throw Error(context, "skew K[0][1] = " + describeNumber(k(0, 1)) +
@@ -988,7 +1039,8 @@ Camera fromMrptCamera(const mrpt::img::TCamera& camera) {
     case mrpt::img::DistortionModel::none:
       break;
     case mrpt::img::DistortionModel::plumb_bob:
-      params.insert(params.end(), {camera.k1(), camera.k2(), camera.p1(), camera.p2(), camera.k3()});
+      params.insert(params.end(),
+                    {camera.k1(), camera.k2(), camera.p1(), camera.p2(), camera.k3()});
       if (camera.k4() != 0.0 || camera.k5() != 0.0 || camera.k6() != 0.0) {
         model = RationalPolynomialModel{};
         params.insert(params.end(), {camera.k4(), camera.k5(), camera.k6()});
@@ -1003,8 +1055,8 @@ Camera fromMrptCamera(const mrpt::img::TCamera& camera) {
     default:
       throw Error(context, "unknown TCamera distortion model");
   }
-  return makeCamera(std::move(model), static_cast<int>(camera.ncols), static_cast<int>(camera.nrows),
-                    std::move(params), context);
+  return makeCamera(std::move(model), static_cast<int>(camera.ncols),
+                    static_cast<int>(camera.nrows), std::move(params), context);
 }
 
 }  // namespace lookboth

@@ -1,5 +1,6 @@
 #include "lookboth/cameras/self_check.h"
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <random>
 
@@ -40,7 +41,8 @@ CameraSelfCheck selfCheckCamera(const Camera& camera, const CameraSelfCheckOptio
   }
 
   for (int i = 0; i < options.num_pixels; ++i) {
-    const Eigen::Vector2d pixel(-0.5 + camera.width() * unit(rng), -0.5 + camera.height() * unit(rng));
+    const Eigen::Vector2d pixel(-0.5 + camera.width() * unit(rng),
+                                -0.5 + camera.height() * unit(rng));
     const auto ray = camera.unproject(pixel);
     if (!ray) {
       ++result.pixels_without_ray;
@@ -64,8 +66,8 @@ CameraSelfCheck selfCheckCamera(const Camera& camera, const CameraSelfCheckOptio
   }
 
   result.passed = result.rays_failed == 0 && result.max_ray_error_rad <= options.max_ray_error &&
-                  result.max_pixel_error_px <= options.max_pixel_error && result.rejects_beyond_fov &&
-                  result.pixels_tested > 0;
+                  result.max_pixel_error_px <= options.max_pixel_error &&
+                  result.rejects_beyond_fov && result.pixels_tested > 0;
   return result;
 }
 

@@ -31,8 +31,8 @@ AtomicOutputFile::AtomicOutputFile(const std::filesystem::path& destination, boo
   if (binary) mode |= std::ios::binary;
   stream_.open(temporary_, mode);
   if (!stream_) {
-    throw Error({destination.string(), 0, "", ""}, "cannot open a temporary file for writing in '" +
-                                                       dir.string() + "'");
+    throw Error({destination.string(), 0, "", ""},
+                "cannot open a temporary file for writing in '" + dir.string() + "'");
   }
 }
 

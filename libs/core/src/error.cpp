@@ -18,6 +18,8 @@ std::string formatErrorMessage(const ErrorContext& context, const std::string& m
 Error::Error(const std::string& message) : std::runtime_error(message), message_(message) {}
 
 Error::Error(const ErrorContext& context, const std::string& message)
-    : std::runtime_error(formatErrorMessage(context, message)), context_(context), message_(message) {}
+    : std::runtime_error(formatErrorMessage(context, message)),
+      context_(context),
+      message_(message) {}
 
 }  // namespace lookboth

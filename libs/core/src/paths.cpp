@@ -11,7 +11,8 @@ namespace lookboth {
 std::filesystem::path shareDirectory() {
   namespace fs = std::filesystem;
   std::vector<fs::path> candidates;
-  if (const char* env = std::getenv("LOOKBOTH_SHARE_DIR"); env && *env) candidates.emplace_back(env);
+  if (const char* env = std::getenv("LOOKBOTH_SHARE_DIR"); env && *env)
+    candidates.emplace_back(env);
   std::error_code ec;
   const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
   if (!ec) candidates.push_back(exe.parent_path().parent_path() / "share" / "lookboth");

@@ -68,8 +68,8 @@ std::optional<TimeNs> parseSeconds(std::string_view text) {
 std::string formatSeconds(TimeNs t) {
   const bool negative = t < 0;
   // Work on the magnitude as unsigned so INT64_MIN does not overflow.
-  const unsigned long long magnitude =
-      negative ? static_cast<unsigned long long>(-(t + 1)) + 1ULL : static_cast<unsigned long long>(t);
+  const unsigned long long magnitude = negative ? static_cast<unsigned long long>(-(t + 1)) + 1ULL
+                                                : static_cast<unsigned long long>(t);
   const unsigned long long seconds = magnitude / 1'000'000'000ULL;
   const unsigned long long nanos = magnitude % 1'000'000'000ULL;
   std::string fraction = std::to_string(nanos);
@@ -101,7 +101,8 @@ TimeNs fromMrptTime(mrpt::Clock::time_point t) {
   const std::int64_t since_unix = ticks - kMrptTicksAtUnixEpoch;
   constexpr std::int64_t kLimit = std::numeric_limits<TimeNs>::max() / kNanosecondsPerMrptTick;
   if (since_unix > kLimit || since_unix < -kLimit) {
-    throw Error("MRPT timestamp " + std::to_string(ticks) + " is outside the range of lookboth time");
+    throw Error("MRPT timestamp " + std::to_string(ticks) +
+                " is outside the range of lookboth time");
   }
   return since_unix * kNanosecondsPerMrptTick;
 }

@@ -26,17 +26,18 @@ const char* interpolationStatusName(InterpolationStatus status) {
 Trajectory::Trajectory(std::vector<StampedPose> samples) : samples_(std::move(samples)) {
   for (size_t i = 1; i < samples_.size(); ++i) {
     if (samples_[i].t <= samples_[i - 1].t) {
-      throw Error("trajectory sample " + std::to_string(i) + " at t=" + formatSeconds(samples_[i].t) +
-                  " s is not later than the previous one (" + formatSeconds(samples_[i - 1].t) +
-                  " s): timestamps must strictly increase");
+      throw Error("trajectory sample " + std::to_string(i) + " at t=" +
+                  formatSeconds(samples_[i].t) + " s is not later than the previous one (" +
+                  formatSeconds(samples_[i - 1].t) + " s): timestamps must strictly increase");
     }
   }
 }
 
 void Trajectory::append(TimeNs t, const Rigid3d& world_from_body) {
   if (!samples_.empty() && t <= samples_.back().t) {
-    throw Error("trajectory sample at t=" + formatSeconds(t) + " s is not later than the last one (" +
-                formatSeconds(samples_.back().t) + " s): timestamps must strictly increase");
+    throw Error("trajectory sample at t=" + formatSeconds(t) +
+                " s is not later than the last one (" + formatSeconds(samples_.back().t) +
+                " s): timestamps must strictly increase");
   }
   samples_.push_back({t, world_from_body});
 }

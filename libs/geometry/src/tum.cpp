@@ -56,12 +56,12 @@ Trajectory readTumFile(const std::filesystem::path& path) {
     const ErrorContext where{path.string(), line_number, "", ""};
     StampedPose sample = parseTumRow(line, where);
     if (!samples.empty() && sample.t <= samples.back().t) {
-      throw Error(where, "timestamp " + formatSeconds(sample.t) +
-                             (sample.t == samples.back().t ? " repeats the previous one"
-                                                           : " is earlier than the previous one (" +
-                                                                 formatSeconds(samples.back().t) +
-                                                                 ")") +
-                             ": timestamps must strictly increase");
+      throw Error(where,
+                  "timestamp " + formatSeconds(sample.t) +
+                      (sample.t == samples.back().t ? " repeats the previous one"
+                                                    : " is earlier than the previous one (" +
+                                                          formatSeconds(samples.back().t) + ")") +
+                      ": timestamps must strictly increase");
     }
     samples.push_back(sample);
   }
@@ -71,7 +71,8 @@ Trajectory readTumFile(const std::filesystem::path& path) {
 void writeTumFile(const std::filesystem::path& path, const Trajectory& trajectory) {
   AtomicOutputFile out(path);
   out.stream() << "# timestamp[s] tx ty tz qx qy qz qw (world_from_body)\n";
-  for (const StampedPose& sample : trajectory.samples()) out.stream() << formatTumRow(sample) << '\n';
+  for (const StampedPose& sample : trajectory.samples())
+    out.stream() << formatTumRow(sample) << '\n';
   out.commit();
 }
 

@@ -54,11 +54,13 @@ std::optional<AlignmentResult> align(const std::vector<Eigen::Vector3d>& src,
   covariance /= weight_sum;
   src_variance /= weight_sum;
 
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(covariance, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(covariance,
+                                              Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Eigen::Vector3d singular = svd.singularValues();
   // The rotation is determined when the cross-covariance has rank >= 2.
   if (src_variance <= 0.0 || singular(1) <= 1e-12 * std::max(singular(0), 1e-300)) {
-    return fail("points are coincident or collinear: the rotation about their line is undetermined");
+    return fail(
+        "points are coincident or collinear: the rotation about their line is undetermined");
   }
   Eigen::Matrix3d s = Eigen::Matrix3d::Identity();
   if (svd.matrixU().determinant() * svd.matrixV().determinant() < 0.0) s(2, 2) = -1.0;

@@ -29,7 +29,8 @@ TEST(Sim3, ComposesInvertsAndTransformsPoses) {
   std::mt19937 rng(2);
   for (int trial = 0; trial < 100; ++trial) {
     const Rigid3d r1 = randomPose(rng), r2 = randomPose(rng);
-    const Sim3d a_from_b(2.5, r1.rotation, r1.translation), b_from_c(0.3, r2.rotation, r2.translation);
+    const Sim3d a_from_b(2.5, r1.rotation, r1.translation),
+        b_from_c(0.3, r2.rotation, r2.translation);
     const Eigen::Vector3d p(0.5, 1.0, -4.0);
     EXPECT_LT(((a_from_b * b_from_c) * p - a_from_b * (b_from_c * p)).norm(), 1e-12);
     EXPECT_LT((a_from_b.inverse() * (a_from_b * p) - p).norm(), 1e-12);
@@ -38,7 +39,8 @@ TEST(Sim3, ComposesInvertsAndTransformsPoses) {
     const Rigid3d b_from_x = randomPose(rng);
     const Rigid3d a_from_x = a_from_b.transformPose(b_from_x);
     EXPECT_LT((a_from_x.translation - a_from_b * b_from_x.translation).norm(), 1e-12);
-    EXPECT_LT(rotationAngleBetween(a_from_x.rotation, a_from_b.rotation * b_from_x.rotation), 1e-12);
+    EXPECT_LT(rotationAngleBetween(a_from_x.rotation, a_from_b.rotation * b_from_x.rotation),
+              1e-12);
   }
 }
 
@@ -97,7 +99,8 @@ TEST(Lie, InterpolationSlerpsMidway) {
   // The shorter arc is taken even when the stored quaternions have opposite signs.
   Rigid3d b_flipped = b;
   b_flipped.rotation.coeffs() = -b.rotation.coeffs();
-  EXPECT_LT(rotationAngleBetween(interpolateLinearSlerp(a, b_flipped, 0.5).rotation, expected), 1e-12);
+  EXPECT_LT(rotationAngleBetween(interpolateLinearSlerp(a, b_flipped, 0.5).rotation, expected),
+            1e-12);
 }
 
 // The maps must instantiate for ceres::Jet and give the derivatives a

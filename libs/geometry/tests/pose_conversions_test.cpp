@@ -55,9 +55,10 @@ TEST(PoseConversions, CeresOrderIsWxyz) {
   const double p[3] = {1.0, -2.0, 0.5};
   double rotated[3];
   ceres::UnitQuaternionRotatePoint(wxyz, p, rotated);
-  EXPECT_LT((Eigen::Vector3d(rotated[0], rotated[1], rotated[2]) - q * Eigen::Vector3d(p[0], p[1], p[2]))
-                .norm(),
-            1e-12);
+  EXPECT_LT(
+      (Eigen::Vector3d(rotated[0], rotated[1], rotated[2]) - q * Eigen::Vector3d(p[0], p[1], p[2]))
+          .norm(),
+      1e-12);
   EXPECT_LT(rotationAngleBetween(fromCeresQuaternion(wxyz), q), 1e-12);
 }
 

@@ -38,13 +38,14 @@ TEST(Trajectory, InterpolationIsExactOnSamples) {
 TEST(Trajectory, SlerpsMidwayBetweenSamples) {
   Trajectory trajectory;
   trajectory.append(0, Rigid3d());
-  trajectory.append(1000, Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(1.0, Eigen::Vector3d::UnitX())),
-                                  Eigen::Vector3d(1.0, -2.0, 4.0)));
+  trajectory.append(1000,
+                    Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(1.0, Eigen::Vector3d::UnitX())),
+                            Eigen::Vector3d(1.0, -2.0, 4.0)));
   const InterpolationResult r = trajectory.interpolate(250, 0);
   ASSERT_TRUE(r.ok());
   EXPECT_LT((r.world_from_body.translation - Eigen::Vector3d(0.25, -0.5, 1.0)).norm(), 1e-15);
-  EXPECT_LT(rotationAngleBetween(r.world_from_body.rotation,
-                                 Eigen::Quaterniond(Eigen::AngleAxisd(0.25, Eigen::Vector3d::UnitX()))),
+  EXPECT_LT(rotationAngleBetween(r.world_from_body.rotation, Eigen::Quaterniond(Eigen::AngleAxisd(
+                                                                 0.25, Eigen::Vector3d::UnitX()))),
             1e-12);
   EXPECT_EQ(r.t_before, 0);
   EXPECT_EQ(r.t_after, 1000);
@@ -60,9 +61,10 @@ TEST(Trajectory, NeverExtrapolates) {
   EXPECT_EQ(trajectory.interpolate(1001, 0).status, InterpolationStatus::kAfterEnd);
   EXPECT_EQ(trajectory.interpolate(500, 300).status, InterpolationStatus::kGapTooLong);
   EXPECT_TRUE(trajectory.interpolate(150, 300).ok());
-  EXPECT_TRUE(trajectory.interpolate(500, 0).ok());  // no gap limit
+  EXPECT_TRUE(trajectory.interpolate(500, 0).ok());     // no gap limit
   EXPECT_TRUE(trajectory.interpolate(1000, 300).ok());  // on a sample: no gap involved
-  EXPECT_STREQ(interpolationStatusName(InterpolationStatus::kGapTooLong), "inside a gap between samples");
+  EXPECT_STREQ(interpolationStatusName(InterpolationStatus::kGapTooLong),
+               "inside a gap between samples");
 }
 
 TEST(Trajectory, RejectsDuplicateAndUnorderedTimestamps) {

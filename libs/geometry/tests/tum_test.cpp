@@ -14,7 +14,8 @@ class TumTest : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = fs::temp_directory_path() /
-           ("lookboth_tum_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+           ("lookboth_tum_" +
+            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }

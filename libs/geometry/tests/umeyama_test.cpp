@@ -53,7 +53,8 @@ TEST(Umeyama, NoisyPointsWithinABoundFromTheNoise) {
   const Sim3d truth(1.7, r.rotation, r.translation);
   const auto src = randomPoints(rng, 400);
   std::vector<Eigen::Vector3d> dst;
-  for (const auto& p : src) dst.push_back(truth * p + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)));
+  for (const auto& p : src)
+    dst.push_back(truth * p + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)));
   const auto result = alignSim3(src, dst);
   ASSERT_TRUE(result);
   // The residual RMS estimates the 3-D noise: sigma * sqrt(3).

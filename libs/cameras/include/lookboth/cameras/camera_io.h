@@ -39,7 +39,8 @@ CameraFileFormat detectCameraFileFormat(const std::filesystem::path& path);
 /// Loads one camera. For files holding several cameras (Kalibr camchain),
 /// `camera_name` picks one ("cam1"); empty means the file must hold exactly one
 /// camera, or the first one ("cam0") for Kalibr.
-Camera loadCamera(const std::filesystem::path& path, CameraFileFormat format = CameraFileFormat::kAuto,
+Camera loadCamera(const std::filesystem::path& path,
+                  CameraFileFormat format = CameraFileFormat::kAuto,
                   const std::string& camera_name = "");
 
 /// Loads every camera of a Kalibr camchain, keyed by "cam0", "cam1", ...

@@ -10,9 +10,9 @@
 // An MRPT pose "of B in A" is a_from_b in lookboth's naming.
 #pragma once
 
-#include <Eigen/Geometry>
 #include <mrpt/poses/CPose3D.h>
 #include <mrpt/poses/CPose3DQuat.h>
+#include <Eigen/Geometry>
 
 #include "lookboth/geometry/rigid3.h"
 

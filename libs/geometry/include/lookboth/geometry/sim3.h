@@ -28,7 +28,8 @@ struct Sim3 {
   Sim3 inverse() const {
     const Quaternion inverse_rotation = rotation.conjugate();
     const T inverse_scale = T(1) / scale;
-    return Sim3(inverse_scale, inverse_rotation, -(inverse_scale * (inverse_rotation * translation)));
+    return Sim3(inverse_scale, inverse_rotation,
+                -(inverse_scale * (inverse_rotation * translation)));
   }
 
   Vector3 operator*(const Vector3& p) const { return scale * (rotation * p) + translation; }

@@ -8,8 +8,8 @@
 // unless the caller asks for an exact conversion.
 #pragma once
 
-#include <cstdint>
 #include <mrpt/core/Clock.h>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>

@@ -15,7 +15,7 @@
 namespace lookboth {
 
 struct AlignmentResult {
-  Sim3d dst_from_src;  ///< scale == 1 for rigid alignment.
+  Sim3d dst_from_src;      ///< scale == 1 for rigid alignment.
   double rms_error = 0.0;  ///< RMS of || dst_i - dst_from_src * src_i || [dst units].
 };
 
