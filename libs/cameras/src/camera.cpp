@@ -17,10 +17,12 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kLimitMargin = 1e-6;
 /// Field of view beyond the image border kept valid: 5% of the border angle.
 constexpr double kCoverMargin = 1.05;
-/// The model counts as smooth while the Jacobian determinant of the pixel with
-/// respect to the equidistant coordinates theta * (cos phi, sin phi) stays
-/// above this fraction of its value on the optical axis.
-constexpr double kMinJacobianRatio = 1e-3;
+/// The model counts as smooth (and safely away from a fold) while the
+/// Jacobian of the pixel with respect to the equidistant coordinates
+/// theta * (cos phi, sin phi) keeps its orientation and its smallest singular
+/// value stays above this fraction of its value on the optical axis. For
+/// Scaramuzza, the same fraction bounds d angle / d rho.
+constexpr double kMinJacobianRatio = 0.05;
 /// Slack on the incidence-angle test: unproject accepts angles up to
 /// max + kUnprojectSlack, project up to max + kProjectSlack, so that any
 /// bearing returned by unproject can be projected again.
@@ -56,33 +58,49 @@ std::vector<Eigen::Vector2d> borderPixels(int width, int height) {
   return out;
 }
 
-/// Newton's method for an increasing crossing f(x) = 0, safeguarded by
-/// bisection on [lo, hi] once a bracket is known. Requires f(lo) < 0;
-/// `hi_brackets` says whether f(hi) > 0 is known. `f(x, &value, &derivative)`.
-template <typename F>
-bool solveIncreasing(const F& f, double lo, double hi, bool hi_brackets, double x, double* root) {
-  x = std::clamp(x, lo, hi);
+/// First crossing of f(x) = 0 on [lo, hi] for a function that rises from
+/// f(lo) < 0 (its monotonic branch) and may fold back later: Newton's method
+/// safeguarded by bisection, where a point with f(x) < 0 that is `past_fold`
+/// bounds the search from above like a point with f(x) >= 0 does. False when
+/// f stays negative on the rising branch. `f(x, &value, &derivative)`.
+template <typename F, typename PastFold>
+bool solveFirstCrossing(const F& f, const PastFold& past_fold, double lo, double hi, double x,
+                        double* root) {
+  constexpr double kEps = 4.0 * std::numeric_limits<double>::epsilon();
+  bool crossed = false;  // f(hi) >= 0
+  if (!(x > lo && x < hi)) x = 0.5 * (lo + hi);
+  double step = hi - lo, previous_step = step;
   for (int iteration = 0; iteration < 200; ++iteration) {
     double fx = 0.0, dfx = 0.0;
     f(x, &fx, &dfx);
     if (!std::isfinite(fx)) return false;
-    if (fx == 0.0) {
-      *root = x;
+    if (fx >= 0.0) {
+      if (fx == 0.0) {
+        *root = x;
+        return true;
+      }
+      hi = x;
+      crossed = true;
+    } else if (past_fold(x, dfx)) {
+      hi = x;
+    } else {
+      lo = x;
+    }
+    // Newton's step, unless it leaves the bracket or does not at least halve
+    // the step before last (which stops cycles).
+    double next = x - fx / dfx;
+    const bool newton_ok =
+        dfx > 0.0 && next > lo && next < hi && std::abs(next - x) <= 0.5 * previous_step;
+    if (newton_ok && std::abs(next - x) <= kEps * std::abs(x)) {
+      *root = next;
       return true;
     }
-    if (fx < 0.0) {
-      lo = x;
-    } else {
-      hi = x;
-      hi_brackets = true;
-    }
-    double next = x - fx / dfx;
-    if (!(dfx > 0.0) || !(next > lo && next < hi)) {
-      if (!hi_brackets) return false;
-      next = 0.5 * (lo + hi);
-    }
-    if (std::abs(next - x) <= 4.0 * std::numeric_limits<double>::epsilon() * std::abs(x)) {
-      *root = next;
+    if (!newton_ok) next = 0.5 * (lo + hi);
+    previous_step = step;
+    step = std::abs(next - x);
+    if (hi - lo <= kEps * std::abs(hi)) {
+      if (!crossed) return false;
+      *root = hi;
       return true;
     }
     x = next;
@@ -118,11 +136,12 @@ void equidistantDirection(double q1, double q2, double* direction) {
   direction[2] = std::cos(t);
 }
 
-/// Determinant of d pixel / d q at q = theta (cos phi, sin phi), by central
-/// differences; NaN when the model cannot project there.
+/// The pixel at q = theta (cos phi, sin phi) and the smallest singular value
+/// of d pixel / d q there (central differences), negative when the Jacobian
+/// flips the orientation. False when the model cannot project there.
 template <typename Model>
-double equidistantJacobianDeterminant(const Model& model, const double* params, double theta,
-                                      double phi) {
+bool equidistantJacobian(const Model& model, const double* params, double theta, double phi,
+                         Eigen::Vector2d* pixel, double* min_singular) {
   constexpr double kStep = 1e-5;
   const double q1 = theta * std::cos(phi), q2 = theta * std::sin(phi);
   const double offsets[4][2] = {{kStep, 0.0}, {-kStep, 0.0}, {0.0, kStep}, {0.0, -kStep}};
@@ -130,16 +149,28 @@ double equidistantJacobianDeterminant(const Model& model, const double* params, 
   for (int i = 0; i < 4; ++i) {
     double direction[3];
     equidistantDirection(q1 + offsets[i][0], q2 + offsets[i][1], direction);
-    if (!model.project(params, direction, pixels[i])) return std::numeric_limits<double>::quiet_NaN();
+    if (!model.project(params, direction, pixels[i])) return false;
   }
-  const double j00 = pixels[0][0] - pixels[1][0], j10 = pixels[0][1] - pixels[1][1];
-  const double j01 = pixels[2][0] - pixels[3][0], j11 = pixels[2][1] - pixels[3][1];
-  return (j00 * j11 - j01 * j10) / (4.0 * kStep * kStep);
+  const double scale = 1.0 / (2.0 * kStep);
+  const double j00 = (pixels[0][0] - pixels[1][0]) * scale;
+  const double j10 = (pixels[0][1] - pixels[1][1]) * scale;
+  const double j01 = (pixels[2][0] - pixels[3][0]) * scale;
+  const double j11 = (pixels[2][1] - pixels[3][1]) * scale;
+  const double det = j00 * j11 - j01 * j10;
+  const double half_sum = 0.5 * (j00 * j00 + j01 * j01 + j10 * j10 + j11 * j11);
+  const double largest =
+      std::sqrt(half_sum + std::sqrt(std::max(0.0, half_sum * half_sum - det * det)));
+  *min_singular = det / largest;  // det is the signed product of the singular values
+  *pixel = Eigen::Vector2d(pixels[0][0] + pixels[1][0], pixels[0][1] + pixels[1][1]) * 0.5;
+  return std::isfinite(*min_singular) && pixel->allFinite();
 }
 
 /// Largest incidence angle up to which `model` is one-to-one and smooth, no
-/// more than `limit` and than the angle of the image border plus a margin.
-/// Scans azimuths for the first angle where the local Jacobian degenerates.
+/// more than `limit`, than the angle of the image border plus a margin, and
+/// than the angle where pixels get two image diagonals away from the
+/// principal point. Marches outwards along azimuths until the local Jacobian
+/// degenerates; below 90 degrees the steps are uniform in log(tan(theta)),
+/// where distortion polynomials vary.
 template <typename Model>
 double scanMaxIncidenceAngle(const Model& model, const double* params, int width, int height,
                              double limit) {
@@ -154,29 +185,43 @@ double scanMaxIncidenceAngle(const Model& model, const double* params, int width
     }
   }
   const double end = covered ? std::min(limit, kCoverMargin * cover_angle) : limit;
-  const double reference = equidistantJacobianDeterminant(model, params, 0.0, 0.0);
-  if (!(reference > 0.0)) return 0.0;
-  const auto smooth = [&](double theta, double phi) {
-    return equidistantJacobianDeterminant(model, params, theta, phi) > kMinJacobianRatio * reference;
+  Eigen::Vector2d centre;
+  double reference = 0.0;
+  if (!equidistantJacobian(model, params, 0.0, 0.0, &centre, &reference) || !(reference > 0.0)) {
+    return 0.0;
+  }
+  const double far = 2.0 * std::hypot(width, height);
+  const auto smooth = [&](double theta, double phi, bool* too_far) {
+    Eigen::Vector2d pixel;
+    double min_singular = 0.0;
+    if (!equidistantJacobian(model, params, theta, phi, &pixel, &min_singular)) return false;
+    *too_far = (pixel - centre).norm() > far;
+    return min_singular > kMinJacobianRatio * reference;
   };
-  constexpr int kAzimuths = 16;
+  constexpr int kAzimuths = 32;
   constexpr double kMaxStep = 0.2 * kPi / 180.0;
-  const int steps = std::max(32, static_cast<int>(std::ceil(end / kMaxStep)));
+  constexpr double kLogStep = 0.005;
   double result = end;
   for (int a = 0; a < kAzimuths; ++a) {
     const double phi = 2.0 * kPi * a / kAzimuths;
     double good = 0.0;
-    for (int k = 1; k <= steps; ++k) {
-      const double theta = end * k / steps;
-      if (theta >= result) break;
-      if (smooth(theta, phi)) {
+    while (good < result) {
+      double step = kMaxStep;
+      if (good < 0.5 * kPi) {  // d theta = cos^2 theta d tan theta
+        const double c = std::cos(good);
+        step = std::min(step, kLogStep * std::max(std::tan(good), 0.5) * c * c);
+      }
+      const double theta = std::min(good + step, result);
+      bool too_far = false;
+      if (smooth(theta, phi, &too_far)) {
+        if (too_far) result = theta;
         good = theta;
         continue;
       }
       double bad = theta;
       for (int i = 0; i < 40; ++i) {
         const double mid = 0.5 * (good + bad);
-        (smooth(mid, phi) ? good : bad) = mid;
+        (smooth(mid, phi, &too_far) ? good : bad) = mid;
       }
       result = std::min(result, good);
       break;
@@ -213,9 +258,20 @@ bool distortWithJacobian(const double* k, bool rational, double x, double y, dou
 
 /// Inverts the OpenCV distortion by damped Newton iterations.
 bool undistortOpenCv(const double* k, bool rational, double xd, double yd, double* x, double* y) {
+  // Start from the distorted point, pulled towards the centre until the
+  // distortion is locally one-to-one there (strong pincushion distortion puts
+  // the distorted point past the fold).
   double cx = xd, cy = yd;
   double fx, fy, jacobian[4];
-  if (!distortWithJacobian(k, rational, cx, cy, &fx, &fy, jacobian)) return false;
+  for (int attempt = 0;; ++attempt) {
+    if (attempt == 60) return false;
+    if (distortWithJacobian(k, rational, cx, cy, &fx, &fy, jacobian) &&
+        jacobian[0] * jacobian[3] - jacobian[1] * jacobian[2] > 0.0) {
+      break;
+    }
+    cx *= 0.5;
+    cy *= 0.5;
+  }
   double residual = std::hypot(fx - xd, fy - yd);
   const double tolerance = 4.0 * std::numeric_limits<double>::epsilon() * (1.0 + std::hypot(xd, yd));
   for (int iteration = 0; iteration < 100 && residual > tolerance; ++iteration) {
@@ -230,6 +286,9 @@ bool undistortOpenCv(const double* k, bool rational, double xd, double yd, doubl
       const double nx = cx - step * sx, ny = cy - step * sy;
       double gx, gy, g_jacobian[4];
       if (!distortWithJacobian(k, rational, nx, ny, &gx, &gy, g_jacobian)) continue;
+      // Stay where the distortion is locally one-to-one: a root past a fold
+      // is not the ray the pixel came from.
+      if (!(g_jacobian[0] * g_jacobian[3] - g_jacobian[1] * g_jacobian[2] > 0.0)) continue;
       const double new_residual = std::hypot(gx - xd, gy - yd);
       if (new_residual < residual) {
         cx = nx;
@@ -365,10 +424,9 @@ bool KannalaBrandtModel::unproject(const double* params, const double* pixel,
     *value = theta * (1.0 + t2 * (k[0] + t2 * (k[1] + t2 * (k[2] + t2 * k[3])))) - theta_d;
     *derivative = 1.0 + t2 * (3.0 * k[0] + t2 * (5.0 * k[1] + t2 * (7.0 * k[2] + t2 * 9.0 * k[3])));
   };
-  double at_pi = 0.0, unused = 0.0;
-  f(kPi, &at_pi, &unused);
+  const auto past_fold = [](double, double derivative) { return !(derivative > 0.0); };
   double theta = 0.0;
-  if (!solveIncreasing(f, 0.0, kPi, at_pi > 0.0, std::min(theta_d, kPi), &theta)) return false;
+  if (!solveFirstCrossing(f, past_fold, 0.0, kPi, std::min(theta_d, kPi), &theta)) return false;
   const double s = std::sin(theta) / theta_d;
   bearing[0] = s * mx;
   bearing[1] = s * my;
@@ -456,45 +514,45 @@ bool ScaramuzzaModel::solveSensorScale(const double* params, double x, double y,
     *value = norm * evalPolynomial(a, num_poly, rho, &dpoly) + t * rho;
     *derivative = norm * dpoly + t;
   };
-  const auto negative_before = [&](double rho) {
-    constexpr int kChecks = 8;
-    for (int i = 1; i < kChecks; ++i) {
-      double value = 0.0, unused = 0.0;
-      g(rho * i / kChecks, &value, &unused);
-      if (!(value < 0.0)) return false;
-    }
-    return true;
+  // Past the first fold of the ray angle atan2(rho, -poly(rho)), whose
+  // derivative has the sign of rho poly'(rho) - poly(rho).
+  const auto past_fold = [&](double rho, double) {
+    double dpoly = 0.0;
+    const double poly = evalPolynomial(a, num_poly, rho, &dpoly);
+    return !(rho * dpoly - poly > 0.0);
   };
-  double rho = -1.0;
+  const auto bounds_root = [&](double rho) {
+    double value = 0.0, unused = 0.0;
+    g(rho, &value, &unused);
+    return !(value < 0.0) || past_fold(rho, 0.0);
+  };
+  // Bracket the first crossing: from the inverse-polynomial seed when there
+  // is one, else from the centre, march outwards.
   double seed = -1.0;
   if (num_inv_poly > 0) {
     seed = evalPolynomial(params + 5 + num_poly, num_inv_poly, std::atan2(-t, norm), nullptr);
-    double root = 0.0;
-    if (seed > 0.0 &&
-        solveIncreasing(g, 0.0, std::numeric_limits<double>::infinity(), false, seed, &root) &&
-        root > 0.0 && negative_before(root)) {
-      rho = root;
-    }
   }
-  if (rho < 0.0) {
-    // March outwards from the centre to bracket the first crossing.
-    const double step = 0.25 * std::abs(a[0]);
-    double lo = 0.0;
-    bool bracketed = false;
-    for (int k = 1; k <= 400; ++k) {
-      double value = 0.0, unused = 0.0;
-      g(k * step, &value, &unused);
-      if (value > 0.0) {
-        bracketed = true;
-        break;
+  const double step = 0.25 * std::abs(a[0]);
+  double lo = 0.0, hi = 0.0;
+  const double first = seed > 0.0 && std::isfinite(seed) ? 1.05 * seed : step;
+  if (bounds_root(first)) {
+    hi = first;
+  } else {
+    lo = first;
+    for (int k = 1; k <= 400 && hi == 0.0; ++k) {
+      const double rho = first + k * step;
+      if (bounds_root(rho)) {
+        hi = rho;
+      } else {
+        lo = rho;
       }
-      if (!(value < 0.0)) return false;
-      lo = k * step;
     }
-    if (!bracketed) return false;
-    const double hi = lo + step;
-    const double start = seed > lo && seed < hi ? seed : 0.5 * (lo + hi);
-    if (!solveIncreasing(g, lo, hi, true, start, &rho)) return false;
+    if (hi == 0.0) return false;
+  }
+  double rho = 0.0;
+  if (!solveFirstCrossing(g, past_fold, lo, hi, seed > 0.0 && seed < hi ? seed : 0.5 * (lo + hi),
+                          &rho)) {
+    return false;
   }
   *mu = rho / norm / length;
   return true;
@@ -598,7 +656,7 @@ double ScaramuzzaModel::maxIncidenceAngle(const double* params, int width, int h
   const double limit = kPi - kLimitMargin;
   const double target = std::min(limit, kCoverMargin * cover_angle);
   const double threshold = kMinJacobianRatio * rate(0.0);
-  const double step = cover_rho / 2000.0;
+  const double step = std::max(cover_rho, 1.0) / 2000.0;
   double good = 0.0;
   for (int k = 1; k <= 100000; ++k) {
     const double rho = k * step;
