@@ -11,6 +11,8 @@ PACKAGES=(
   libwxgtk3.2-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
+  librosbag-storage-dev libroscpp-core-dev
+  libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev libstd-msgs-dev
 )
 
 missing=()

@@ -169,11 +169,12 @@ bool equidistantJacobian(const Model& model, const double* params, double theta,
 /// more than `limit`, than the angle of the image border plus a margin, and
 /// than the angle where pixels get two image diagonals away from the
 /// principal point. Marches outwards along azimuths until the local Jacobian
-/// degenerates; below 90 degrees the steps are uniform in log(tan(theta)),
-/// where distortion polynomials vary.
+/// degenerates. `pinhole_type`: distortion polynomials in tan(theta), whose
+/// features are uniformly spread in log(tan(theta)): the steps are too
+/// (requires limit < pi/2).
 template <typename Model>
 double scanMaxIncidenceAngle(const Model& model, const double* params, int width, int height,
-                             double limit) {
+                             double limit, bool pinhole_type) {
   bool covered = true;
   double cover_angle = 0.0;
   for (const Eigen::Vector2d& pixel : borderPixels(width, height)) {
@@ -207,9 +208,9 @@ double scanMaxIncidenceAngle(const Model& model, const double* params, int width
     double good = 0.0;
     while (good < result) {
       double step = kMaxStep;
-      if (good < 0.5 * kPi) {  // d theta = cos^2 theta d tan theta
+      if (pinhole_type) {  // d theta = cos^2 theta d tan theta
         const double c = std::cos(good);
-        step = std::min(step, kLogStep * std::max(std::tan(good), 0.5) * c * c);
+        step = std::max(1e-12, std::min(step, kLogStep * std::max(std::tan(good), 0.5) * c * c));
       }
       const double theta = std::min(good + step, result);
       bool too_far = false;
@@ -359,7 +360,7 @@ std::string PinholeModel::validate(const double* params, int width, int height) 
 }
 
 double PinholeModel::maxIncidenceAngle(const double* params, int width, int height) const {
-  return scanMaxIncidenceAngle(*this, params, width, height, 0.5 * kPi - kLimitMargin);
+  return scanMaxIncidenceAngle(*this, params, width, height, 0.5 * kPi - kLimitMargin, true);
 }
 
 // ---------------------------------------------------------------- radtan
@@ -377,7 +378,7 @@ std::string RadTanModel::validate(const double* params, int width, int height) c
 }
 
 double RadTanModel::maxIncidenceAngle(const double* params, int width, int height) const {
-  return scanMaxIncidenceAngle(*this, params, width, height, 0.5 * kPi - kLimitMargin);
+  return scanMaxIncidenceAngle(*this, params, width, height, 0.5 * kPi - kLimitMargin, true);
 }
 
 // ---------------------------------------------------------------- rational polynomial
@@ -397,7 +398,7 @@ std::string RationalPolynomialModel::validate(const double* params, int width, i
 
 double RationalPolynomialModel::maxIncidenceAngle(const double* params, int width,
                                                   int height) const {
-  return scanMaxIncidenceAngle(*this, params, width, height, 0.5 * kPi - kLimitMargin);
+  return scanMaxIncidenceAngle(*this, params, width, height, 0.5 * kPi - kLimitMargin, true);
 }
 
 // ---------------------------------------------------------------- Kannala-Brandt
@@ -439,7 +440,7 @@ std::string KannalaBrandtModel::validate(const double* params, int width, int he
 }
 
 double KannalaBrandtModel::maxIncidenceAngle(const double* params, int width, int height) const {
-  return scanMaxIncidenceAngle(*this, params, width, height, kPi - kLimitMargin);
+  return scanMaxIncidenceAngle(*this, params, width, height, kPi - kLimitMargin, false);
 }
 
 // ---------------------------------------------------------------- double sphere
@@ -483,7 +484,7 @@ std::string DoubleSphereModel::validate(const double* params, int width, int hei
 double DoubleSphereModel::maxIncidenceAngle(const double* params, int width, int height) const {
   const double w2 = validityW2(params[4], params[5]);
   const double limit = std::acos(std::clamp(-w2, -1.0, 1.0)) - kLimitMargin;
-  return scanMaxIncidenceAngle(*this, params, width, height, limit);
+  return scanMaxIncidenceAngle(*this, params, width, height, limit, false);
 }
 
 // ---------------------------------------------------------------- Scaramuzza

@@ -1,0 +1,57 @@
+// `lookboth convert`: between the rawlog dataset, the plain folder layout and
+// TUM trajectory files. (ROS bags are imported by rosbag_import.h.)
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "lookboth/core/progress.h"
+#include "lookboth/dataset/dataset_io.h"
+
+namespace lookboth {
+
+enum class DataKind { kAuto, kRawlog, kFolder, kBag, kTum };
+const char* dataKindName(DataKind kind);
+/// "rawlog", "folder", "bag", "tum" (or "auto") to a kind; nullopt otherwise.
+std::optional<DataKind> parseDataKind(const std::string& name);
+/// From the path: ".rawlog" (or its manifest) -> rawlog, ".bag" -> bag, ".tum"/".txt" -> tum,
+/// a directory or no extension -> folder. Throws lookboth::Error naming the path otherwise.
+DataKind detectDataKind(const std::filesystem::path& path);
+
+/// A TUM trajectory to add to the output dataset.
+struct TrajectoryInput {
+  std::filesystem::path file;
+  TrajectoryInfo info;  ///< label, metric, description
+};
+
+struct ConvertOptions {
+  std::filesystem::path from;
+  std::filesystem::path to;
+  DataKind from_kind = DataKind::kAuto;
+  DataKind to_kind = DataKind::kAuto;
+  bool overwrite = false;  ///< Replace an existing output.
+  bool strict = false;     ///< Input issues (duplicates, missing images...) are errors.
+  /// dataset -> TUM: which trajectory to write; empty = "odometry" if present,
+  /// else the only trajectory. TUM -> dataset: the label given to it (default "odometry").
+  std::string trajectory_label;
+  /// TUM -> dataset: whether the trajectory is metric.
+  bool trajectory_metric = true;
+  /// Extra TUM trajectories added to a dataset output.
+  std::vector<TrajectoryInput> add_trajectories;
+  /// Empty when valid; else a message naming the option.
+  std::string check() const;
+};
+
+struct ConvertSummary {
+  std::map<std::string, std::int64_t> records;  ///< by kind ("image", "marker", "blobs", "pose")
+  std::vector<DatasetIssue> issues;             ///< warnings found in the input
+  std::int64_t total() const;
+};
+
+/// Runs a conversion; outputs appear only when complete. Throws
+/// lookboth::Error on bad input or options, StopRequested when stopped.
+ConvertSummary convertData(const ConvertOptions& options, const ProgressReporter& progress);
+
+}  // namespace lookboth

@@ -1,0 +1,210 @@
+#include "lookboth/dataset/convert.h"
+
+#include "lookboth/core/atomic_file.h"
+#include "lookboth/core/error.h"
+#include "lookboth/geometry/tum.h"
+
+namespace lookboth {
+
+namespace fs = std::filesystem;
+
+const char* dataKindName(DataKind kind) {
+  switch (kind) {
+    case DataKind::kAuto:
+      return "auto";
+    case DataKind::kRawlog:
+      return "rawlog";
+    case DataKind::kFolder:
+      return "folder";
+    case DataKind::kBag:
+      return "bag";
+    case DataKind::kTum:
+      return "tum";
+  }
+  return "?";
+}
+
+std::optional<DataKind> parseDataKind(const std::string& name) {
+  for (DataKind kind : {DataKind::kAuto, DataKind::kRawlog, DataKind::kFolder, DataKind::kBag, DataKind::kTum}) {
+    if (name == dataKindName(kind)) return kind;
+  }
+  return std::nullopt;
+}
+
+DataKind detectDataKind(const fs::path& path) {
+  const std::string ext = path.extension().string();
+  if (ext == ".bag") return DataKind::kBag;
+  if (ext == ".tum" || ext == ".txt") return DataKind::kTum;
+  return detectDatasetKind(path) == DatasetKind::kRawlog ? DataKind::kRawlog : DataKind::kFolder;
+}
+
+std::string ConvertOptions::check() const {
+  if (from.empty()) return "'--from': required";
+  if (to.empty()) return "'--to': required";
+  if (fs::absolute(from).lexically_normal() == fs::absolute(to).lexically_normal()) {
+    return "'--to': must differ from --from (inputs are never written to)";
+  }
+  for (const TrajectoryInput& t : add_trajectories) {
+    if (t.info.label.empty()) return "'--trajectory': a label is needed for " + t.file.string();
+  }
+  return "";
+}
+
+std::int64_t ConvertSummary::total() const {
+  std::int64_t n = 0;
+  for (const auto& [kind, count] : records) n += count;
+  return n;
+}
+
+namespace {
+
+DatasetKind asDatasetKind(DataKind kind, const fs::path& path) {
+  if (kind == DataKind::kRawlog) return DatasetKind::kRawlog;
+  if (kind == DataKind::kFolder) return DatasetKind::kFolder;
+  throw Error({path.string(), 0, "", ""}, std::string("expected a dataset here, not a ") + dataKindName(kind));
+}
+
+void addTrajectories(const ConvertOptions& options, Manifest& manifest, DatasetWriter& writer,
+                     ConvertSummary& summary, const ProgressReporter& progress) {
+  for (const TrajectoryInput& input : options.add_trajectories) {
+    progress.checkStop();
+    if (manifest.findTrajectory(input.info.label)) {
+      throw Error({input.file.string(), 0, "", ""},
+                  "the dataset already has a trajectory labelled '" + input.info.label + "'");
+    }
+    const Trajectory trajectory = readTumFile(input.file);
+    for (const StampedPose& sample : trajectory.samples()) {
+      writer.write(PoseSample{sample.t, input.info.label, sample.world_from_body});
+      ++summary.records["pose"];
+    }
+    manifest.trajectories.push_back(input.info);
+  }
+}
+
+ConvertSummary datasetToDataset(const ConvertOptions& options, DataKind from_kind, DataKind to_kind,
+                                const ProgressReporter& progress) {
+  ConvertSummary summary;
+  DatasetReadOptions read_options;
+  read_options.strict = options.strict;
+  auto reader = DatasetReader::open(options.from, read_options);
+  (void)asDatasetKind(from_kind, options.from);
+  Manifest manifest = reader->manifest();
+  manifest.name = to_kind == DataKind::kRawlog ? options.to.stem().string() : options.to.filename().string();
+  manifest.rawlog_entries = -1;
+  DatasetWriteOptions write_options;
+  write_options.overwrite = options.overwrite;
+  auto writer = DatasetWriter::create(options.to, asDatasetKind(to_kind, options.to), manifest, write_options);
+  const std::int64_t expected = reader->expectedCount();
+  std::int64_t done = 0;
+  while (auto record = reader->next()) {
+    if ((done & 63) == 0) {
+      progress.checkStop();
+      progress.report("convert", done, expected > 0 ? expected : 0);
+    }
+    writer->write(*record);
+    ++summary.records[recordKindName(*record)];
+    ++done;
+  }
+  addTrajectories(options, manifest, *writer, summary, progress);
+  progress.checkStop();
+  writer->finish(manifest);
+  progress.report("convert", done, done > 0 ? done : 1);
+  summary.issues = reader->issues();
+  return summary;
+}
+
+ConvertSummary datasetToTum(const ConvertOptions& options, const ProgressReporter& progress) {
+  ConvertSummary summary;
+  DatasetReadOptions read_options;
+  read_options.strict = options.strict;
+  read_options.check_images = false;
+  auto reader = DatasetReader::open(options.from, read_options);
+  std::string label = options.trajectory_label;
+  const Manifest& manifest = reader->manifest();
+  if (label.empty()) {
+    if (manifest.findTrajectory("odometry")) {
+      label = "odometry";
+    } else if (manifest.trajectories.size() == 1) {
+      label = manifest.trajectories.front().label;
+    } else {
+      std::string labels;
+      for (const auto& t : manifest.trajectories) labels += " " + t.label;
+      throw Error({options.from.string(), 0, "", ""},
+                  manifest.trajectories.empty() ? "holds no trajectory"
+                                                : "holds several trajectories; choose one with --label:" + labels);
+    }
+  }
+  if (!manifest.findTrajectory(label)) {
+    throw Error({options.from.string(), 0, "trajectories", ""}, "no trajectory labelled '" + label + "'");
+  }
+  if (fs::exists(options.to) && !options.overwrite) {
+    throw Error({options.to.string(), 0, "", ""}, "already exists (use --overwrite to replace it)");
+  }
+  AtomicOutputFile out(options.to);
+  out.stream() << "# timestamp[s] tx ty tz qx qy qz qw (world_from_body) trajectory '" << label << "' of "
+               << options.from.filename().string() << "\n";
+  std::int64_t done = 0;
+  TimeNs last = 0;
+  while (auto record = reader->next()) {
+    if ((++done & 255) == 0) {
+      progress.checkStop();
+      progress.report("export trajectory", done, reader->expectedCount() > 0 ? reader->expectedCount() : 0);
+    }
+    const auto* sample = std::get_if<PoseSample>(&*record);
+    if (!sample || sample->label != label) continue;
+    if (summary.records["pose"] > 0 && sample->t <= last) {
+      throw Error({options.from.string(), 0, "", label},
+                  "trajectory samples are not in time order at " + formatSeconds(sample->t) +
+                      " s; a TUM file needs increasing timestamps");
+    }
+    out.stream() << formatTumRow({sample->t, sample->world_from_body}) << '\n';
+    last = sample->t;
+    ++summary.records["pose"];
+  }
+  out.commit();
+  summary.issues = reader->issues();
+  return summary;
+}
+
+ConvertSummary tumToDataset(const ConvertOptions& options, DataKind to_kind, const ProgressReporter& progress) {
+  ConvertSummary summary;
+  Manifest manifest;
+  manifest.name = to_kind == DataKind::kRawlog ? options.to.stem().string() : options.to.filename().string();
+  DatasetWriteOptions write_options;
+  write_options.overwrite = options.overwrite;
+  ConvertOptions with_input = options;
+  TrajectoryInput input;
+  input.file = options.from;
+  input.info.label = options.trajectory_label.empty() ? "odometry" : options.trajectory_label;
+  input.info.metric = options.trajectory_metric;
+  input.info.description = "imported from " + options.from.filename().string();
+  with_input.add_trajectories.insert(with_input.add_trajectories.begin(), input);
+  auto writer = DatasetWriter::create(options.to, asDatasetKind(to_kind, options.to), manifest, write_options);
+  addTrajectories(with_input, manifest, *writer, summary, progress);
+  writer->finish(manifest);
+  return summary;
+}
+
+}  // namespace
+
+ConvertSummary convertData(const ConvertOptions& options, const ProgressReporter& progress) {
+  if (const std::string why = options.check(); !why.empty()) throw Error(why);
+  const DataKind from_kind = options.from_kind == DataKind::kAuto ? detectDataKind(options.from) : options.from_kind;
+  DataKind to_kind = options.to_kind;
+  if (to_kind == DataKind::kAuto) {
+    to_kind = options.to.extension() == ".rawlog" ? DataKind::kRawlog : detectDataKind(options.to);
+  }
+  if (!fs::exists(options.from)) throw Error({options.from.string(), 0, "", ""}, "no such file or folder");
+  if (from_kind == DataKind::kBag) {
+    throw Error({options.from.string(), 0, "", ""}, "ROS bags are imported with importRosbag (rosbag_import.h)");
+  }
+  if (to_kind == DataKind::kBag) throw Error({options.to.string(), 0, "", ""}, "writing ROS bags is not supported");
+  if (from_kind == DataKind::kTum) {
+    if (to_kind == DataKind::kTum) throw Error("TUM to TUM: nothing to convert");
+    return tumToDataset(options, to_kind, progress);
+  }
+  if (to_kind == DataKind::kTum) return datasetToTum(options, progress);
+  return datasetToDataset(options, from_kind, to_kind, progress);
+}
+
+}  // namespace lookboth
