@@ -16,5 +16,6 @@ using CommandBody = std::function<int()>;
 /// user picked one of the family's subcommands.
 void registerVersionCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerCameraCommands(CLI::App& app, const std::function<void(CommandBody)>& set_body);
+void registerConvertCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 
 }  // namespace lookboth::app

@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   const auto set_body = [&body](lookboth::app::CommandBody b) { body = std::move(b); };
   lookboth::app::registerVersionCommand(app, set_body);
   lookboth::app::registerCameraCommands(app, set_body);
+  lookboth::app::registerConvertCommand(app, set_body);
 
   try {
     app.parse(argc, argv);

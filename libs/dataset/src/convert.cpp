@@ -86,6 +86,7 @@ ConvertSummary datasetToDataset(const ConvertOptions& options, DataKind from_kin
   ConvertSummary summary;
   DatasetReadOptions read_options;
   read_options.strict = options.strict;
+  read_options.on_issue = options.on_issue;
   auto reader = DatasetReader::open(options.from, read_options);
   (void)asDatasetKind(from_kind, options.from);
   Manifest manifest = reader->manifest();
@@ -118,6 +119,7 @@ ConvertSummary datasetToTum(const ConvertOptions& options, const ProgressReporte
   DatasetReadOptions read_options;
   read_options.strict = options.strict;
   read_options.check_images = false;
+  read_options.on_issue = options.on_issue;
   auto reader = DatasetReader::open(options.from, read_options);
   std::string label = options.trajectory_label;
   const Manifest& manifest = reader->manifest();

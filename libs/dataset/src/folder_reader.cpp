@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
 #include <utility>

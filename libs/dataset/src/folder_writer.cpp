@@ -55,13 +55,10 @@ std::string checkLabel(const std::string& label) {
   if (label.front() == '#' || label.front() == '.') {
     return "'" + label + "' starts with '" + label.substr(0, 1) + "'";
   }
-  if (label.front() == ' ' || label.back() == ' ') {
-    return "'" + label + "' starts or ends with a space";
-  }
   for (const char c : label) {
-    if (c == '/' || c == '\\' || c == ',' || static_cast<unsigned char>(c) < 0x20) {
-      return "'" + label + "' holds a character not allowed in a folder label ('/', '\\', ',' or a "
-             "control character)";
+    if (c == '/' || c == '\\' || c == ',' || c == ' ' || static_cast<unsigned char>(c) < 0x20) {
+      return "'" + label + "' holds a character not allowed in a folder label ('/', '\\', ',', a "
+             "space or a control character)";
     }
   }
   return "";
@@ -352,6 +349,10 @@ class FolderWriter final : public DatasetWriter {
   void writeRecord(const PoseSample& sample) {
     if (const std::string why = checkLabel(sample.label); !why.empty()) {
       throw Error({folder_.string(), 0, "", sample.label}, "trajectory label: " + why);
+    }
+    if (manifest_.findCamera(sample.label)) {
+      throw Error({folder_.string(), 0, "", sample.label},
+                  "poses labelled like a camera: a trajectory needs a label of its own");
     }
     trajectoryFile(sample.label).stream() << formatTumRow({sample.t, sample.world_from_body}) << '\n';
   }

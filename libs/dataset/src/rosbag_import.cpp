@@ -685,7 +685,6 @@ class Importer {
       info.description = "ROS topic " + m.topic + " (" + plan.type + ")";
       manifest.trajectories.push_back(info);
     }
-    fillCameras(&manifest);
     return manifest;
   }
 
@@ -695,6 +694,45 @@ class Importer {
       const CameraState& state = cameras_.at(label);
       manifest->cameras.push_back(CameraSensor{state.label, state.role, state.camera});
     }
+  }
+
+  /// Sets each camera's calibration from the first usable message of its
+  /// CameraInfo topic (unless a calibration file is given), before any image
+  /// is converted: writers need the calibrations up front, and images are
+  /// checked against them.
+  void readFirstCalibrations() {
+    for (const auto& [topic, plan] : plans_) {
+      if (plan.kind != TopicKind::kCameraInfo) continue;
+      CameraState& state = cameras_.at(plan.label);
+      if (state.from_file) continue;
+      TopicPlan probe = plan;
+      try {
+        rosbag::View view(bag_, rosbag::TopicQuery(topic));
+        for (const rosbag::MessageInstance& message : view) {
+          ++probe.messages;
+          const auto msg = instantiate<sensor_msgs::CameraInfo>(message, probe);
+          if (std::optional<Camera> camera = convertInfo(message, probe, *msg)) {
+            state.camera = std::move(camera);
+            state.calibration_source = "CameraInfo on " + topic;
+            break;
+          }
+        }
+      } catch (const Error&) {
+        throw;
+      } catch (const std::exception& e) {
+        throw Error(bagContext(), "cannot read the bag (topic " + topic + ", message " +
+                                      std::to_string(probe.messages + 1) + "): " + e.what());
+      }
+    }
+  }
+
+  /// Cameras with no calibration at all (no usable CameraInfo, no file).
+  std::vector<std::string> uncalibratedCameras() const {
+    std::vector<std::string> labels;
+    for (const std::string& label : camera_order_) {
+      if (!cameras_.at(label).camera) labels.push_back(label);
+    }
+    return labels;
   }
 
   /// Streams the mapped topics into the writer.
@@ -791,6 +829,17 @@ class Importer {
     return true;
   }
 
+  std::optional<Camera> convertInfo(const rosbag::MessageInstance& message, const TopicPlan& plan,
+                                    const sensor_msgs::CameraInfo& info) const {
+    try {
+      return cameraFromCameraInfo(info);
+    } catch (const Problem& problem) {
+      fail(message, plan, problem.why);
+    } catch (const Error& e) {
+      fail(message, plan, e.message());
+    }
+  }
+
   void checkImageSize(const rosbag::MessageInstance& message, const TopicPlan& plan, int width, int height) {
     CameraState& state = cameras_.at(plan.label);
     if (state.camera && (state.camera->width() != width || state.camera->height() != height)) {
@@ -857,15 +906,8 @@ class Importer {
       }
       case TopicKind::kCameraInfo: {
         const auto msg = instantiate<sensor_msgs::CameraInfo>(message, plan);
-        std::optional<Camera> camera;
-        try {
-          camera = cameraFromCameraInfo(*msg);
-        } catch (const Problem& problem) {
-          fail(message, plan, problem.why);
-        } catch (const Error& e) {
-          fail(message, plan, e.message());
-        }
-        CameraState& state = cameras_.at(plan.label);
+        const std::optional<Camera> camera = convertInfo(message, plan, *msg);
+        const CameraState& state = cameras_.at(plan.label);
         if (!camera) {
           if (!plan.info_uncalibrated_warned && !state.from_file) {
             warn("topic " + plan.mapping.topic + ": CameraInfo holds no calibration (K is all zero); ignored");
@@ -873,27 +915,16 @@ class Importer {
           plan.info_uncalibrated_warned = true;
           return;
         }
-        if (state.from_file) {
-          if (!plan.info_changed_warned && !sameCamera(*camera, *state.camera)) {
+        // readFirstCalibrations() set the calibration from the first usable message.
+        if (!plan.info_changed_warned && state.camera && !sameCamera(*camera, *state.camera)) {
+          if (state.from_file) {
             warn("topic " + plan.mapping.topic + ": CameraInfo (" + camera->description() + ") differs from the " +
                  state.calibration_source + " (" + state.camera->description() + "); using the file");
-            plan.info_changed_warned = true;
+          } else {
+            warn("topic " + plan.mapping.topic + ": CameraInfo changes during the recording (message " +
+                 std::to_string(plan.messages) + ": " + camera->description() + "); keeping the first one (" +
+                 state.camera->description() + ")");
           }
-          return;
-        }
-        if (!state.camera) {
-          if (state.first_width != 0 && (state.first_width != camera->width() || state.first_height != camera->height())) {
-            fail(message, plan, "calibration size " + sizeText(camera->width(), camera->height()) +
-                                    " differs from the size " + sizeText(state.first_width, state.first_height) +
-                                    " of the images on " + state.image_topic);
-          }
-          state.camera = std::move(camera);
-          state.calibration_source = "CameraInfo on " + plan.mapping.topic;
-          return;
-        }
-        if (!plan.info_changed_warned && !sameCamera(*camera, *state.camera)) {
-          warn("topic " + plan.mapping.topic + ": CameraInfo changes during the recording (message " +
-               std::to_string(plan.messages) + "); keeping the first one (" + state.camera->description() + ")");
           plan.info_changed_warned = true;
         }
         return;
@@ -963,12 +994,20 @@ RosbagImportStats importRosbag(const fs::path& bag, const fs::path& out, Dataset
   Importer importer(bag, options, &stats);
   importer.open();
   importer.plan();
-  const Manifest initial = importer.initialManifest(datasetName(out));
-  std::unique_ptr<DatasetWriter> writer = DatasetWriter::create(out, kind, initial, write_options);
+  Manifest manifest = importer.initialManifest(datasetName(out));
+  importer.readFirstCalibrations();
+  if (kind == DatasetKind::kFolder) {
+    if (const std::vector<std::string> missing = importer.uncalibratedCameras(); !missing.empty()) {
+      throw Error({out.string(), 0, "", ""},
+                  "the dataset folder format needs a calibration for every camera; " + joined(missing) +
+                      (missing.size() == 1 ? " has" : " have") +
+                      " none: map its CameraInfo topic, give a calibration file, or write a rawlog dataset");
+    }
+  }
+  importer.fillCameras(&manifest);
+  std::unique_ptr<DatasetWriter> writer = DatasetWriter::create(out, kind, manifest, write_options);
   importer.run(*writer, progress);
   importer.finishChecks();
-  Manifest manifest = initial;
-  importer.fillCameras(&manifest);
   writer->finish(manifest);
   return stats;
 }

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -40,6 +41,8 @@ struct ConvertOptions {
   bool trajectory_metric = true;
   /// Extra TUM trajectories added to a dataset output.
   std::vector<TrajectoryInput> add_trajectories;
+  /// Called for every input issue as it is found (e.g. to print a warning).
+  std::function<void(const DatasetIssue&)> on_issue;
   /// Empty when valid; else a message naming the option.
   std::string check() const;
 };
