@@ -216,7 +216,7 @@ TEST_P(CameraModelsRoundTrip, PixelToRayToPixelOverTheImage) {
       ASSERT_TRUE(back) << "pixel " << pixel.transpose() << " bearing " << bearing->transpose();
       worst = std::max(worst, (*back - pixel).norm());
     }
-    EXPECT_GT(valid, 200);  // a tenth of the image: circular fisheyes leave the corners dark
+    EXPECT_GT(valid, 100);  // 5% of the image: small fisheye circles leave most of it dark
     EXPECT_LT(worst, 1e-6);
   }
 }

@@ -85,7 +85,8 @@ bool CsvReader::next() {
     for (const auto& [name, index] : columns_) needed = std::max(needed, index + 1);
     if (fields_.size() < needed) {
       throw Error({path_.string(), line_, "", ""},
-                  "expected " + std::to_string(needed) + " comma-separated fields as in the header, got " +
+                  "expected " + std::to_string(needed) +
+                      " comma-separated fields as in the header, got " +
                       std::to_string(fields_.size()));
     }
     return true;
@@ -110,7 +111,8 @@ double CsvReader::number(const std::string& column) const {
   const std::optional<double> parsed = parseDouble(value);
   if (!parsed) throw Error(where(column), "not a number: '" + value + "'");
   if (std::isnan(*parsed)) throw Error(where(column), "NaN is not allowed");
-  if (!std::isfinite(*parsed)) throw Error(where(column), "infinite value '" + value + "' is not allowed");
+  if (!std::isfinite(*parsed))
+    throw Error(where(column), "infinite value '" + value + "' is not allowed");
   return *parsed;
 }
 

@@ -104,9 +104,9 @@ Eigen::Quaterniond checkedQuaternion(double qx, double qy, double qz, double qw,
 /// Pose from the columns tx ty tz qx qy qz qw of the current row.
 Rigid3d csvPose(const CsvReader& csv) {
   const Eigen::Vector3d t(csv.number("tx"), csv.number("ty"), csv.number("tz"));
-  const Eigen::Quaterniond q = checkedQuaternion(csv.number("qx"), csv.number("qy"),
-                                                 csv.number("qz"), csv.number("qw"),
-                                                 csv.where("qx,qy,qz,qw"));
+  const Eigen::Quaterniond q =
+      checkedQuaternion(csv.number("qx"), csv.number("qy"), csv.number("qz"), csv.number("qw"),
+                        csv.where("qx,qy,qz,qw"));
   return Rigid3d(q, t);
 }
 
@@ -195,8 +195,8 @@ class FrameStream final : public Stream {
       issue_(where, "image '" + image.string() + "' is " + std::to_string(decoded.cols) + "x" +
                         std::to_string(decoded.rows) + " px but the calibration of camera '" +
                         label_ + "' (" + calibration_file_.string() + ") is " +
-                        std::to_string(camera_->width()) + "x" +
-                        std::to_string(camera_->height()) + " px");
+                        std::to_string(camera_->width()) + "x" + std::to_string(camera_->height()) +
+                        " px");
     }
     return true;
   }
@@ -230,11 +230,12 @@ class MarkerStream final : public Stream {
       if (env_cameras_.count(obs.camera) == 0) {
         std::string known;
         for (const std::string& label : env_cameras_) known += (known.empty() ? "" : ", ") + label;
-        throw Error(csv_.where("camera"),
-                    obs.camera == kFisheyeLabel
-                        ? "the fisheye cannot see the robot's marker: expected an environment camera"
-                        : "unknown camera '" + obs.camera + "' (environment cameras: " +
-                              (known.empty() ? "none" : known) + ")");
+        throw Error(
+            csv_.where("camera"),
+            obs.camera == kFisheyeLabel
+                ? "the fisheye cannot see the robot's marker: expected an environment camera"
+                : "unknown camera '" + obs.camera +
+                      "' (environment cameras: " + (known.empty() ? "none" : known) + ")");
       }
       const long long id = csv_.integer("marker_id");
       if (id < 0 || id > std::numeric_limits<int>::max()) {
@@ -525,7 +526,8 @@ class FolderReader final : public DatasetReader {
     std::vector<fs::path> directories;
     for (const fs::directory_entry& entry : fs::directory_iterator(cameras)) {
       const std::string name = entry.path().filename().string();
-      if (entry.is_directory() && !name.empty() && name[0] != '.') directories.push_back(entry.path());
+      if (entry.is_directory() && !name.empty() && name[0] != '.')
+        directories.push_back(entry.path());
     }
     std::sort(directories.begin(), directories.end());
     for (const fs::path& directory : directories) {
@@ -575,14 +577,15 @@ class FolderReader final : public DatasetReader {
     if (!fs::is_directory(others)) return;
     std::vector<fs::path> tums;
     for (const fs::directory_entry& entry : fs::directory_iterator(others)) {
-      if (entry.is_regular_file() && entry.path().extension() == ".tum") tums.push_back(entry.path());
+      if (entry.is_regular_file() && entry.path().extension() == ".tum")
+        tums.push_back(entry.path());
     }
     std::sort(tums.begin(), tums.end());
     for (const fs::path& tum : tums) {
       const std::string label = tum.stem().string();
       if (label == kOdometryLabel || label == kGroundTruthLabel) {
-        throw Error({tum.string(), 0, "", ""}, "the trajectory '" + label + "' belongs in " +
-                                                   label + "/trajectory.tum");
+        throw Error({tum.string(), 0, "", ""},
+                    "the trajectory '" + label + "' belongs in " + label + "/trajectory.tum");
       }
       TrajectoryInfo info{label, true, ""};
       readTrajectoryYaml(others / (label + ".yaml"), info);
@@ -600,9 +603,9 @@ class FolderReader final : public DatasetReader {
         const std::string& label = csv.text("label");
         const CameraSensor* sensor = manifest_.findCamera(label);
         if (!sensor || sensor->role != SensorRole::kEnvCamera) {
-          throw Error(csv.where("label"),
-                      "'" + label + "' is not an environment camera (no folder cameras/" + label +
-                          "/)");
+          throw Error(
+              csv.where("label"),
+              "'" + label + "' is not an environment camera (no folder cameras/" + label + "/)");
         }
         if (!truth.world_from_camera.emplace(label, csvPose(csv)).second) {
           throw Error(csv.where("label"), "camera '" + label + "' appears twice");
@@ -614,8 +617,8 @@ class FolderReader final : public DatasetReader {
       const YAML::Node map = loadYamlMapping(marker, kPoseColumns);
       double v[7];
       for (int i = 0; i < 7; ++i) v[i] = yamlNumber(map, kPoseColumns[i], marker);
-      const Eigen::Quaterniond q =
-          checkedQuaternion(v[3], v[4], v[5], v[6], {marker.string(), yamlLine(map, "qx"), "qx", ""});
+      const Eigen::Quaterniond q = checkedQuaternion(
+          v[3], v[4], v[5], v[6], {marker.string(), yamlLine(map, "qx"), "qx", ""});
       truth.fisheye_from_marker = Rigid3d(q, Eigen::Vector3d(v[0], v[1], v[2]));
     }
     const fs::path offsets = file("ground_truth/clock_offsets.csv");
@@ -657,8 +660,8 @@ class FolderReader final : public DatasetReader {
       streams_.push_back(std::make_unique<MarkerStream>(markers, env_cameras, issueSink()));
     }
     for (size_t i = 0; i < trajectory_files_.size(); ++i) {
-      streams_.push_back(std::make_unique<TumStream>(
-          trajectory_files_[i], manifest_.trajectories[i].label, issueSink()));
+      streams_.push_back(std::make_unique<TumStream>(trajectory_files_[i],
+                                                     manifest_.trajectories[i].label, issueSink()));
     }
   }
 

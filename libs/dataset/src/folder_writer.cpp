@@ -30,11 +30,21 @@ std::string yamlQuoted(const std::string& text) {
   std::string out = "\"";
   for (const char c : text) {
     switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\t': out += "\\t"; break;
-      case '\r': out += "\\r"; break;
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
+      case '\r':
+        out += "\\r";
+        break;
       default:
         if (static_cast<unsigned char>(c) < 0x20) {
           char buffer[8];
@@ -57,7 +67,8 @@ std::string checkLabel(const std::string& label) {
   }
   for (const char c : label) {
     if (c == '/' || c == '\\' || c == ',' || c == ' ' || static_cast<unsigned char>(c) < 0x20) {
-      return "'" + label + "' holds a character not allowed in a folder label ('/', '\\', ',', a "
+      return "'" + label +
+             "' holds a character not allowed in a folder label ('/', '\\', ',', a "
              "space or a control character)";
     }
   }
@@ -117,8 +128,8 @@ class FolderWriter final : public DatasetWriter {
     std::error_code ec;
     fs::create_directory(temporary_, ec);
     if (ec) {
-      throw Error({folder_.string(), 0, "", ""},
-                  "cannot create the temporary folder '" + temporary_.string() + "': " + ec.message());
+      throw Error({folder_.string(), 0, "", ""}, "cannot create the temporary folder '" +
+                                                     temporary_.string() + "': " + ec.message());
     }
   }
 
@@ -288,8 +299,9 @@ class FolderWriter final : public DatasetWriter {
       if (!out) throw Error({target.string(), 0, "", ""}, "cannot write image (disk full?)");
     } else {
       if (frame.image_file.empty()) {
-        throw Error({folder_.string(), 0, "", sensor.label},
-                    "frame at " + std::to_string(frame.t) + " ns has neither an image file nor bytes");
+        throw Error(
+            {folder_.string(), 0, "", sensor.label},
+            "frame at " + std::to_string(frame.t) + " ns has neither an image file nor bytes");
       }
       std::error_code ec;
       fs::copy_file(frame.image_file, target, ec);
@@ -337,7 +349,8 @@ class FolderWriter final : public DatasetWriter {
                   "timestamp_ns,u,v,diameter_px,response,image_width,image_height");
     }
     std::ostream& out = blobs_.stream();
-    const std::string size = std::to_string(obs.image_width) + "," + std::to_string(obs.image_height);
+    const std::string size =
+        std::to_string(obs.image_width) + "," + std::to_string(obs.image_height);
     if (obs.blobs.empty()) out << obs.t << ",,,,," << size << '\n';  // a frame without blobs
     for (const Blob& blob : obs.blobs) {
       out << obs.t << ',' << formatDouble(blob.u) << ',' << formatDouble(blob.v) << ','
@@ -354,7 +367,8 @@ class FolderWriter final : public DatasetWriter {
       throw Error({folder_.string(), 0, "", sample.label},
                   "poses labelled like a camera: a trajectory needs a label of its own");
     }
-    trajectoryFile(sample.label).stream() << formatTumRow({sample.t, sample.world_from_body}) << '\n';
+    trajectoryFile(sample.label).stream()
+        << formatTumRow({sample.t, sample.world_from_body}) << '\n';
   }
 
   OutputFile& trajectoryFile(const std::string& label) {

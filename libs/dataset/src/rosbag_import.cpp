@@ -37,7 +37,9 @@ constexpr const char* kOdometryType = "nav_msgs/Odometry";
 constexpr const char* kPoseStampedType = "geometry_msgs/PoseStamped";
 
 bool isCameraRole(const std::string& role) { return role == "fisheye" || role == "env_camera"; }
-bool isTrajectoryRole(const std::string& role) { return role == "odometry" || role == "ground_truth"; }
+bool isTrajectoryRole(const std::string& role) {
+  return role == "odometry" || role == "ground_truth";
+}
 
 std::string joined(const std::vector<std::string>& items) {
   std::string out;
@@ -55,7 +57,8 @@ std::string sizeText(int width, int height) {
 // Options
 
 const std::vector<std::string>& rosTopicRoles() {
-  static const std::vector<std::string> kRoles = {"fisheye", "env_camera", "odometry", "ground_truth"};
+  static const std::vector<std::string> kRoles = {"fisheye", "env_camera", "odometry",
+                                                  "ground_truth"};
   return kRoles;
 }
 
@@ -88,23 +91,24 @@ std::string RosbagImportOptions::check() const {
       return "'" + field + ".label': '" + label + "' must not contain commas, slashes or spaces";
     }
     if (m.role == "ground_truth" && label != "ground_truth") {
-      return "'" + field + ".label': a ground_truth topic has the label 'ground_truth', got '" + label +
-             "'";
+      return "'" + field + ".label': a ground_truth topic has the label 'ground_truth', got '" +
+             label + "'";
     }
     const auto [it, inserted] = label_roles.emplace(label, std::make_pair(m.role, m.topic));
     if (!inserted) {
       if (it->second.first != m.role) {
-        return "'" + field + ".label': '" + label + "' is already the label of " + it->second.second +
-               " with role " + it->second.first + " (one label, one role)";
+        return "'" + field + ".label': '" + label + "' is already the label of " +
+               it->second.second + " with role " + it->second.first + " (one label, one role)";
       }
       if (isTrajectoryRole(m.role)) {
-        return "'" + field + ".label': trajectory '" + label + "' already comes from " + it->second.second;
+        return "'" + field + ".label': trajectory '" + label + "' already comes from " +
+               it->second.second;
       }
     }
     if (m.role == "fisheye") {
       if (!fisheye_label.empty() && fisheye_label != label) {
-        return "'" + field + ".label': a second fisheye '" + label + "' (the fisheye is '" + fisheye_label +
-               "'; a dataset has one)";
+        return "'" + field + ".label': a second fisheye '" + label + "' (the fisheye is '" +
+               fisheye_label + "'; a dataset has one)";
       }
       fisheye_label = label;
     }
@@ -122,22 +126,24 @@ std::string RosbagImportOptions::check() const {
 
 RosTopicMapping parseTopicMapping(const std::string& text) {
   const ErrorContext where{"", 0, "topic mapping", ""};
-  const std::string usage = " (expected /topic=label:role[:nonmetric], roles: " + joined(rosTopicRoles()) + ")";
+  const std::string usage =
+      " (expected /topic=label:role[:nonmetric], roles: " + joined(rosTopicRoles()) + ")";
   const size_t equals = text.find('=');
-  if (equals == std::string::npos || equals == 0) {
-    throw Error(where, "'" + text + "': no topic before '='" + usage);
-  }
+  if (equals == std::string::npos) throw Error(where, "'" + text + "': no '='" + usage);
+  if (equals == 0) throw Error(where, "'" + text + "': no topic before '='" + usage);
   RosTopicMapping mapping;
   mapping.topic = text.substr(0, equals);
   std::vector<std::string> parts;
   size_t start = equals + 1;
   while (true) {
     const size_t colon = text.find(':', start);
-    parts.push_back(text.substr(start, colon == std::string::npos ? std::string::npos : colon - start));
+    parts.push_back(
+        text.substr(start, colon == std::string::npos ? std::string::npos : colon - start));
     if (colon == std::string::npos) break;
     start = colon + 1;
   }
-  if (parts.size() < 2 || parts.size() > 3) throw Error(where, "'" + text + "': expected label:role" + usage);
+  if (parts.size() < 2 || parts.size() > 3)
+    throw Error(where, "'" + text + "': expected label:role" + usage);
   mapping.label = parts[0];
   mapping.role = parts[1];
   const auto& roles = rosTopicRoles();
@@ -150,10 +156,12 @@ RosTopicMapping parseTopicMapping(const std::string& text) {
     } else if (parts[2] == "metric") {
       mapping.metric = true;
     } else {
-      throw Error(where, "'" + text + "': unknown flag '" + parts[2] + "' (metric, nonmetric)" + usage);
+      throw Error(where,
+                  "'" + text + "': unknown flag '" + parts[2] + "' (metric, nonmetric)" + usage);
     }
     if (!isTrajectoryRole(mapping.role)) {
-      throw Error(where, "'" + text + "': '" + parts[2] + "' is for trajectories (odometry, ground_truth)");
+      throw Error(
+          where, "'" + text + "': '" + parts[2] + "' is for trajectories (odometry, ground_truth)");
     }
   }
   return mapping;
@@ -192,7 +200,8 @@ struct YamlReader {
     if (value == "false" || value == "no") return false;
     throw Error(at(node, field), "expected true or false, got '" + value + "'");
   }
-  YAML::Node require(const YAML::Node& parent, const std::string& key, const std::string& field) const {
+  YAML::Node require(const YAML::Node& parent, const std::string& key,
+                     const std::string& field) const {
     const YAML::Node node = parent[key];
     if (!node.IsDefined() || node.IsNull()) throw Error(at(parent, field), "missing");
     return node;
@@ -224,7 +233,8 @@ RosbagImportOptions loadRosbagMapping(const fs::path& yaml) {
   } catch (const YAML::Exception& e) {
     throw Error({yaml.string(), e.mark.line + 1, "", ""}, "not valid YAML: " + e.msg);
   }
-  if (!root.IsMap()) throw Error({yaml.string(), 0, "", ""}, "expected a YAML mapping with 'topics' and 'marker'");
+  if (!root.IsMap())
+    throw Error({yaml.string(), 0, "", ""}, "expected a YAML mapping with 'topics' and 'marker'");
   r.rejectUnknownKeys(root, {"topics", "marker", "calibrations", "use_header_stamp"}, "");
 
   RosbagImportOptions options;
@@ -251,14 +261,17 @@ RosbagImportOptions loadRosbagMapping(const fs::path& yaml) {
   const YAML::Node marker = r.require(root, "marker", "marker");
   r.requireMap(marker, "marker");
   r.rejectUnknownKeys(marker, {"dictionary", "id", "size_m"}, "marker");
-  options.marker.dictionary = r.text(r.require(marker, "dictionary", "marker.dictionary"), "marker.dictionary");
+  options.marker.dictionary =
+      r.text(r.require(marker, "dictionary", "marker.dictionary"), "marker.dictionary");
   const long long id = r.integer(r.require(marker, "id", "marker.id"), "marker.id");
   if (id < 0 || id > 1'000'000) throw Error(r.at(marker["id"], "marker.id"), "out of range");
   options.marker.id = static_cast<int>(id);
   options.marker.size_m = r.number(r.require(marker, "size_m", "marker.size_m"), "marker.size_m");
-  if (const std::string why = options.marker.check(); !why.empty()) throw Error(r.at(marker, "marker"), why);
+  if (const std::string why = options.marker.check(); !why.empty())
+    throw Error(r.at(marker, "marker"), why);
 
-  if (const YAML::Node calibrations = root["calibrations"]; calibrations && !calibrations.IsNull()) {
+  if (const YAML::Node calibrations = root["calibrations"];
+      calibrations && !calibrations.IsNull()) {
     r.requireMap(calibrations, "calibrations");
     for (const auto& entry : calibrations) {
       const std::string label = r.text(entry.first, "calibrations");
@@ -266,9 +279,11 @@ RosbagImportOptions loadRosbagMapping(const fs::path& yaml) {
       options.calibration_files[label] = file.is_absolute() ? file : yaml.parent_path() / file;
     }
   }
-  if (root["use_header_stamp"]) options.use_header_stamp = r.boolean(root["use_header_stamp"], "use_header_stamp");
+  if (root["use_header_stamp"])
+    options.use_header_stamp = r.boolean(root["use_header_stamp"], "use_header_stamp");
 
-  if (const std::string why = options.check(); !why.empty()) throw Error({yaml.string(), 0, "", ""}, why);
+  if (const std::string why = options.check(); !why.empty())
+    throw Error({yaml.string(), 0, "", ""}, why);
   return options;
 }
 
@@ -295,7 +310,8 @@ bool peekImageSize(const std::vector<std::uint8_t>& d, int* width, int* height) 
     return (static_cast<std::uint32_t>(be16(i)) << 16) | static_cast<std::uint32_t>(be16(i + 2));
   };
   static const std::uint8_t kPngSignature[8] = {0x89, 'P', 'N', 'G', 0x0D, 0x0A, 0x1A, 0x0A};
-  if (n >= 24 && std::memcmp(d.data(), kPngSignature, 8) == 0 && std::memcmp(d.data() + 12, "IHDR", 4) == 0) {
+  if (n >= 24 && std::memcmp(d.data(), kPngSignature, 8) == 0 &&
+      std::memcmp(d.data() + 12, "IHDR", 4) == 0) {
     const std::uint32_t w = be32(16);
     const std::uint32_t h = be32(20);
     if (w == 0 || h == 0 || w > 1'000'000 || h > 1'000'000) return false;
@@ -314,11 +330,12 @@ bool peekImageSize(const std::vector<std::uint8_t>& d, int* width, int* height) 
       }
       i += 2;
       if (marker == 0x01 || (marker >= 0xD0 && marker <= 0xD8)) continue;  // no length
-      if (marker == 0xD9 || marker == 0xDA) return false;                  // end, or scan before a frame
+      if (marker == 0xD9 || marker == 0xDA) return false;  // end, or scan before a frame
       if (i + 2 > n) return false;
       const size_t length = be16(i);
       if (length < 2) return false;
-      const bool is_frame = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC;
+      const bool is_frame =
+          marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC;
       if (is_frame) {
         if (i + 7 > n) return false;  // length(2) precision(1) height(2) width(2)
         *height = static_cast<int>(be16(i + 3));
@@ -383,10 +400,10 @@ std::vector<std::uint8_t> encodeRawImageAsPng(const sensor_msgs::Image& image) {
     type = CV_8UC2;
     conversion = cv::COLOR_YUV2BGR_YUY2;
   } else {
-    throw Problem(
-        "unsupported image encoding '" + encoding +
-        "' (supported: mono8, mono16, bgr8, rgb8, bgra8, rgba8, bgr16, rgb16, 8UC1, 8UC3, 8UC4, 16UC1, 16UC3, "
-        "bayer_{rggb,bggr,gbrg,grbg}{8,16}, yuv422, yuv422_yuy2)");
+    throw Problem("unsupported image encoding '" + encoding +
+                  "' (supported: mono8, mono16, bgr8, rgb8, bgra8, rgba8, bgr16, rgb16, 8UC1, "
+                  "8UC3, 8UC4, 16UC1, 16UC3, "
+                  "bayer_{rggb,bggr,gbrg,grbg}{8,16}, yuv422, yuv422_yuy2)");
   }
   const int width = static_cast<int>(image.width);
   const int height = static_cast<int>(image.height);
@@ -394,11 +411,12 @@ std::vector<std::uint8_t> encodeRawImageAsPng(const sensor_msgs::Image& image) {
   const size_t row_bytes = static_cast<size_t>(width) * CV_ELEM_SIZE(type);
   if (image.step < row_bytes) {
     throw Problem("step " + std::to_string(image.step) + " is less than width x pixel size (" +
-                      std::to_string(row_bytes) + " bytes)");
+                  std::to_string(row_bytes) + " bytes)");
   }
   if (image.data.size() < static_cast<size_t>(image.step) * static_cast<size_t>(height)) {
-    throw Problem("data holds " + std::to_string(image.data.size()) + " bytes, expected step x height = " +
-                      std::to_string(static_cast<size_t>(image.step) * static_cast<size_t>(height)));
+    throw Problem("data holds " + std::to_string(image.data.size()) +
+                  " bytes, expected step x height = " +
+                  std::to_string(static_cast<size_t>(image.step) * static_cast<size_t>(height)));
   }
   // A view of the message's bytes (not modified, except by a copy below).
   cv::Mat view(height, width, type, const_cast<std::uint8_t*>(image.data.data()), image.step);
@@ -414,16 +432,21 @@ std::vector<std::uint8_t> encodeRawImageAsPng(const sensor_msgs::Image& image) {
     mat = view.clone();
     for (int row = 0; row < mat.rows; ++row) {
       auto* p = mat.ptr<std::uint16_t>(row);
-      for (int i = 0; i < mat.cols * mat.channels(); ++i) p[i] = static_cast<std::uint16_t>((p[i] >> 8) | (p[i] << 8));
+      for (int i = 0; i < mat.cols * mat.channels(); ++i)
+        p[i] = static_cast<std::uint16_t>((p[i] >> 8) | (p[i] << 8));
     }
   }
-  if (conversion >= 0) {
-    cv::Mat converted;
-    cv::cvtColor(mat, converted, conversion);
-    mat = converted;
-  }
   std::vector<std::uint8_t> png;
-  if (!cv::imencode(".png", mat, png)) throw Problem("OpenCV could not encode the image as PNG");
+  try {
+    if (conversion >= 0) {
+      cv::Mat converted;
+      cv::cvtColor(mat, converted, conversion);
+      mat = converted;
+    }
+    if (!cv::imencode(".png", mat, png)) throw Problem("OpenCV could not encode the image as PNG");
+  } catch (const cv::Exception& e) {
+    throw Problem("OpenCV could not convert the " + encoding + " image: " + e.what());
+  }
   return png;
 }
 
@@ -437,20 +460,25 @@ std::optional<Camera> cameraFromCameraInfo(const sensor_msgs::CameraInfo& info) 
     throw Problem("K or D holds a value that is not finite");
   }
   if (k[1] != 0.0) {
-    throw Problem("K[0][1] (skew) = " + formatDouble(k[1]) + " is not zero; lookboth camera models have no skew");
+    throw Problem("K[0][1] (skew) = " + formatDouble(k[1]) +
+                  " is not zero; lookboth camera models have no skew");
   }
   if (k[3] != 0.0 || k[6] != 0.0 || k[7] != 0.0 || k[8] != 1.0) {
     throw Problem("K is not a camera matrix [fx 0 cx; 0 fy cy; 0 0 1]");
   }
   if (info.binning_x > 1 || info.binning_y > 1) {
-    throw Problem("binning " + std::to_string(info.binning_x) + "x" + std::to_string(info.binning_y) +
-                      " is not supported; give a calibration file for this camera instead");
+    throw Problem("binning " + std::to_string(info.binning_x) + "x" +
+                  std::to_string(info.binning_y) +
+                  " is not supported; give a calibration file for this camera instead");
   }
   const auto& roi = info.roi;
-  const bool full_roi = (roi.width == 0 && roi.height == 0 && roi.x_offset == 0 && roi.y_offset == 0) ||
-                        (roi.x_offset == 0 && roi.y_offset == 0 && roi.width == info.width && roi.height == info.height);
+  const bool full_roi =
+      (roi.width == 0 && roi.height == 0 && roi.x_offset == 0 && roi.y_offset == 0) ||
+      (roi.x_offset == 0 && roi.y_offset == 0 && roi.width == info.width &&
+       roi.height == info.height);
   if (!full_roi) {
-    throw Problem("a region of interest is not supported; give a calibration file for this camera instead");
+    throw Problem(
+        "a region of interest is not supported; give a calibration file for this camera instead");
   }
   std::vector<double> params = {k[0], k[4], k[2], k[5]};
   const std::vector<double>& d = info.D;
@@ -458,7 +486,7 @@ std::optional<Camera> cameraFromCameraInfo(const sensor_msgs::CameraInfo& info) 
   CameraModel camera_model = PinholeModel{};
   auto wrongCount = [&](const std::string& expected) {
     return Problem("distortion_model " + model + " needs " + expected + " coefficients in D, got " +
-                       std::to_string(d.size()));
+                   std::to_string(d.size()));
   };
   if (model == "plumb_bob" || (model.empty() && d.empty())) {
     if (d.empty()) {
@@ -480,7 +508,7 @@ std::optional<Camera> cameraFromCameraInfo(const sensor_msgs::CameraInfo& info) 
     params.insert(params.end(), d.begin(), d.end());
   } else {
     throw Problem("unsupported distortion_model '" + model +
-                      "' (supported: plumb_bob, rational_polynomial, equidistant)");
+                  "' (supported: plumb_bob, rational_polynomial, equidistant)");
   }
   const int width = static_cast<int>(info.width);
   const int height = static_cast<int>(info.height);
@@ -529,7 +557,6 @@ struct CameraState {
   std::optional<Camera> camera;
   std::string calibration_source;  ///< "calibration file x" or "CameraInfo on /t".
   bool from_file = false;
-  std::string image_topic;
   int first_width = 0;  ///< Size of the first image; 0 before any.
   int first_height = 0;
 };
@@ -555,20 +582,30 @@ class Importer {
     }
   }
 
-  ErrorContext bagContext(const std::string& subject = "") const { return {bag_path_.string(), 0, "", subject}; }
+  ErrorContext bagContext(const std::string& subject = "") const {
+    return {bag_path_.string(), 0, "", subject};
+  }
 
   std::string bag_name() const { return bag_path_.filename().string(); }
 
   void open() {
     if (!fs::exists(bag_path_)) throw Error(bagContext(), "no such file");
-    if (fs::is_directory(bag_path_)) throw Error(bagContext(), "is a folder, not a ROS bag");
+    const std::string extension = bag_path_.extension().string();
+    if (fs::is_directory(bag_path_) || extension == ".db3" || extension == ".mcap") {
+      throw Error(
+          bagContext(),
+          "looks like a ROS 2 bag (a folder, .db3 or .mcap); lookboth reads ROS 1 bags (.bag)");
+    }
     try {
       bag_.open(bag_path_.string(), rosbag::bagmode::Read);
     } catch (const rosbag::BagUnindexedException&) {
-      throw Error(bagContext(), "not a usable ROS bag: it has no index (an interrupted recording?); "
-                                "run 'rosbag reindex' on it first");
+      throw Error(bagContext(),
+                  "not a usable ROS bag: it has no index (an interrupted recording?); "
+                  "run 'rosbag reindex' on it first");
     } catch (const std::exception& e) {
-      throw Error(bagContext(), std::string("cannot read it as a ROS 1 bag: ") + e.what());
+      throw Error(
+          bagContext(),
+          std::string("cannot read it as a ROS 1 bag (corrupt or truncated?): ") + e.what());
     }
   }
 
@@ -577,7 +614,8 @@ class Importer {
     std::map<std::string, std::set<std::string>> present;
     {
       rosbag::View all(bag_);
-      for (const rosbag::ConnectionInfo* c : all.getConnections()) present[c->topic].insert(c->datatype);
+      for (const rosbag::ConnectionInfo* c : all.getConnections())
+        present[c->topic].insert(c->datatype);
     }
     auto listPresent = [&] {
       std::string out;
@@ -592,8 +630,8 @@ class Importer {
       if (!present.count(m.topic)) missing.push_back(m.topic);
     }
     if (!missing.empty()) {
-      throw Error(bagContext(), std::string(missing.size() == 1 ? "topic " : "topics ") + joined(missing) +
-                                    (missing.size() == 1 ? " is" : " are") +
+      throw Error(bagContext(), std::string(missing.size() == 1 ? "topic " : "topics ") +
+                                    joined(missing) + (missing.size() == 1 ? " is" : " are") +
                                     " not in the bag; topics present: " + listPresent());
     }
     std::map<std::string, std::string> image_topic_of_label;
@@ -602,7 +640,8 @@ class Importer {
       const std::set<std::string>& types = present.at(m.topic);
       if (types.size() != 1) {
         throw Error(bagContext(), "topic " + m.topic + " carries several message types (" +
-                                      joined({types.begin(), types.end()}) + "); map one type per topic");
+                                      joined({types.begin(), types.end()}) +
+                                      "); map one type per topic");
       }
       TopicPlan plan;
       plan.mapping = m;
@@ -619,32 +658,38 @@ class Importer {
       } else if (plan.type == kPoseStampedType) {
         plan.kind = TopicKind::kPoseStamped;
       } else {
-        throw Error(bagContext(), "topic " + m.topic + " has the unsupported message type " + plan.type +
-                                      " (supported: " + kImageType + ", " + kCompressedImageType + ", " +
-                                      kCameraInfoType + ", " + kOdometryType + ", " + kPoseStampedType + ")");
+        throw Error(bagContext(), "topic " + m.topic + " has the unsupported message type " +
+                                      plan.type + " (supported: " + kImageType + ", " +
+                                      kCompressedImageType + ", " + kCameraInfoType + ", " +
+                                      kOdometryType + ", " + kPoseStampedType + ")");
       }
-      const bool camera_type = plan.kind == TopicKind::kImage || plan.kind == TopicKind::kCompressedImage ||
+      const bool camera_type = plan.kind == TopicKind::kImage ||
+                               plan.kind == TopicKind::kCompressedImage ||
                                plan.kind == TopicKind::kCameraInfo;
       if (camera_type && !isCameraRole(m.role)) {
-        throw Error(bagContext(), "topic " + m.topic + " (" + plan.type + ") is mapped with role " + m.role +
+        throw Error(bagContext(), "topic " + m.topic + " (" + plan.type + ") is mapped with role " +
+                                      m.role +
                                       "; a camera topic takes the role fisheye or env_camera");
       }
       if (!camera_type && !isTrajectoryRole(m.role)) {
-        throw Error(bagContext(), "topic " + m.topic + " (" + plan.type + ") is mapped with role " + m.role +
+        throw Error(bagContext(), "topic " + m.topic + " (" + plan.type + ") is mapped with role " +
+                                      m.role +
                                       "; a pose topic takes the role odometry or ground_truth");
       }
       if (plan.kind == TopicKind::kImage || plan.kind == TopicKind::kCompressedImage) {
         const auto [it, inserted] = image_topic_of_label.emplace(plan.label, m.topic);
         if (!inserted) {
-          throw Error(bagContext(), "topics " + it->second + " and " + m.topic + " both carry images of camera '" +
-                                        plan.label + "'; map one image topic per camera");
+          throw Error(bagContext(), "topics " + it->second + " and " + m.topic +
+                                        " both carry images of camera '" + plan.label +
+                                        "'; map one image topic per camera");
         }
       }
       if (plan.kind == TopicKind::kCameraInfo) {
         const auto [it, inserted] = info_topic_of_label.emplace(plan.label, m.topic);
         if (!inserted) {
           throw Error(bagContext(), "topics " + it->second + " and " + m.topic +
-                                        " both carry the camera info of camera '" + plan.label + "'");
+                                        " both carry the camera info of camera '" + plan.label +
+                                        "'");
         }
       }
       plans_.emplace(m.topic, std::move(plan));
@@ -665,7 +710,8 @@ class Importer {
         state.label = label;
         state.role = m.role == "fisheye" ? SensorRole::kFisheye : SensorRole::kEnvCamera;
         camera_order_.push_back(label);
-        if (const auto it = options_.calibration_files.find(label); it != options_.calibration_files.end()) {
+        if (const auto it = options_.calibration_files.find(label);
+            it != options_.calibration_files.end()) {
           try {
             state.camera = loadCamera(it->second);
           } catch (const Error& e) {
@@ -711,7 +757,7 @@ class Importer {
         for (const rosbag::MessageInstance& message : view) {
           ++probe.messages;
           const auto msg = instantiate<sensor_msgs::CameraInfo>(message, probe);
-          if (std::optional<Camera> camera = convertInfo(message, probe, *msg)) {
+          if (std::optional<Camera> camera = convertInfo(probe, *msg)) {
             state.camera = std::move(camera);
             state.calibration_source = "CameraInfo on " + topic;
             break;
@@ -740,10 +786,11 @@ class Importer {
     std::vector<std::string> topics;
     for (const RosTopicMapping& m : options_.topics) topics.push_back(m.topic);
     std::int64_t done = 0;
+    std::int64_t total = 0;
     std::string topic;
     try {
       rosbag::View view(bag_, rosbag::TopicQuery(topics));
-      const std::int64_t total = view.size();
+      total = view.size();
       progress.report("import", 0, total, bag_name());
       for (const rosbag::MessageInstance& message : view) {
         progress.checkStop();
@@ -760,8 +807,9 @@ class Importer {
     } catch (const StopRequested&) {
       throw;
     } catch (const std::exception& e) {
-      const std::string where = topic.empty() ? std::string() : " (topic " + topic + ", message " + std::to_string(done + 1) + ")";
-      throw Error(bagContext(), "cannot read the bag" + where + ": " + e.what());
+      const std::string where = topic.empty() ? std::string() : " (last topic read: " + topic + ")";
+      throw Error(bagContext(), "cannot read the bag after " + std::to_string(done) + " of " +
+                                    std::to_string(total) + " messages" + where + ": " + e.what());
     }
   }
 
@@ -772,7 +820,8 @@ class Importer {
     }
     for (const auto& [key, stream] : streams_) {
       if (stream.duplicates > 0) {
-        warn(key + ": " + std::to_string(stream.duplicates) + " message(s) repeat the previous timestamp; dropped");
+        warn(key + ": " + std::to_string(stream.duplicates) +
+             " message(s) repeat the previous timestamp; dropped");
       }
       if (stream.out_of_order > 0) {
         warn(key + ": " + std::to_string(stream.out_of_order) +
@@ -782,34 +831,39 @@ class Importer {
     for (const std::string& label : camera_order_) {
       const CameraState& state = cameras_.at(label);
       if (!state.camera) {
-        warn("camera '" + label + "' has no calibration (no usable CameraInfo and no calibration file)");
+        warn("camera '" + label +
+             "' has no calibration (no usable CameraInfo and no calibration file)");
       }
     }
   }
 
  private:
-  [[noreturn]] void fail(const rosbag::MessageInstance& message, const TopicPlan& plan, const std::string& why) const {
-    (void)message;
-    throw Error(bagContext(plan.label), "topic " + plan.mapping.topic + ", message " + std::to_string(plan.messages) +
-                                            ": " + why);
+  /// Throws an error naming the bag, the topic, the message (counted per topic) and the label.
+  [[noreturn]] void fail(const TopicPlan& plan, const std::string& why) const {
+    throw Error(bagContext(plan.label), "topic " + plan.mapping.topic + ", message " +
+                                            std::to_string(plan.messages) + ": " + why);
   }
 
-  TimeNs messageTime(const rosbag::MessageInstance& message, const TopicPlan& plan, const ros::Time& stamp) const {
+  TimeNs messageTime(const rosbag::MessageInstance& message, const TopicPlan& plan,
+                     const ros::Time& stamp) const {
     if (!options_.use_header_stamp) return rosTimeToNs(message.getTime());
     if (stamp.sec == 0 && stamp.nsec == 0) {
-      fail(message, plan, "header.stamp is zero (the publisher does not stamp its messages); import with the bag's "
-                          "receive times instead (use_header_stamp: false)");
+      fail(
+          plan,
+          "header.stamp is zero (the publisher does not stamp its messages); import with the bag's "
+          "receive times instead (use_header_stamp: false)");
     }
     return rosTimeToNs(stamp);
   }
 
   template <typename T>
-  boost::shared_ptr<T> instantiate(const rosbag::MessageInstance& message, const TopicPlan& plan) const {
+  boost::shared_ptr<T> instantiate(const rosbag::MessageInstance& message,
+                                   const TopicPlan& plan) const {
     boost::shared_ptr<T> msg = message.instantiate<T>();
     if (!msg) {
-      fail(message, plan, "the message definition of " + plan.type + " in the bag (md5sum " + message.getMD5Sum() +
-                              ") differs from the one lookboth knows (" +
-                              ros::message_traits::MD5Sum<T>::value() + ")");
+      fail(plan, "the message definition of " + plan.type + " in the bag (md5sum " +
+                     message.getMD5Sum() + ") differs from the one lookboth knows (" +
+                     ros::message_traits::MD5Sum<T>::value() + ")");
     }
     return msg;
   }
@@ -829,31 +883,30 @@ class Importer {
     return true;
   }
 
-  std::optional<Camera> convertInfo(const rosbag::MessageInstance& message, const TopicPlan& plan,
+  std::optional<Camera> convertInfo(const TopicPlan& plan,
                                     const sensor_msgs::CameraInfo& info) const {
     try {
       return cameraFromCameraInfo(info);
     } catch (const Problem& problem) {
-      fail(message, plan, problem.why);
+      fail(plan, problem.why);
     } catch (const Error& e) {
-      fail(message, plan, e.message());
+      fail(plan, e.message());
     }
   }
 
-  void checkImageSize(const rosbag::MessageInstance& message, const TopicPlan& plan, int width, int height) {
+  void checkImageSize(const TopicPlan& plan, int width, int height) {
     CameraState& state = cameras_.at(plan.label);
     if (state.camera && (state.camera->width() != width || state.camera->height() != height)) {
-      fail(message, plan, "image size " + sizeText(width, height) + " differs from the calibration's " +
-                              sizeText(state.camera->width(), state.camera->height()) + " (" +
-                              state.calibration_source + ")");
+      fail(plan, "image size " + sizeText(width, height) + " differs from the calibration's " +
+                     sizeText(state.camera->width(), state.camera->height()) + " (" +
+                     state.calibration_source + ")");
     }
     if (state.first_width == 0) {
       state.first_width = width;
       state.first_height = height;
-      state.image_topic = plan.mapping.topic;
     } else if (state.first_width != width || state.first_height != height) {
-      fail(message, plan, "image size " + sizeText(width, height) + " differs from the earlier images' " +
-                              sizeText(state.first_width, state.first_height));
+      fail(plan, "image size " + sizeText(width, height) + " differs from the earlier images' " +
+                     sizeText(state.first_width, state.first_height));
     }
   }
 
@@ -862,15 +915,16 @@ class Importer {
       case TopicKind::kImage: {
         const auto msg = instantiate<sensor_msgs::Image>(message, plan);
         const TimeNs t = messageTime(message, plan, msg->header.stamp);
-        checkImageSize(message, plan, static_cast<int>(msg->width), static_cast<int>(msg->height));
+        checkImageSize(plan, static_cast<int>(msg->width), static_cast<int>(msg->height));
         if (!acceptTime("images", plan.label, t)) return;
         ImageFrame frame;
         frame.t = t;
         frame.sensor = plan.label;
         try {
-          frame.encoded = std::make_shared<const std::vector<std::uint8_t>>(encodeRawImageAsPng(*msg));
+          frame.encoded =
+              std::make_shared<const std::vector<std::uint8_t>>(encodeRawImageAsPng(*msg));
         } catch (const Problem& problem) {
-          fail(message, plan, problem.why);
+          fail(plan, problem.why);
         }
         frame.extension = ".png";
         write(writer, std::move(frame));
@@ -880,21 +934,22 @@ class Importer {
         const auto msg = instantiate<sensor_msgs::CompressedImage>(message, plan);
         const TimeNs t = messageTime(message, plan, msg->header.stamp);
         if (msg->format.find("compressedDepth") != std::string::npos) {
-          fail(message, plan, "compressed depth images (format '" + msg->format + "') are not supported");
+          fail(plan, "compressed depth images (format '" + msg->format + "') are not supported");
         }
         const std::string extension = compressedExtension(msg->data);
         if (extension.empty()) {
-          fail(message, plan, "the image bytes (format '" + msg->format + "') are neither PNG nor JPEG");
+          fail(plan, "the image bytes (format '" + msg->format + "') are neither PNG nor JPEG");
         }
         int width = 0;
         int height = 0;
         if (!peekImageSize(msg->data, &width, &height)) {
           const cv::Mat decoded = cv::imdecode(msg->data, cv::IMREAD_UNCHANGED);
-          if (decoded.empty()) fail(message, plan, "the image bytes (format '" + msg->format + "') cannot be decoded");
+          if (decoded.empty())
+            fail(plan, "the image bytes (format '" + msg->format + "') cannot be decoded");
           width = decoded.cols;
           height = decoded.rows;
         }
-        checkImageSize(message, plan, width, height);
+        checkImageSize(plan, width, height);
         if (!acceptTime("images", plan.label, t)) return;
         ImageFrame frame;
         frame.t = t;
@@ -906,11 +961,12 @@ class Importer {
       }
       case TopicKind::kCameraInfo: {
         const auto msg = instantiate<sensor_msgs::CameraInfo>(message, plan);
-        const std::optional<Camera> camera = convertInfo(message, plan, *msg);
+        const std::optional<Camera> camera = convertInfo(plan, *msg);
         const CameraState& state = cameras_.at(plan.label);
         if (!camera) {
           if (!plan.info_uncalibrated_warned && !state.from_file) {
-            warn("topic " + plan.mapping.topic + ": CameraInfo holds no calibration (K is all zero); ignored");
+            warn("topic " + plan.mapping.topic +
+                 ": CameraInfo holds no calibration (K is all zero); ignored");
           }
           plan.info_uncalibrated_warned = true;
           return;
@@ -918,12 +974,14 @@ class Importer {
         // readFirstCalibrations() set the calibration from the first usable message.
         if (!plan.info_changed_warned && state.camera && !sameCamera(*camera, *state.camera)) {
           if (state.from_file) {
-            warn("topic " + plan.mapping.topic + ": CameraInfo (" + camera->description() + ") differs from the " +
-                 state.calibration_source + " (" + state.camera->description() + "); using the file");
+            warn("topic " + plan.mapping.topic + ": CameraInfo (" + camera->description() +
+                 ") differs from the " + state.calibration_source + " (" +
+                 state.camera->description() + "); using the file");
           } else {
-            warn("topic " + plan.mapping.topic + ": CameraInfo changes during the recording (message " +
-                 std::to_string(plan.messages) + ": " + camera->description() + "); keeping the first one (" +
-                 state.camera->description() + ")");
+            warn("topic " + plan.mapping.topic +
+                 ": CameraInfo changes during the recording (message " +
+                 std::to_string(plan.messages) + ": " + camera->description() +
+                 "); keeping the first one (" + state.camera->description() + ")");
           }
           plan.info_changed_warned = true;
         }
@@ -942,8 +1000,8 @@ class Importer {
     }
   }
 
-  void writePose(const rosbag::MessageInstance& message, const TopicPlan& plan, DatasetWriter& writer,
-                 const ros::Time& stamp, const geometry_msgs::Pose& pose) {
+  void writePose(const rosbag::MessageInstance& message, const TopicPlan& plan,
+                 DatasetWriter& writer, const ros::Time& stamp, const geometry_msgs::Pose& pose) {
     const TimeNs t = messageTime(message, plan, stamp);
     PoseSample sample;
     sample.t = t;
@@ -951,7 +1009,7 @@ class Importer {
     try {
       sample.world_from_body = poseFromRos(pose);
     } catch (const Problem& problem) {
-      fail(message, plan, problem.why);
+      fail(plan, problem.why);
     }
     if (!acceptTime("poses", plan.label, t)) return;
     write(writer, std::move(sample));
@@ -981,14 +1039,16 @@ std::string datasetName(const fs::path& out) {
 }  // namespace
 
 RosbagImportStats importRosbag(const fs::path& bag, const fs::path& out, DatasetKind kind,
-                               const RosbagImportOptions& options, const DatasetWriteOptions& write_options,
+                               const RosbagImportOptions& options,
+                               const DatasetWriteOptions& write_options,
                                const ProgressReporter& progress) {
   if (const std::string why = options.check(); !why.empty()) {
     throw Error("ROS bag import options: " + why);
   }
   std::error_code ec;
   if (fs::exists(out, ec) && fs::equivalent(out, bag, ec)) {
-    throw Error({out.string(), 0, "", ""}, "the output is the input bag; choose another output path");
+    throw Error({out.string(), 0, "", ""},
+                "the output is the input bag; choose another output path");
   }
   RosbagImportStats stats;
   Importer importer(bag, options, &stats);
@@ -999,9 +1059,11 @@ RosbagImportStats importRosbag(const fs::path& bag, const fs::path& out, Dataset
   if (kind == DatasetKind::kFolder) {
     if (const std::vector<std::string> missing = importer.uncalibratedCameras(); !missing.empty()) {
       throw Error({out.string(), 0, "", ""},
-                  "the dataset folder format needs a calibration for every camera; " + joined(missing) +
-                      (missing.size() == 1 ? " has" : " have") +
-                      " none: map its CameraInfo topic, give a calibration file, or write a rawlog dataset");
+                  "the dataset folder format needs a calibration for every camera; " +
+                      joined(missing) + (missing.size() == 1 ? " has" : " have") +
+                      " none (map a CameraInfo topic to the camera's label, give a calibration "
+                      "file, or write a "
+                      "rawlog dataset)");
     }
   }
   importer.fillCameras(&manifest);

@@ -73,7 +73,8 @@ template <typename T>
 std::vector<T> recordsOf(const std::vector<Record>& records, const std::string& label = "") {
   std::vector<T> out;
   for (const Record& record : records) {
-    if (const T* r = std::get_if<T>(&record); r && (label.empty() || recordLabel(record) == label)) {
+    if (const T* r = std::get_if<T>(&record);
+        r && (label.empty() || recordLabel(record) == label)) {
       out.push_back(*r);
     }
   }
@@ -155,7 +156,7 @@ TEST_F(FolderIoTest, ReadsTheSampleManifest) {
   EXPECT_EQ(m.cameras[0].camera->width(), 64);
   EXPECT_EQ(m.cameras[0].camera->height(), 48);
   EXPECT_EQ(m.cameras[0].camera->params()[0], 32.2547);  // cx = column
-  EXPECT_EQ(m.cameras[1].label, "cam_a");  // ROS camera_info
+  EXPECT_EQ(m.cameras[1].label, "cam_a");                // ROS camera_info
   EXPECT_EQ(m.cameras[1].role, SensorRole::kEnvCamera);
   ASSERT_TRUE(m.cameras[1].camera);
   EXPECT_EQ(m.cameras[1].camera->modelName(), "radtan");
@@ -187,8 +188,8 @@ TEST_F(FolderIoTest, ReadsTheSampleManifest) {
 
 TEST_F(FolderIoTest, ReadsTheSampleRecordsInTimeOrder) {
   const ReadResult result = readAll(sampleFolder());
-  EXPECT_TRUE(result.issues.empty()) << result.issues.front().where << ": "
-                                     << result.issues.front().message;
+  EXPECT_TRUE(result.issues.empty())
+      << result.issues.front().where << ": " << result.issues.front().message;
   const std::vector<Record>& records = result.records;
   ASSERT_EQ(records.size(), 23u);
   EXPECT_EQ(recordsOf<ImageFrame>(records, "fisheye").size(), 3u);
@@ -274,7 +275,8 @@ TEST_F(FolderIoTest, OdometryIsMetricWithoutOdometryYaml) {
 
 TEST_F(FolderIoTest, SmallQuaternionDeviationsAreNormalised) {
   const fs::path folder = copySample();
-  replaceInFile(folder / "detections/markers.csv", "0.1,-0.2,2.5,0,0,0,1,", "0.1,-0.2,2.5,0,0,0,1.0005,");
+  replaceInFile(folder / "detections/markers.csv", "0.1,-0.2,2.5,0,0,0,1,",
+                "0.1,-0.2,2.5,0,0,0,1.0005,");
   const auto markers = recordsOf<MarkerObservation>(readAll(folder).records);
   EXPECT_NEAR(markers[0].camera_from_marker.rotation.norm(), 1.0, 1e-15);
 }
@@ -294,7 +296,8 @@ TEST_F(FolderIoTest, FolderToFolderRoundTripIsLossless) {
   }
   EXPECT_EQ(entries(dir_ / "out"), std::vector<std::string>{"folder_small"});  // no leftovers
   // Calibrations are rewritten as lookboth YAML; images keep their bytes.
-  EXPECT_NE(readText(copy / "fisheye/calibration.yaml").find("lookboth_camera: 1"), std::string::npos);
+  EXPECT_NE(readText(copy / "fisheye/calibration.yaml").find("lookboth_camera: 1"),
+            std::string::npos);
   EXPECT_TRUE(fs::exists(copy / "cameras/cam_b/frames" / "1050000000.png"));
 
   const ReadResult again = readAll(copy);
@@ -361,7 +364,8 @@ TEST_F(FolderIoTest, WritesEncodedImagesAndSyntheticRecords) {
   for (size_t i = 0; i < records.size(); ++i) {
     EXPECT_TRUE(testing::sameRecord(result.records[i], records[i])) << "record " << i;
   }
-  EXPECT_TRUE(fs::exists(folder / "fisheye/frames" / (std::to_string(recordTime(records[2])) + ".png")));
+  EXPECT_TRUE(
+      fs::exists(folder / "fisheye/frames" / (std::to_string(recordTime(records[2])) + ".png")));
 }
 
 TEST_F(FolderIoTest, WriterRefusesAnExistingOutputWithoutOverwrite) {
@@ -382,7 +386,8 @@ TEST_F(FolderIoTest, WriterRefusesAnExistingOutputWithoutOverwrite) {
 TEST_F(FolderIoTest, WriterLeavesNothingBehindWithoutFinish) {
   const ReadResult original = readAll(sampleFolder());
   {
-    auto writer = DatasetWriter::create(dir_ / "unfinished", DatasetKind::kFolder, original.manifest);
+    auto writer =
+        DatasetWriter::create(dir_ / "unfinished", DatasetKind::kFolder, original.manifest);
     for (const Record& record : original.records) writer->write(record);
   }
   EXPECT_TRUE(entries(dir_).empty());
@@ -472,7 +477,8 @@ TEST_F(FolderIoTest, MissingFileColumnInFramesIsAnError) {
 
 TEST_F(FolderIoTest, BadNumberIsAnError) {
   const fs::path folder = copySample();
-  replaceInFile(folder / "detections/markers.csv", "1000000000,cam_a,7,0.1,", "1000000000,cam_a,7,0.1x,");
+  replaceInFile(folder / "detections/markers.csv", "1000000000,cam_a,7,0.1,",
+                "1000000000,cam_a,7,0.1x,");
   expectReadError(folder, {"markers.csv:3: 'tx': not a number: '0.1x'"});
 }
 
@@ -502,13 +508,16 @@ TEST_F(FolderIoTest, ShortRowIsAnError) {
 
 TEST_F(FolderIoTest, NonUnitQuaternionIsAnError) {
   const fs::path folder = copySample();
-  replaceInFile(folder / "detections/markers.csv", "0.1,-0.2,2.5,0,0,0,1,", "0.1,-0.2,2.5,0,0,0,1.01,");
-  expectReadError(folder, {"markers.csv:3: 'qx,qy,qz,qw': quaternion (qx qy qz qw) has norm 1.010000"});
+  replaceInFile(folder / "detections/markers.csv", "0.1,-0.2,2.5,0,0,0,1,",
+                "0.1,-0.2,2.5,0,0,0,1.01,");
+  expectReadError(folder,
+                  {"markers.csv:3: 'qx,qy,qz,qw': quaternion (qx qy qz qw) has norm 1.010000"});
 }
 
 TEST_F(FolderIoTest, NonUnitQuaternionInTumIsAnError) {
   const fs::path folder = copySample();
-  replaceInFile(folder / "ground_truth/trajectory.tum", "1.1 1.1 2 0.5 0 0 0 1", "1.1 1.1 2 0.5 0 0 0 2");
+  replaceInFile(folder / "ground_truth/trajectory.tum", "1.1 1.1 2 0.5 0 0 0 1",
+                "1.1 1.1 2 0.5 0 0 0 2");
   expectReadError(folder, {"ground_truth", "trajectory.tum:2", "norm 2.000000"});
 }
 
@@ -521,15 +530,16 @@ TEST_F(FolderIoTest, NonUnitQuaternionInFisheyeFromMarkerIsAnError) {
 TEST_F(FolderIoTest, BadInformationIsAnError) {
   const fs::path folder = copySample();
   replaceInFile(folder / "detections/markers.csv", "100 1 0", "100 1");
-  expectReadError(folder, {"markers.csv:4: 'information': expected 21 space-separated numbers",
-                           "got 20"});
+  expectReadError(folder,
+                  {"markers.csv:4: 'information': expected 21 space-separated numbers", "got 20"});
 }
 
 TEST_F(FolderIoTest, UnknownCameraInMarkersIsAnError) {
   const fs::path folder = copySample();
   replaceInFile(folder / "detections/markers.csv", "1200000000,cam_a,", "1200000000,cam_z,");
   const std::string message = expectReadError(
-      folder, {"markers.csv:5: 'camera': unknown camera 'cam_z' (environment cameras: cam_a, cam_b)"});
+      folder,
+      {"markers.csv:5: 'camera': unknown camera 'cam_z' (environment cameras: cam_a, cam_b)"});
 }
 
 TEST_F(FolderIoTest, UnknownCameraInGroundTruthIsAnError) {
@@ -541,7 +551,8 @@ TEST_F(FolderIoTest, UnknownCameraInGroundTruthIsAnError) {
 TEST_F(FolderIoTest, CameraFolderWithoutCalibrationIsAnError) {
   const fs::path folder = copySample();
   fs::remove(folder / "cameras/cam_b/calibration.yaml");
-  expectReadError(folder, {(folder / "cameras/cam_b").string() + ": camera folder without a calibration"});
+  expectReadError(folder,
+                  {(folder / "cameras/cam_b").string() + ": camera folder without a calibration"});
 }
 
 TEST_F(FolderIoTest, FisheyeWithTwoCalibrationsIsAnError) {
@@ -614,7 +625,8 @@ TEST_F(FolderIoTest, ImageSizeDifferentFromCalibrationIsAnIssue) {
 
 TEST_F(FolderIoTest, UnsortedAndDuplicatedFramesAreSkipped) {
   const fs::path folder = copySample();
-  appendToFile(folder / "cameras/cam_b/frames.csv", "1150000000,b_000.png,800\n1100000000,b_001.png,800\n");
+  appendToFile(folder / "cameras/cam_b/frames.csv",
+               "1150000000,b_000.png,800\n1100000000,b_001.png,800\n");
   const ReadResult result = readAll(folder);
   EXPECT_EQ(recordsOf<ImageFrame>(result.records, "cam_b").size(), 2u);
   ASSERT_EQ(result.issues.size(), 2u);

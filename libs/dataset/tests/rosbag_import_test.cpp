@@ -84,8 +84,8 @@ sensor_msgs::CameraInfo cam03Info(const ros::Time& stamp) {
 }
 
 Rigid3d samplePose(int i, double offset) {
-  const Eigen::Quaterniond q =
-      Eigen::Quaterniond(Eigen::AngleAxisd(0.1 * i + offset, Eigen::Vector3d(0.2, 0.3, 1.0).normalized()));
+  const Eigen::Quaterniond q = Eigen::Quaterniond(
+      Eigen::AngleAxisd(0.1 * i + offset, Eigen::Vector3d(0.2, 0.3, 1.0).normalized()));
   return Rigid3d(q, Eigen::Vector3d(0.5 * i + offset, -0.25 * i, 0.01 * i));
 }
 
@@ -103,11 +103,14 @@ geometry_msgs::Pose toRos(const Rigid3d& pose) {
 
 struct BagVariant {
   bool change_fisheye_info = false;  // the 4th fisheye CameraInfo differs
+  rosbag::compression::CompressionType compression = rosbag::compression::Uncompressed;
 };
 
 SampleBag writeSampleBag(const fs::path& path, const BagVariant& variant = {}) {
   SampleBag sample;
   rosbag::Bag bag(path.string(), rosbag::bagmode::Write);
+  bag.setCompression(variant.compression);
+  bag.setChunkThreshold(4096);  // several chunks
   cv::RNG rng(42);
   for (int i = 0; i < 5; ++i) {
     SampleBag::Frame frame;
@@ -228,8 +231,10 @@ ReadBack readBack(const fs::path& path) {
   out.manifest = reader->manifest();
   while (auto record = reader->next()) {
     ++out.records;
-    if (const auto* frame = std::get_if<ImageFrame>(&*record)) out.frames[frame->sensor].push_back(*frame);
-    if (const auto* pose = std::get_if<PoseSample>(&*record)) out.poses[pose->label].push_back(*pose);
+    if (const auto* frame = std::get_if<ImageFrame>(&*record))
+      out.frames[frame->sensor].push_back(*frame);
+    if (const auto* pose = std::get_if<PoseSample>(&*record))
+      out.poses[pose->label].push_back(*pose);
   }
   out.issues = reader->issues();
   return out;
@@ -250,7 +255,8 @@ class RosbagImportTest : public ::testing::Test {
 };
 
 /// Checks the whole import; `exact_time(t)` is how a time comes back.
-void checkImported(const SampleBag& sample, const ReadBack& back, const std::function<TimeNs(TimeNs)>& exact_time) {
+void checkImported(const SampleBag& sample, const ReadBack& back,
+                   const std::function<TimeNs(TimeNs)>& exact_time) {
   // Manifest.
   EXPECT_EQ(back.manifest.marker.dictionary, "DICT_5X5_100");
   EXPECT_EQ(back.manifest.marker.id, 17);
@@ -263,14 +269,16 @@ void checkImported(const SampleBag& sample, const ReadBack& back, const std::fun
   EXPECT_EQ(fisheye.camera->modelName(), "kannala_brandt");
   EXPECT_EQ(fisheye.camera->width(), 64);
   EXPECT_EQ(fisheye.camera->height(), 48);
-  EXPECT_EQ(fisheye.camera->params(), (std::vector<double>{30.0, 30.5, 31.5, 23.5, 0.01, -0.002, 0.0005, -0.0001}));
+  EXPECT_EQ(fisheye.camera->params(),
+            (std::vector<double>{30.0, 30.5, 31.5, 23.5, 0.01, -0.002, 0.0005, -0.0001}));
   const CameraSensor& cam03 = back.manifest.cameras[1];
   EXPECT_EQ(cam03.label, "cam03");
   EXPECT_EQ(cam03.role, SensorRole::kEnvCamera);
   ASSERT_TRUE(cam03.camera.has_value());
   EXPECT_EQ(cam03.camera->modelName(), "radtan");
   EXPECT_EQ(cam03.camera->width(), 40);
-  EXPECT_EQ(cam03.camera->params(), (std::vector<double>{50.0, 51.0, 19.5, 14.5, -0.1, 0.02, 0.001, -0.002, 0.003}));
+  EXPECT_EQ(cam03.camera->params(),
+            (std::vector<double>{50.0, 51.0, 19.5, 14.5, -0.1, 0.02, 0.001, -0.002, 0.003}));
   ASSERT_EQ(back.manifest.trajectories.size(), 2u);
   const TrajectoryInfo* odometry = back.manifest.findTrajectory("odometry");
   ASSERT_NE(odometry, nullptr);
@@ -280,7 +288,8 @@ void checkImported(const SampleBag& sample, const ReadBack& back, const std::fun
   EXPECT_TRUE(truth->metric);
 
   // Records.
-  EXPECT_TRUE(back.issues.empty()) << back.issues.front().where << ": " << back.issues.front().message;
+  EXPECT_TRUE(back.issues.empty())
+      << back.issues.front().where << ": " << back.issues.front().message;
   EXPECT_EQ(back.records, 5u + 4u + 10u + 10u);
   ASSERT_EQ(back.frames.count("fisheye"), 1u);
   ASSERT_EQ(back.frames.at("fisheye").size(), sample.fisheye.size());
@@ -296,16 +305,17 @@ void checkImported(const SampleBag& sample, const ReadBack& back, const std::fun
     EXPECT_EQ(frame.t, exact_time(ns(sample.cam03[i].stamp))) << i;
     EXPECT_TRUE(samePixels(decode(frame), sample.cam03[i].image)) << "cam03 frame " << i;
   }
-  for (const auto& [label, expected] :
-       std::map<std::string, const std::vector<SampleBag::Pose>*>{{"odometry", &sample.odometry},
-                                                                   {"ground_truth", &sample.ground_truth}}) {
+  for (const auto& [label, expected] : std::map<std::string, const std::vector<SampleBag::Pose>*>{
+           {"odometry", &sample.odometry}, {"ground_truth", &sample.ground_truth}}) {
     ASSERT_EQ(back.poses.count(label), 1u) << label;
     const auto& poses = back.poses.at(label);
     ASSERT_EQ(poses.size(), expected->size()) << label;
     for (size_t i = 0; i < poses.size(); ++i) {
       EXPECT_EQ(poses[i].t, exact_time(ns((*expected)[i].stamp))) << label << " " << i;
-      EXPECT_LT((poses[i].world_from_body.translation - (*expected)[i].pose.translation).norm(), 1e-9);
-      EXPECT_LT(poses[i].world_from_body.rotation.angularDistance((*expected)[i].pose.rotation), 1e-9);
+      EXPECT_LT((poses[i].world_from_body.translation - (*expected)[i].pose.translation).norm(),
+                1e-9);
+      EXPECT_LT(poses[i].world_from_body.rotation.angularDistance((*expected)[i].pose.rotation),
+                1e-9);
     }
   }
 }
@@ -321,8 +331,8 @@ TEST_F(RosbagImportTest, ImportsIntoAFolderDataset) {
     last_total = e.total;
   });
   const fs::path out = dir_ / "robot_run";
-  const RosbagImportStats stats =
-      importRosbag(bag, out, DatasetKind::kFolder, sampleOptions(), DatasetWriteOptions{}, progress);
+  const RosbagImportStats stats = importRosbag(bag, out, DatasetKind::kFolder, sampleOptions(),
+                                               DatasetWriteOptions{}, progress);
   EXPECT_EQ(stats.records, 29);
   EXPECT_EQ(stats.messages_per_topic.at("/fisheye/image_raw"), 5);
   EXPECT_EQ(stats.messages_per_topic.at("/fisheye/camera_info"), 5);
@@ -342,10 +352,12 @@ TEST_F(RosbagImportTest, ImportsIntoAFolderDataset) {
 
 TEST_F(RosbagImportTest, ImportsIntoARawlogDataset) {
   const fs::path bag = dir_ / "sample.bag";
-  const SampleBag sample = writeSampleBag(bag);
+  BagVariant bz2;
+  bz2.compression = rosbag::compression::BZ2;
+  const SampleBag sample = writeSampleBag(bag, bz2);
   const fs::path out = dir_ / "robot_run.rawlog";
-  const RosbagImportStats stats =
-      importRosbag(bag, out, DatasetKind::kRawlog, sampleOptions(), DatasetWriteOptions{}, ProgressReporter{});
+  const RosbagImportStats stats = importRosbag(bag, out, DatasetKind::kRawlog, sampleOptions(),
+                                               DatasetWriteOptions{}, ProgressReporter{});
   EXPECT_EQ(stats.records, 29);
   const ReadBack back = readBack(out);
   EXPECT_EQ(back.manifest.name, "robot_run");
@@ -355,16 +367,20 @@ TEST_F(RosbagImportTest, ImportsIntoARawlogDataset) {
 
 TEST_F(RosbagImportTest, UsesReceiveTimesWhenAsked) {
   const fs::path bag = dir_ / "sample.bag";
-  const SampleBag sample = writeSampleBag(bag);
+  BagVariant lz4;
+  lz4.compression = rosbag::compression::LZ4;
+  const SampleBag sample = writeSampleBag(bag, lz4);
   RosbagImportOptions options = sampleOptions();
   options.use_header_stamp = false;
   const fs::path out = dir_ / "received";
   importRosbag(bag, out, DatasetKind::kFolder, options, {}, {});
   const ReadBack back = readBack(out);
   ASSERT_EQ(back.frames.at("fisheye").size(), 5u);
-  for (size_t i = 0; i < 5; ++i) EXPECT_EQ(back.frames.at("fisheye")[i].t, ns(sample.fisheye[i].received));
+  for (size_t i = 0; i < 5; ++i)
+    EXPECT_EQ(back.frames.at("fisheye")[i].t, ns(sample.fisheye[i].received));
   ASSERT_EQ(back.poses.at("odometry").size(), 10u);
-  for (size_t i = 0; i < 10; ++i) EXPECT_EQ(back.poses.at("odometry")[i].t, ns(sample.odometry[i].received));
+  for (size_t i = 0; i < 10; ++i)
+    EXPECT_EQ(back.poses.at("odometry")[i].t, ns(sample.odometry[i].received));
 }
 
 TEST_F(RosbagImportTest, CalibrationFileOverridesCameraInfoAndJpegBytesAreKept) {
@@ -372,15 +388,17 @@ TEST_F(RosbagImportTest, CalibrationFileOverridesCameraInfoAndJpegBytesAreKept) 
   const SampleBag sample = writeSampleBag(bag);
   // A ROS camera_info YAML for cam03 that differs from its CameraInfo topic, and one for cam04.
   const fs::path cam03_yaml = dir_ / "cam03.yaml";
-  std::ofstream(cam03_yaml) << "image_width: 40\nimage_height: 30\ncamera_name: cam03\n"
-                               "camera_matrix: {rows: 3, cols: 3, data: [45, 0, 20, 0, 46, 15, 0, 0, 1]}\n"
-                               "distortion_model: plumb_bob\n"
-                               "distortion_coefficients: {rows: 1, cols: 5, data: [0, 0, 0, 0, 0]}\n";
+  std::ofstream(cam03_yaml)
+      << "image_width: 40\nimage_height: 30\ncamera_name: cam03\n"
+         "camera_matrix: {rows: 3, cols: 3, data: [45, 0, 20, 0, 46, 15, 0, 0, 1]}\n"
+         "distortion_model: plumb_bob\n"
+         "distortion_coefficients: {rows: 1, cols: 5, data: [0, 0, 0, 0, 0]}\n";
   const fs::path cam04_yaml = dir_ / "cam04.yaml";
-  std::ofstream(cam04_yaml) << "image_width: 36\nimage_height: 20\ncamera_name: cam04\n"
-                               "camera_matrix: {rows: 3, cols: 3, data: [20, 0, 17.5, 0, 20, 9.5, 0, 0, 1]}\n"
-                               "distortion_model: plumb_bob\n"
-                               "distortion_coefficients: {rows: 1, cols: 0, data: []}\n";
+  std::ofstream(cam04_yaml)
+      << "image_width: 36\nimage_height: 20\ncamera_name: cam04\n"
+         "camera_matrix: {rows: 3, cols: 3, data: [20, 0, 17.5, 0, 20, 9.5, 0, 0, 1]}\n"
+         "distortion_model: plumb_bob\n"
+         "distortion_coefficients: {rows: 1, cols: 0, data: []}\n";
   RosbagImportOptions options = sampleOptions();
   options.topics.push_back({"/cam04/image/compressed", "cam04", "env_camera", true});
   options.calibration_files["cam03"] = cam03_yaml;
@@ -413,11 +431,14 @@ TEST_F(RosbagImportTest, CalibrationFileOverridesCameraInfoAndJpegBytesAreKept) 
 
 TEST_F(RosbagImportTest, WarnsOnceWhenCameraInfoChanges) {
   const fs::path bag = dir_ / "sample.bag";
-  writeSampleBag(bag, BagVariant{true});
+  BagVariant changed;
+  changed.change_fisheye_info = true;
+  writeSampleBag(bag, changed);
   RosbagImportOptions options = sampleOptions();
   std::vector<std::string> printed;
   options.on_warning = [&](const std::string& w) { printed.push_back(w); };
-  const RosbagImportStats stats = importRosbag(bag, dir_ / "changed", DatasetKind::kFolder, options, {}, {});
+  const RosbagImportStats stats =
+      importRosbag(bag, dir_ / "changed", DatasetKind::kFolder, options, {}, {});
   ASSERT_EQ(printed.size(), 1u);
   EXPECT_EQ(stats.warnings, printed);
   EXPECT_NE(printed[0].find("/fisheye/camera_info"), std::string::npos) << printed[0];
@@ -495,10 +516,22 @@ TEST_F(RosbagImportTest, ConvertsRawEncodings) {
   options.topics = {{"/rgb", "rgb", "env_camera", true},
                     {"/mono16", "mono16", "env_camera", true},
                     {"/bayer", "bayer", "env_camera", true}};
-  importRosbag(bag, dir_ / "encodings", DatasetKind::kFolder, options, {}, {});
-  const ReadBack back = readBack(dir_ / "encodings");
-  EXPECT_EQ(back.frames.at("rgb").at(0).extension.empty() ? back.frames.at("rgb").at(0).image_file.extension().string()
-                                                           : back.frames.at("rgb").at(0).extension,
+  // The folder format needs calibrations; a rawlog does without.
+  const std::string uncalibrated = errorOf(
+      [&] { importRosbag(bag, dir_ / "encodings", DatasetKind::kFolder, options, {}, {}); });
+  EXPECT_NE(uncalibrated.find("needs a calibration"), std::string::npos) << uncalibrated;
+  EXPECT_NE(uncalibrated.find("rgb, mono16, bayer"), std::string::npos) << uncalibrated;
+  EXPECT_FALSE(fs::exists(dir_ / "encodings"));
+  const RosbagImportStats stats =
+      importRosbag(bag, dir_ / "encodings.rawlog", DatasetKind::kRawlog, options, {}, {});
+  ASSERT_EQ(stats.warnings.size(), 3u);
+  EXPECT_NE(stats.warnings[0].find("'rgb' has no calibration"), std::string::npos)
+      << stats.warnings[0];
+  const ReadBack back = readBack(dir_ / "encodings.rawlog");
+  EXPECT_FALSE(back.manifest.findCamera("rgb")->camera.has_value());
+  EXPECT_EQ(back.frames.at("rgb").at(0).extension.empty()
+                ? back.frames.at("rgb").at(0).image_file.extension().string()
+                : back.frames.at("rgb").at(0).extension,
             ".png");
   EXPECT_TRUE(samePixels(decode(back.frames.at("rgb").at(0)), bgr));
   EXPECT_TRUE(samePixels(decode(back.frames.at("mono16").at(0)), mono16));
@@ -507,12 +540,64 @@ TEST_F(RosbagImportTest, ConvertsRawEncodings) {
   EXPECT_EQ(debayered.at<cv::Vec3b>(3, 4), cv::Vec3b(50, 100, 200));  // an interior pixel, BGR
 
   options.topics.push_back({"/depth", "depth", "env_camera", true});
-  const std::string message =
-      errorOf([&] { importRosbag(bag, dir_ / "depth", DatasetKind::kFolder, options, {}, {}); });
+  const std::string message = errorOf(
+      [&] { importRosbag(bag, dir_ / "depth.rawlog", DatasetKind::kRawlog, options, {}, {}); });
   EXPECT_NE(message.find("/depth"), std::string::npos) << message;
   EXPECT_NE(message.find("32FC1"), std::string::npos) << message;
   EXPECT_NE(message.find("encodings.bag"), std::string::npos) << message;
-  EXPECT_FALSE(fs::exists(dir_ / "depth"));
+  EXPECT_FALSE(fs::exists(dir_ / "depth.rawlog"));
+  EXPECT_FALSE(fs::exists(dir_ / "depth.yaml"));
+}
+
+TEST_F(RosbagImportTest, PosesAndStampsAreChecked) {
+  const fs::path bag = dir_ / "poses.bag";
+  {
+    rosbag::Bag out(bag.string(), rosbag::bagmode::Write);
+    for (int i = 0; i < 4; ++i) {
+      geometry_msgs::PoseStamped pose;
+      pose.header.stamp = rosTime(kSec0, i < 2 ? 0 : 1000 * i);  // the 2nd repeats the 1st
+      pose.pose = toRos(samplePose(i, 0.0));
+      out.write("/good", rosTime(kSec0, 1 + i), pose);
+      pose.pose.orientation.w = 0.0;  // not a unit quaternion
+      pose.pose.orientation.x = 0.0;
+      pose.pose.orientation.y = 0.0;
+      pose.pose.orientation.z = 0.0;
+      out.write("/zero_quaternion", rosTime(kSec0, 1 + i), pose);
+      geometry_msgs::PoseStamped unstamped;
+      unstamped.pose = toRos(samplePose(i, 0.0));
+      out.write("/unstamped", rosTime(kSec0, 1 + i), unstamped);
+    }
+  }
+  RosbagImportOptions options;
+  std::vector<std::string> warnings;
+  options.on_warning = [&](const std::string& w) { warnings.push_back(w); };
+  options.topics = {{"/good", "vo", "odometry", false}};
+  const RosbagImportStats stats =
+      importRosbag(bag, dir_ / "good", DatasetKind::kFolder, options, {}, {});
+  EXPECT_EQ(stats.messages_per_topic.at("/good"), 4);
+  EXPECT_EQ(stats.records, 3);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("repeat"), std::string::npos) << warnings[0];
+  EXPECT_NE(warnings[0].find("'vo'"), std::string::npos) << warnings[0];
+  const ReadBack back = readBack(dir_ / "good");
+  ASSERT_EQ(back.poses.at("vo").size(), 3u);
+  EXPECT_FALSE(back.manifest.findTrajectory("vo")->metric);
+
+  options.topics = {{"/zero_quaternion", "odometry", "odometry", true}};
+  std::string message =
+      errorOf([&] { importRosbag(bag, dir_ / "bad", DatasetKind::kFolder, options, {}, {}); });
+  EXPECT_NE(message.find("/zero_quaternion"), std::string::npos) << message;
+  EXPECT_NE(message.find("norm"), std::string::npos) << message;
+
+  options.topics = {{"/unstamped", "odometry", "odometry", true}};
+  message =
+      errorOf([&] { importRosbag(bag, dir_ / "bad", DatasetKind::kFolder, options, {}, {}); });
+  EXPECT_NE(message.find("/unstamped"), std::string::npos) << message;
+  EXPECT_NE(message.find("use_header_stamp"), std::string::npos) << message;
+  EXPECT_FALSE(fs::exists(dir_ / "bad"));
+  // With the receive times instead, it imports.
+  options.use_header_stamp = false;
+  EXPECT_EQ(importRosbag(bag, dir_ / "received", DatasetKind::kFolder, options, {}, {}).records, 4);
 }
 
 TEST_F(RosbagImportTest, MissingTopicListsTheTopicsPresent) {
@@ -521,7 +606,8 @@ TEST_F(RosbagImportTest, MissingTopicListsTheTopicsPresent) {
   RosbagImportOptions options = sampleOptions();
   options.topics.push_back({"/cam07/image_raw", "cam07", "env_camera", true});
   const fs::path out = dir_ / "out";
-  const std::string message = errorOf([&] { importRosbag(bag, out, DatasetKind::kFolder, options, {}, {}); });
+  const std::string message =
+      errorOf([&] { importRosbag(bag, out, DatasetKind::kFolder, options, {}, {}); });
   EXPECT_NE(message.find("/cam07/image_raw"), std::string::npos) << message;
   EXPECT_NE(message.find("not in the bag"), std::string::npos) << message;
   EXPECT_NE(message.find("/fisheye/image_raw (sensor_msgs/Image)"), std::string::npos) << message;
@@ -556,14 +642,16 @@ TEST_F(RosbagImportTest, ImageSizeDifferentFromCalibrationNamesTopicAndSizes) {
   const fs::path bag = dir_ / "sample.bag";
   writeSampleBag(bag);
   const fs::path yaml = dir_ / "cam03_vga.yaml";
-  std::ofstream(yaml) << "image_width: 640\nimage_height: 480\n"
-                         "camera_matrix: {rows: 3, cols: 3, data: [500, 0, 319.5, 0, 500, 239.5, 0, 0, 1]}\n"
-                         "distortion_model: plumb_bob\n"
-                         "distortion_coefficients: {rows: 1, cols: 5, data: [0, 0, 0, 0, 0]}\n";
+  std::ofstream(yaml)
+      << "image_width: 640\nimage_height: 480\n"
+         "camera_matrix: {rows: 3, cols: 3, data: [500, 0, 319.5, 0, 500, 239.5, 0, 0, 1]}\n"
+         "distortion_model: plumb_bob\n"
+         "distortion_coefficients: {rows: 1, cols: 5, data: [0, 0, 0, 0, 0]}\n";
   RosbagImportOptions options = sampleOptions();
   options.calibration_files["cam03"] = yaml;
   const fs::path out = dir_ / "out";
-  const std::string message = errorOf([&] { importRosbag(bag, out, DatasetKind::kFolder, options, {}, {}); });
+  const std::string message =
+      errorOf([&] { importRosbag(bag, out, DatasetKind::kFolder, options, {}, {}); });
   EXPECT_NE(message.find("/cam03/image/compressed"), std::string::npos) << message;
   EXPECT_NE(message.find("40x30"), std::string::npos) << message;
   EXPECT_NE(message.find("640x480"), std::string::npos) << message;
@@ -595,7 +683,9 @@ TEST_F(RosbagImportTest, CorruptOrTruncatedBagIsAnErrorNamingTheBag) {
   EXPECT_NE(message.find(cut.string()), std::string::npos) << message;
   EXPECT_FALSE(fs::exists(out));
 
-  message = errorOf([&] { importRosbag(dir_ / "absent.bag", out, DatasetKind::kFolder, sampleOptions(), {}, {}); });
+  message = errorOf([&] {
+    importRosbag(dir_ / "absent.bag", out, DatasetKind::kFolder, sampleOptions(), {}, {});
+  });
   EXPECT_NE(message.find("absent.bag"), std::string::npos) << message;
 }
 
@@ -607,7 +697,8 @@ TEST_F(RosbagImportTest, StopRequestLeavesNothing) {
     if (e.done == 7) stopping.requestStop();
   });
   const fs::path out = dir_ / "stopped.rawlog";
-  EXPECT_THROW(importRosbag(bag, out, DatasetKind::kRawlog, sampleOptions(), {}, stopping), StopRequested);
+  EXPECT_THROW(importRosbag(bag, out, DatasetKind::kRawlog, sampleOptions(), {}, stopping),
+               StopRequested);
   EXPECT_FALSE(fs::exists(out));
   EXPECT_FALSE(fs::exists(dir_ / "stopped.yaml"));
   EXPECT_FALSE(fs::exists(dir_ / "stopped_Images"));
@@ -661,7 +752,8 @@ TEST_F(RosbagImportTest, LoadsAMappingYaml) {
 TEST_F(RosbagImportTest, BadMappingYamlNamesTheField) {
   const std::string marker = "marker: {dictionary: DICT_4X4_50, id: 0, size_m: 0.2}\n";
   const std::vector<std::pair<std::string, std::vector<std::string>>> cases = {
-      {"topics:\n  /odom: {label: odometry, role: odom}\n" + marker, {"topics./odom.role", ":2:", "odom"}},
+      {"topics:\n  /odom: {label: odometry, role: odom}\n" + marker,
+       {"topics./odom.role", ":2:", "odom"}},
       {"topics:\n  /odom: {label: odometry}\n" + marker, {"topics./odom.role", "missing"}},
       {"topics:\n  /odom: {label: odometry, role: odometry, metric: maybe}\n" + marker,
        {"topics./odom.metric", "maybe"}},
@@ -672,10 +764,13 @@ TEST_F(RosbagImportTest, BadMappingYamlNamesTheField) {
        {"dictionary", "DICT_9X9_1"}},
       {"topics:\n  /odom: {role: odometry}\nmarker: {dictionary: DICT_4X4_50, id: 0, size_m: -1}\n",
        {"size_m"}},
-      {"topics:\n  /odom: {role: odometry}\n" + marker + "calibrations: {cam09: x.yaml}\n", {"calibrations.cam09"}},
-      {"topics:\n  /a: {label: cam01, role: env_camera}\n  /b: {label: cam01, role: fisheye}\n" + marker,
+      {"topics:\n  /odom: {role: odometry}\n" + marker + "calibrations: {cam09: x.yaml}\n",
+       {"calibrations.cam09"}},
+      {"topics:\n  /a: {label: cam01, role: env_camera}\n  /b: {label: cam01, role: fisheye}\n" +
+           marker,
        {"topics[/b].label", "cam01"}},
-      {"topics:\n  /gt: {label: truth, role: ground_truth}\n" + marker, {"topics[/gt].label", "ground_truth"}},
+      {"topics:\n  /gt: {label: truth, role: ground_truth}\n" + marker,
+       {"topics[/gt].label", "ground_truth"}},
       {"topics:\n  /cam: {role: env_camera}\n" + marker, {"topics[/cam].label", "missing"}},
       {"topics: [/odom]\n" + marker, {"'topics'", "mapping"}},
       {"topics: {/odom: {role: odometry}\n", {"not valid YAML"}},
@@ -687,7 +782,8 @@ TEST_F(RosbagImportTest, BadMappingYamlNamesTheField) {
     const std::string message = errorOf([&] { loadRosbagMapping(yaml); });
     EXPECT_NE(message.find(yaml.string()), std::string::npos) << "case " << i << ": " << message;
     for (const std::string& expected : cases[i].second) {
-      EXPECT_NE(message.find(expected), std::string::npos) << "case " << i << " lacks '" << expected << "': " << message;
+      EXPECT_NE(message.find(expected), std::string::npos)
+          << "case " << i << " lacks '" << expected << "': " << message;
     }
   }
   const std::string missing = errorOf([&] { loadRosbagMapping(dir_ / "nope.yaml"); });
@@ -708,8 +804,9 @@ TEST(RosTopicMapping, ParsesTheCommandLineForm) {
   EXPECT_EQ(m.label, "");
   EXPECT_EQ(RosbagImportOptions::effectiveLabel(m), "ground_truth");
 
-  for (const std::string bad : {"/odom", "=odometry:odometry", "/odom=odometry", "/odom=odometry:odom",
-                                "/odom=odometry:odometry:sometimes", "/cam=cam:env_camera:nonmetric"}) {
+  for (const std::string bad :
+       {"/odom", "=odometry:odometry", "/odom=odometry", "/odom=odometry:odom",
+        "/odom=odometry:odometry:sometimes", "/cam=cam:env_camera:nonmetric"}) {
     const std::string message = errorOf([&] { parseTopicMapping(bad); });
     EXPECT_NE(message.find("'" + bad + "'"), std::string::npos) << message;
   }

@@ -8,8 +8,9 @@
 //   sensor_msgs/Image             fisheye | env_camera     ImageFrame, re-encoded as PNG (lossless)
 //   sensor_msgs/CompressedImage   fisheye | env_camera     ImageFrame, the bytes as they are
 //   sensor_msgs/CameraInfo        fisheye | env_camera     that camera's calibration (manifest)
-//   nav_msgs/Odometry             odometry | ground_truth  PoseSample (world_from_body) + TrajectoryInfo
-//   geometry_msgs/PoseStamped     odometry | ground_truth  PoseSample (world_from_body) + TrajectoryInfo
+//   nav_msgs/Odometry             odometry | ground_truth  PoseSample (world_from_body) +
+//   TrajectoryInfo geometry_msgs/PoseStamped     odometry | ground_truth  PoseSample
+//   (world_from_body) + TrajectoryInfo
 //
 // Times are header.stamp (sec, nsec) -> TimeNs exactly, or the bag's receive
 // time when `use_header_stamp` is false.
