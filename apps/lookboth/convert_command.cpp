@@ -5,7 +5,9 @@
 #include "commands.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/progress.h"
+#include "lookboth/core/text.h"
 #include "lookboth/dataset/convert.h"
+#include "lookboth/dataset/rosbag_import.h"
 #include "signals.h"
 
 namespace lookboth::app {
@@ -15,7 +17,52 @@ struct ConvertArgs {
   std::string from, to, from_kind = "auto", to_kind = "auto", label;
   bool overwrite = false, strict = false, scaled = false;
   std::vector<std::string> trajectories;
+  // ROS bags
+  std::string topics_yaml, marker;
+  std::vector<std::string> topics, calibrations;
+  bool receive_time = false;
 };
+
+// "DICT_4X4_50:7:0.2"
+MarkerSpec parseMarkerArg(const std::string& text) {
+  const size_t a = text.find(':');
+  const size_t b = a == std::string::npos ? a : text.find(':', a + 1);
+  if (b == std::string::npos) throw Error("'--marker': expected DICTIONARY:ID:SIZE_M, got '" + text + "'");
+  MarkerSpec marker;
+  marker.dictionary = text.substr(0, a);
+  const auto id = parseInt(text.substr(a + 1, b - a - 1));
+  const auto size = parseDouble(text.substr(b + 1));
+  if (!id || !size) throw Error("'--marker': expected DICTIONARY:ID:SIZE_M, got '" + text + "'");
+  marker.id = static_cast<int>(*id);
+  marker.size_m = *size;
+  if (const std::string why = marker.check(); !why.empty()) throw Error("'--marker': " + why);
+  return marker;
+}
+
+int runImportBag(const ConvertArgs& args, DataKind to_kind, const ProgressReporter& progress) {
+  RosbagImportOptions options;
+  if (!args.topics_yaml.empty()) options = loadRosbagMapping(args.topics_yaml);
+  for (const std::string& topic : args.topics) options.topics.push_back(parseTopicMapping(topic));
+  if (!args.marker.empty()) options.marker = parseMarkerArg(args.marker);
+  for (const std::string& c : args.calibrations) {
+    const size_t eq = c.find('=');
+    if (eq == std::string::npos || eq == 0) throw Error("'--calibration': expected LABEL=FILE, got '" + c + "'");
+    options.calibration_files[c.substr(0, eq)] = c.substr(eq + 1);
+  }
+  if (args.receive_time) options.use_header_stamp = false;
+  if (options.topics.empty()) {
+    throw Error("'--topics'/'--topic': say which bag topics to import, e.g. --topic /fisheye/image_raw=fisheye:fisheye");
+  }
+  DatasetWriteOptions write_options;
+  write_options.overwrite = args.overwrite;
+  const DatasetKind kind = to_kind == DataKind::kRawlog ? DatasetKind::kRawlog : DatasetKind::kFolder;
+  const RosbagImportStats stats = importRosbag(args.from, args.to, kind, options, write_options, progress);
+  std::cout << "wrote " << args.to << ": " << stats.records << " records from";
+  for (const auto& [topic, count] : stats.messages_per_topic) std::cout << " " << topic << " (" << count << ")";
+  std::cout << "\n";
+  if (!stats.warnings.empty()) std::cout << stats.warnings.size() << " warning(s), see above\n";
+  return 0;
+}
 
 // "file.tum=label[:metric|:scaled]"
 TrajectoryInput parseTrajectoryArg(const std::string& text) {
@@ -58,6 +105,14 @@ int runConvert(const ConvertArgs& args) {
   const ProgressReporter progress(makeConsoleProgress());
   const StopOnSignal stop_on_signal(progress);
   try {
+    const DataKind from_kind = options.from_kind == DataKind::kAuto ? detectDataKind(options.from) : options.from_kind;
+    if (from_kind == DataKind::kBag) {
+      DataKind to_kind = options.to_kind;
+      if (to_kind == DataKind::kAuto) {
+        to_kind = options.to.extension() == ".rawlog" ? DataKind::kRawlog : detectDataKind(options.to);
+      }
+      return runImportBag(args, to_kind, progress);
+    }
     const ConvertSummary summary = convertData(options, progress);
     std::cout << "wrote " << args.to << ": " << summary.total() << " records";
     std::string sep = " (";
@@ -93,6 +148,13 @@ void registerConvertCommand(CLI::App& app, const std::function<void(CommandBody)
   cmd->add_flag("--scaled", args->scaled, "An imported TUM trajectory is up to scale (monocular VO)");
   cmd->add_option("--trajectory", args->trajectories,
                   "Add a TUM trajectory to the output dataset: FILE.tum=LABEL[:metric|:scaled]");
+  cmd->add_option("--topics", args->topics_yaml, "ROS bag: topic mapping YAML (doc/formats.md)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--topic", args->topics, "ROS bag: /topic=LABEL:ROLE[:nonmetric] (roles: fisheye, "
+                                            "env_camera, odometry, ground_truth)");
+  cmd->add_option("--marker", args->marker, "ROS bag: the robot's marker, DICTIONARY:ID:SIZE_M");
+  cmd->add_option("--calibration", args->calibrations, "ROS bag: LABEL=FILE, a calibration overriding CameraInfo");
+  cmd->add_flag("--receive-time", args->receive_time, "ROS bag: stamp by bag receive time, not header.stamp");
   cmd->callback([args, set_body] { set_body([args] { return runConvert(*args); }); });
 }
 

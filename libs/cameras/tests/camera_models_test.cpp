@@ -316,6 +316,29 @@ TEST(CameraModelsTest, ScaramuzzaPixelsBeyondAFoldOfThePolynomialHaveNoRay) {
   }
 }
 
+TEST(CameraModelsTest, RadTanWithAFoldInsideTheImageRoundTripsUpToItsLimit) {
+  // Pincushion turning into a fold (k1 > 0, k3 < 0) at 55.2 degrees, inside
+  // the image: near the limit the distorted point, where Newton's method
+  // naturally starts, lies past the fold.
+  const Camera camera(RadTanModel{}, 640, 480,
+                      {265.17, 262.13, 300.73, 246.71, 0.1425, 0.0047, -8e-4, -3e-4, -0.032});
+  SCOPED_TRACE(describe(camera));
+  const double max_angle = camera.maxIncidenceAngle();
+  EXPECT_LT(max_angle, 55.2 * kDeg);
+  EXPECT_GT(max_angle, 54.0 * kDeg);
+  EXPECT_FALSE(camera.unproject(Eigen::Vector2d(639.5, 479.5)));  // corner beyond the fold
+  std::mt19937 rng(10);
+  for (int i = 0; i < 2000; ++i) {
+    const Eigen::Vector3d ray =
+        rayAt(uniform(rng, 0.9 * max_angle, max_angle), uniform(rng, 0.0, 2.0 * kPi));
+    const auto pixel = camera.project(ray);
+    ASSERT_TRUE(pixel);
+    const auto bearing = camera.unproject(*pixel);
+    ASSERT_TRUE(bearing) << "ray " << ray.transpose() << " pixel " << pixel->transpose();
+    EXPECT_LT(angleBetween(*bearing, ray), 1e-9);
+  }
+}
+
 TEST(CameraModelsTest, NonFiniteInputsGiveNoResult) {
   std::mt19937 rng(5);
   const double nan = std::numeric_limits<double>::quiet_NaN();

@@ -831,3 +831,18 @@ TEST(RosbagImportOptions, CheckNamesTheField) {
 
 }  // namespace
 }  // namespace lookboth
+
+namespace lookboth {
+namespace {
+
+// Writes the sample bag where $LOOKBOTH_SAMPLE_BAG says, for the end-to-end
+// test of `lookboth convert` (tests/convert_bag_e2e.cmake); skipped otherwise.
+TEST(RosbagSample, WritesTheSampleBagForTheEndToEndTest) {
+  const char* path = std::getenv("LOOKBOTH_SAMPLE_BAG");
+  if (!path) GTEST_SKIP() << "LOOKBOTH_SAMPLE_BAG not set";
+  writeSampleBag(path);
+  EXPECT_TRUE(fs::exists(path));
+}
+
+}  // namespace
+}  // namespace lookboth
