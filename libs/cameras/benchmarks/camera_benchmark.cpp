@@ -63,15 +63,16 @@ const Scene& radtanScene() {
 }
 
 const Scene& kannalaBrandtScene() {
-  static const Scene scene = makeScene(
-      Camera(KannalaBrandtModel{}, 1920, 1080, {540.0, 540.5, 959.5, 539.5, 0.02, -3e-3, 5e-4, -1e-4}),
-      2);
+  static const Scene scene =
+      makeScene(Camera(KannalaBrandtModel{}, 1920, 1080,
+                       {540.0, 540.5, 959.5, 539.5, 0.02, -3e-3, 5e-4, -1e-4}),
+                2);
   return scene;
 }
 
 void setRate(benchmark::State& state) {
-  state.counters["points/s"] =
-      benchmark::Counter(static_cast<double>(kPoints), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["points/s"] = benchmark::Counter(static_cast<double>(kPoints),
+                                                  benchmark::Counter::kIsIterationInvariantRate);
 }
 
 /// Largest pixel distance between `scene.pixels` and the projections of the

@@ -274,7 +274,8 @@ bool undistortOpenCv(const double* k, bool rational, double xd, double yd, doubl
     cy *= 0.5;
   }
   double residual = std::hypot(fx - xd, fy - yd);
-  const double tolerance = 4.0 * std::numeric_limits<double>::epsilon() * (1.0 + std::hypot(xd, yd));
+  const double tolerance =
+      4.0 * std::numeric_limits<double>::epsilon() * (1.0 + std::hypot(xd, yd));
   for (int iteration = 0; iteration < 100 && residual > tolerance; ++iteration) {
     const double det = jacobian[0] * jacobian[3] - jacobian[1] * jacobian[2];
     if (!(det > 0.0)) return false;
@@ -464,8 +465,8 @@ bool DoubleSphereModel::unproject(const double* params, const double* pixel,
   bearing[0] = scale * mx;
   bearing[1] = scale * my;
   bearing[2] = scale * mz - xi;
-  const double n = std::sqrt(bearing[0] * bearing[0] + bearing[1] * bearing[1] +
-                             bearing[2] * bearing[2]);
+  const double n =
+      std::sqrt(bearing[0] * bearing[0] + bearing[1] * bearing[1] + bearing[2] * bearing[2]);
   if (!(n > 0.0) || !std::isfinite(n)) return false;
   normalize3(bearing);
   return true;
@@ -474,7 +475,8 @@ bool DoubleSphereModel::unproject(const double* params, const double* pixel,
 std::string DoubleSphereModel::validate(const double* params, int width, int height) const {
   std::string message = validateIntrinsics(params, width, height);
   if (!message.empty()) return message;
-  if (!(params[4] > -1.0 && params[4] <= 1.0)) return "'xi': must be in (-1, 1], got " + fmt(params[4]);
+  if (!(params[4] > -1.0 && params[4] <= 1.0))
+    return "'xi': must be in (-1, 1], got " + fmt(params[4]);
   if (!(params[5] >= 0.0 && params[5] <= 1.0)) {
     return "'alpha': must be in [0, 1], got " + fmt(params[5]);
   }
@@ -603,7 +605,8 @@ std::string ScaramuzzaModel::validate(const double* params, int width, int heigh
   }
   const double det = params[2] - params[3] * params[4];
   if (!(det > 0.0)) {
-    return "'c': the affine matrix [[c, d], [e, 1]] must have a positive determinant c - d*e, got " +
+    return "'c': the affine matrix [[c, d], [e, 1]] must have a positive determinant c - d*e, "
+           "got " +
            fmt(det);
   }
   const double* a = params + 5;
@@ -617,8 +620,8 @@ std::string ScaramuzzaModel::validate(const double* params, int width, int heigh
   double farthest = 0.0;
   for (const Eigen::Vector2d& pixel : borderPixels(width, height)) {
     const double dr = pixel.y() - params[1], dc = pixel.x() - params[0];
-    farthest = std::max(farthest, std::hypot((dr - params[3] * dc) / det,
-                                             (params[2] * dc - params[4] * dr) / det));
+    farthest = std::max(
+        farthest, std::hypot((dr - params[3] * dc) / det, (params[2] * dc - params[4] * dr) / det));
   }
   constexpr int kSamples = 100;
   for (int i = 0; i <= kSamples; ++i) {

@@ -57,8 +57,8 @@ std::vector<double> scaramuzzaParams(double cx, double cy, double c, double d, d
     target(i) = theta == 0.0 ? -f : -rho * std::cos(theta) / std::sin(theta);
   }
   const Eigen::VectorXd b = design.colPivHouseholderQr().solve(target);
-  const std::vector<double> a = {b(0), 0.0, b(1) / (rho_max * rho_max),
-                                 b(2) / std::pow(rho_max, 3), b(3) / std::pow(rho_max, 4)};
+  const std::vector<double> a = {b(0), 0.0, b(1) / (rho_max * rho_max), b(2) / std::pow(rho_max, 3),
+                                 b(3) / std::pow(rho_max, 4)};
   std::vector<double> params = {cx, cy, c, d, e};
   params.insert(params.end(), a.begin(), a.end());
   if (num_inv > 0) {
@@ -103,19 +103,19 @@ Camera randomCamera(CameraModelId id, std::mt19937& rng) {
     }
     case CameraModelId::kRadTan: {
       const double f = uniform(rng, 0.4, 1.2) * w;
-      return Camera(RadTanModel{}, size.width, size.height,
-                    {f, f * aspect, cx, cy, uniform(rng, -0.35, 0.25), uniform(rng, -0.15, 0.2),
-                     uniform(rng, -2e-3, 2e-3), uniform(rng, -2e-3, 2e-3),
-                     uniform(rng, -0.05, 0.05)});
+      return Camera(
+          RadTanModel{}, size.width, size.height,
+          {f, f * aspect, cx, cy, uniform(rng, -0.35, 0.25), uniform(rng, -0.15, 0.2),
+           uniform(rng, -2e-3, 2e-3), uniform(rng, -2e-3, 2e-3), uniform(rng, -0.05, 0.05)});
     }
     case CameraModelId::kRationalPolynomial: {
       const double f = uniform(rng, 0.4, 1.2) * w;
       const double k1 = uniform(rng, -0.3, 3.0), k2 = uniform(rng, -0.1, 1.0);
-      return Camera(RationalPolynomialModel{}, size.width, size.height,
-                    {f, f * aspect, cx, cy, k1, k2, uniform(rng, -2e-3, 2e-3),
-                     uniform(rng, -2e-3, 2e-3), uniform(rng, -0.01, 0.05),
-                     k1 + uniform(rng, -0.1, 0.6), k2 + uniform(rng, -0.1, 0.5),
-                     uniform(rng, 0.0, 0.1)});
+      return Camera(
+          RationalPolynomialModel{}, size.width, size.height,
+          {f, f * aspect, cx, cy, k1, k2, uniform(rng, -2e-3, 2e-3), uniform(rng, -2e-3, 2e-3),
+           uniform(rng, -0.01, 0.05), k1 + uniform(rng, -0.1, 0.6), k2 + uniform(rng, -0.1, 0.5),
+           uniform(rng, 0.0, 0.1)});
     }
     case CameraModelId::kKannalaBrandt: {
       const double f = uniform(rng, 250.0, 700.0) * scale;
@@ -168,8 +168,8 @@ std::vector<double> paramScales(const Camera& camera) {
 class CameraModelsRoundTrip : public testing::TestWithParam<CameraModelId> {};
 
 std::string modelParamName(const testing::TestParamInfo<CameraModelId>& info) {
-  const char* names[] = {"Pinhole",    "RadTan",      "RationalPolynomial", "KannalaBrandt",
-                         "Scaramuzza", "DoubleSphere"};
+  const char* names[] = {"Pinhole",       "RadTan",     "RationalPolynomial",
+                         "KannalaBrandt", "Scaramuzza", "DoubleSphere"};
   return names[static_cast<int>(info.param)];
 }
 
@@ -233,7 +233,9 @@ TEST(CameraModelsTest, PinholeTypesRejectPointsAtOrBehindTheImagePlane) {
       EXPECT_FALSE(camera.project(point)) << point.transpose();
       Eigen::Vector2d pixel;
       const bool ok = std::visit(
-          [&](const auto& m) { return m.project(camera.params().data(), point.data(), pixel.data()); },
+          [&](const auto& m) {
+            return m.project(camera.params().data(), point.data(), pixel.data());
+          },
           camera.model());
       EXPECT_FALSE(ok) << "model-level project of " << point.transpose();
     }
@@ -281,7 +283,8 @@ TEST(CameraModelsTest, ScaramuzzaPixelsBeyondAFoldOfThePolynomialHaveNoRay) {
   // atan2(rho, -poly(rho)) peaks near rho = 480 px and then decreases, well
   // inside a 1920x1080 image; pixels farther out repeat angles seen before.
   for (int num_inv : {0, 6}) {
-    std::vector<double> params = {959.5, 539.5, 1.0, 0.0, 0.0, -300.0, 0.0, 1.0 / 900.0, 0.0, -2e-9};
+    std::vector<double> params = {959.5,  539.5, 1.0,         0.0, 0.0,
+                                  -300.0, 0.0,   1.0 / 900.0, 0.0, -2e-9};
     if (num_inv > 0) {  // a rough inverse polynomial: equidistant, rho = 300 (theta_o + pi/2)
       const std::vector<double> inv = {300.0 * kPi / 2.0, 300.0, 0.0, 0.0, 0.0, 0.0};
       params.insert(params.end(), inv.begin(), inv.end());
@@ -418,8 +421,8 @@ TEST(CameraModelsTest, RadTanAndRationalPolynomialMatchCvProjectPoints) {
       const std::vector<double> distortion(p.begin() + 4, p.end());  // 5 or 8 coefficients
       const std::vector<cv::Point3d> points = randomPoints(camera, kPi, 1000, rng);
       std::vector<cv::Point2d> expected;
-      cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cameraMatrix(p),
-                        distortion, expected);
+      cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cameraMatrix(p), distortion,
+                        expected);
       expectSameAsOpenCv(camera, points, expected);
     }
   }
@@ -503,14 +506,11 @@ TEST(CameraModelsTest, AutoDiffJacobiansMatchCentralDifferences) {
       SCOPED_TRACE(describe(camera));
       const std::vector<double> scales = paramScales(camera);
       for (int i = 0; i < 10; ++i) {
-        const Eigen::Vector3d point =
-            rayAt(uniform(rng, 0.02, 0.95 * camera.maxIncidenceAngle()),
-                  uniform(rng, 0.0, 2.0 * kPi)) *
-            uniform(rng, 0.5, 5.0);
+        const Eigen::Vector3d point = rayAt(uniform(rng, 0.02, 0.95 * camera.maxIncidenceAngle()),
+                                            uniform(rng, 0.0, 2.0 * kPi)) *
+                                      uniform(rng, 0.5, 5.0);
         std::visit(
-            [&](const auto& model) {
-              expectExactJacobians(model, camera.params(), scales, point);
-            },
+            [&](const auto& model) { expectExactJacobians(model, camera.params(), scales, point); },
             camera.model());
       }
     }

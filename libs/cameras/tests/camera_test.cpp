@@ -24,13 +24,13 @@ constexpr double kDeg = kPi / 180.0;
 
 const std::vector<double> kPinhole = {500.0, 500.0, 319.5, 239.5};
 const std::vector<double> kRadTan = {500.0, 501.0, 320.0, 240.0, -0.1, 0.02, 1e-4, -2e-4, 0.0};
-const std::vector<double> kRational = {500.0, 501.0, 320.0, 240.0, 0.5, 0.1, 1e-4,
-                                       -2e-4, 0.0,   0.6,   0.15,  0.0};
+const std::vector<double> kRational = {500.0, 501.0, 320.0, 240.0, 0.5,  0.1,
+                                       1e-4,  -2e-4, 0.0,   0.6,   0.15, 0.0};
 const std::vector<double> kKannalaBrandt = {540.0, 540.0, 959.5, 539.5, 0.02, -3e-3, 5e-4, -1e-4};
 const std::vector<double> kDoubleSphere = {477.0, 477.0, 959.5, 539.5, -0.2, 0.6};
 // -poly(rho) = 300 - rho^2 / 900: an equidistant-like fisheye, f = 300 px.
-const std::vector<double> kScaramuzza = {959.5, 539.5, 1.0, 0.0,         0.0,
-                                         -300.0, 0.0, 1.0 / 900.0, 0.0, 0.0};
+const std::vector<double> kScaramuzza = {959.5,  539.5, 1.0,         0.0, 0.0,
+                                         -300.0, 0.0,   1.0 / 900.0, 0.0, 0.0};
 
 TEST(CameraTest, ModelNamesAndIdentifiers) {
   EXPECT_EQ(cameraModelName(PinholeModel{}), "pinhole");
@@ -86,7 +86,8 @@ TEST(CameraTest, ValidateNamesTheOffendingParameter) {
             "'params': radtan needs 9 parameters (fx fy cx cy k1 k2 p1 p2 k3), got 4");
   std::vector<double> with_nan = kRadTan;
   with_nan[5] = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_PRED2(startsWith, Camera::validate(RadTanModel{}, 640, 480, with_nan), "'k2': must be finite");
+  EXPECT_PRED2(startsWith, Camera::validate(RadTanModel{}, 640, 480, with_nan),
+               "'k2': must be finite");
   EXPECT_EQ(Camera::validate(PinholeModel{}, 0, 480, kPinhole), "'width': must be positive, got 0");
   EXPECT_EQ(Camera::validate(PinholeModel{}, 640, -1, kPinhole),
             "'height': must be positive, got -1");
@@ -99,12 +100,19 @@ TEST(CameraTest, ValidateNamesTheOffendingParameter) {
 TEST(CameraTest, ValidateExplainsScaramuzzaMistakes) {
   std::vector<double> positive_a0 = kScaramuzza;
   positive_a0[5] = 300.0;
-  EXPECT_PRED2(startsWith, Camera::validate(ScaramuzzaModel{5, 0}, 1920, 1080, positive_a0), "'a0': must be negative");
+  EXPECT_PRED2(startsWith, Camera::validate(ScaramuzzaModel{5, 0}, 1920, 1080, positive_a0),
+               "'a0': must be negative");
   positive_a0[5] = 0.0;
-  EXPECT_PRED2(startsWith, Camera::validate(ScaramuzzaModel{5, 0}, 1920, 1080, positive_a0), "'a0': must be negative");
-  EXPECT_PRED2(startsWith, Camera::validate(ScaramuzzaModel{1, 0}, 1920, 1080, {959.5, 539.5, 1, 0, 0, -300}), "'a'");
-  EXPECT_PRED2(contains, Camera::validate(ScaramuzzaModel{1, 0}, 1920, 1080, {959.5, 539.5, 1, 0, 0, -300}), "at least 2");
-  EXPECT_PRED2(startsWith, Camera::validate(ScaramuzzaModel{5, 2}, 1920, 1080, kScaramuzza), "'params': scaramuzza needs 12 parameters");
+  EXPECT_PRED2(startsWith, Camera::validate(ScaramuzzaModel{5, 0}, 1920, 1080, positive_a0),
+               "'a0': must be negative");
+  EXPECT_PRED2(startsWith,
+               Camera::validate(ScaramuzzaModel{1, 0}, 1920, 1080, {959.5, 539.5, 1, 0, 0, -300}),
+               "'a'");
+  EXPECT_PRED2(contains,
+               Camera::validate(ScaramuzzaModel{1, 0}, 1920, 1080, {959.5, 539.5, 1, 0, 0, -300}),
+               "at least 2");
+  EXPECT_PRED2(startsWith, Camera::validate(ScaramuzzaModel{5, 2}, 1920, 1080, kScaramuzza),
+               "'params': scaramuzza needs 12 parameters");
   std::vector<double> singular = kScaramuzza;
   singular[2] = 0.0;  // c - d e = 0
   EXPECT_PRED2(startsWith, Camera::validate(ScaramuzzaModel{5, 0}, 1920, 1080, singular), "'c':");
@@ -114,7 +122,8 @@ TEST(CameraTest, ValidateExplainsScaramuzzaMistakes) {
   EXPECT_PRED2(contains, Camera::validate(ScaramuzzaModel{5, 0}, 1920, 1080, folded), "grow");
   std::vector<double> centre_outside = kScaramuzza;
   centre_outside[1] = 2000.0;
-  EXPECT_PRED2(startsWith, Camera::validate(ScaramuzzaModel{5, 0}, 1920, 1080, centre_outside), "'cy':");
+  EXPECT_PRED2(startsWith, Camera::validate(ScaramuzzaModel{5, 0}, 1920, 1080, centre_outside),
+               "'cy':");
 }
 
 TEST(CameraTest, ConstructorThrowsLookbothErrorWithTheValidationMessage) {

@@ -120,8 +120,7 @@ struct RadTanModel {
     if (camera_models_detail::value(z) <= 0.0) return false;
     const T k[8] = {params[4], params[5], params[6], params[7], params[8], T(0.0), T(0.0), T(0.0)};
     T xd, yd;
-    camera_models_detail::distortOpenCv(k, false, p_in_camera[0] / z, p_in_camera[1] / z, &xd,
-                                        &yd);
+    camera_models_detail::distortOpenCv(k, false, p_in_camera[0] / z, p_in_camera[1] / z, &xd, &yd);
     camera_models_detail::applyIntrinsics(params, xd, yd, pixel);
     return true;
   }
@@ -266,7 +265,7 @@ struct ScaramuzzaModel {
     const T mu = mu0 - h / dh;
     const T xo = mu * y;  // sensor coordinates, OCamCalib frame
     const T yo = mu * x;
-    pixel[0] = params[4] * xo + yo + params[0];         // column
+    pixel[0] = params[4] * xo + yo + params[0];              // column
     pixel[1] = params[2] * xo + params[3] * yo + params[1];  // row
     return true;
   }
