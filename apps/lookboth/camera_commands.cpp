@@ -120,10 +120,10 @@ int runCheck(std::vector<std::string> files, const std::string& format_name, int
       }
     }
   }
-  std::printf(
-      "%d camera(s) checked with %d rays and %d pixels each (bounds: %s rad, %s px): %s\n",
-      checked, samples, samples, scientific(options.max_ray_error).c_str(),
-      scientific(options.max_pixel_error).c_str(), failures == 0 ? "all passed" : "FAILURES");
+  std::printf("%d camera(s) checked with %d rays and %d pixels each (bounds: %s rad, %s px): %s\n",
+              checked, samples, samples, scientific(options.max_ray_error).c_str(),
+              scientific(options.max_pixel_error).c_str(),
+              failures == 0 ? "all passed" : "FAILURES");
   return failures == 0 ? 0 : 1;
 }
 

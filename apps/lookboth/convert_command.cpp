@@ -27,7 +27,8 @@ struct ConvertArgs {
 MarkerSpec parseMarkerArg(const std::string& text) {
   const size_t a = text.find(':');
   const size_t b = a == std::string::npos ? a : text.find(':', a + 1);
-  if (b == std::string::npos) throw Error("'--marker': expected DICTIONARY:ID:SIZE_M, got '" + text + "'");
+  if (b == std::string::npos)
+    throw Error("'--marker': expected DICTIONARY:ID:SIZE_M, got '" + text + "'");
   MarkerSpec marker;
   marker.dictionary = text.substr(0, a);
   const auto id = parseInt(text.substr(a + 1, b - a - 1));
@@ -46,19 +47,25 @@ int runImportBag(const ConvertArgs& args, DataKind to_kind, const ProgressReport
   if (!args.marker.empty()) options.marker = parseMarkerArg(args.marker);
   for (const std::string& c : args.calibrations) {
     const size_t eq = c.find('=');
-    if (eq == std::string::npos || eq == 0) throw Error("'--calibration': expected LABEL=FILE, got '" + c + "'");
+    if (eq == std::string::npos || eq == 0)
+      throw Error("'--calibration': expected LABEL=FILE, got '" + c + "'");
     options.calibration_files[c.substr(0, eq)] = c.substr(eq + 1);
   }
   if (args.receive_time) options.use_header_stamp = false;
   if (options.topics.empty()) {
-    throw Error("'--topics'/'--topic': say which bag topics to import, e.g. --topic /fisheye/image_raw=fisheye:fisheye");
+    throw Error(
+        "'--topics'/'--topic': say which bag topics to import, e.g. --topic "
+        "/fisheye/image_raw=fisheye:fisheye");
   }
   DatasetWriteOptions write_options;
   write_options.overwrite = args.overwrite;
-  const DatasetKind kind = to_kind == DataKind::kRawlog ? DatasetKind::kRawlog : DatasetKind::kFolder;
-  const RosbagImportStats stats = importRosbag(args.from, args.to, kind, options, write_options, progress);
+  const DatasetKind kind =
+      to_kind == DataKind::kRawlog ? DatasetKind::kRawlog : DatasetKind::kFolder;
+  const RosbagImportStats stats =
+      importRosbag(args.from, args.to, kind, options, write_options, progress);
   std::cout << "wrote " << args.to << ": " << stats.records << " records from";
-  for (const auto& [topic, count] : stats.messages_per_topic) std::cout << " " << topic << " (" << count << ")";
+  for (const auto& [topic, count] : stats.messages_per_topic)
+    std::cout << " " << topic << " (" << count << ")";
   std::cout << "\n";
   if (!stats.warnings.empty()) std::cout << stats.warnings.size() << " warning(s), see above\n";
   return 0;
@@ -98,18 +105,21 @@ int runConvert(const ConvertArgs& args) {
   options.strict = args.strict;
   options.trajectory_label = args.label;
   options.trajectory_metric = !args.scaled;
-  for (const std::string& t : args.trajectories) options.add_trajectories.push_back(parseTrajectoryArg(t));
+  for (const std::string& t : args.trajectories)
+    options.add_trajectories.push_back(parseTrajectoryArg(t));
   options.on_issue = [](const DatasetIssue& issue) {
     std::cerr << "lookboth: warning: " << issue.where << ": " << issue.message << "\n";
   };
   const ProgressReporter progress(makeConsoleProgress());
   const StopOnSignal stop_on_signal(progress);
   try {
-    const DataKind from_kind = options.from_kind == DataKind::kAuto ? detectDataKind(options.from) : options.from_kind;
+    const DataKind from_kind =
+        options.from_kind == DataKind::kAuto ? detectDataKind(options.from) : options.from_kind;
     if (from_kind == DataKind::kBag) {
       DataKind to_kind = options.to_kind;
       if (to_kind == DataKind::kAuto) {
-        to_kind = options.to.extension() == ".rawlog" ? DataKind::kRawlog : detectDataKind(options.to);
+        to_kind =
+            options.to.extension() == ".rawlog" ? DataKind::kRawlog : detectDataKind(options.to);
       }
       return runImportBag(args, to_kind, progress);
     }
@@ -134,27 +144,36 @@ int runConvert(const ConvertArgs& args) {
 void registerConvertCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body) {
   auto args = std::make_shared<ConvertArgs>();
   CLI::App* cmd = app.add_subcommand(
-      "convert", "Convert between dataset layouts (rawlog, folder), TUM trajectories and ROS 1 bags");
+      "convert",
+      "Convert between dataset layouts (rawlog, folder), TUM trajectories and ROS 1 bags");
   const auto kinds = CLI::IsMember({"auto", "rawlog", "folder", "bag", "tum"});
-  cmd->add_option("--from", args->from, "Input: x.rawlog (with x.yaml beside it), a folder, x.bag, x.tum")
+  cmd->add_option("--from", args->from,
+                  "Input: x.rawlog (with x.yaml beside it), a folder, x.bag, x.tum")
       ->required();
-  cmd->add_option("--to", args->to, "Output: x.rawlog, a folder, or x.tum (a trajectory)")->required();
+  cmd->add_option("--to", args->to, "Output: x.rawlog, a folder, or x.tum (a trajectory)")
+      ->required();
   cmd->add_option("--from-kind", args->from_kind, "Force the input kind")->check(kinds);
   cmd->add_option("--to-kind", args->to_kind, "Force the output kind")->check(kinds);
   cmd->add_flag("--overwrite", args->overwrite, "Replace an existing output");
-  cmd->add_flag("--strict", args->strict, "Treat input warnings (duplicates, missing images) as errors");
-  cmd->add_option("--label", args->label,
-                  "Trajectory label: which one to export to TUM, or the label of an imported TUM file");
-  cmd->add_flag("--scaled", args->scaled, "An imported TUM trajectory is up to scale (monocular VO)");
+  cmd->add_flag("--strict", args->strict,
+                "Treat input warnings (duplicates, missing images) as errors");
+  cmd->add_option(
+      "--label", args->label,
+      "Trajectory label: which one to export to TUM, or the label of an imported TUM file");
+  cmd->add_flag("--scaled", args->scaled,
+                "An imported TUM trajectory is up to scale (monocular VO)");
   cmd->add_option("--trajectory", args->trajectories,
                   "Add a TUM trajectory to the output dataset: FILE.tum=LABEL[:metric|:scaled]");
   cmd->add_option("--topics", args->topics_yaml, "ROS bag: topic mapping YAML (doc/formats.md)")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--topic", args->topics, "ROS bag: /topic=LABEL:ROLE[:nonmetric] (roles: fisheye, "
-                                            "env_camera, odometry, ground_truth)");
+  cmd->add_option("--topic", args->topics,
+                  "ROS bag: /topic=LABEL:ROLE[:nonmetric] (roles: fisheye, "
+                  "env_camera, odometry, ground_truth)");
   cmd->add_option("--marker", args->marker, "ROS bag: the robot's marker, DICTIONARY:ID:SIZE_M");
-  cmd->add_option("--calibration", args->calibrations, "ROS bag: LABEL=FILE, a calibration overriding CameraInfo");
-  cmd->add_flag("--receive-time", args->receive_time, "ROS bag: stamp by bag receive time, not header.stamp");
+  cmd->add_option("--calibration", args->calibrations,
+                  "ROS bag: LABEL=FILE, a calibration overriding CameraInfo");
+  cmd->add_flag("--receive-time", args->receive_time,
+                "ROS bag: stamp by bag receive time, not header.stamp");
   cmd->callback([args, set_body] { set_body([args] { return runConvert(*args); }); });
 }
 

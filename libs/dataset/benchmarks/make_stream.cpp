@@ -25,8 +25,10 @@ int main(int argc, char** argv) {
     Manifest manifest;
     manifest.marker = {"DICT_4X4_50", 3, 0.2};
     const auto cams = shareDirectory() / "cameras";
-    manifest.cameras.push_back({"fisheye", SensorRole::kFisheye, loadCamera(cams / "fisheye_calib_results.txt")});
-    manifest.cameras.push_back({"cam00", SensorRole::kEnvCamera, loadCamera(cams / "ceiling_camera_ros.yaml")});
+    manifest.cameras.push_back(
+        {"fisheye", SensorRole::kFisheye, loadCamera(cams / "fisheye_calib_results.txt")});
+    manifest.cameras.push_back(
+        {"cam00", SensorRole::kEnvCamera, loadCamera(cams / "ceiling_camera_ros.yaml")});
     manifest.trajectories.push_back({"odometry", false, "synthetic"});
     manifest.trajectories.push_back({"ground_truth", true, "synthetic"});
     auto writer = DatasetWriter::create(argv[2], DatasetKind::kFolder, manifest);
@@ -37,7 +39,8 @@ int main(int argc, char** argv) {
       cv::randu(image, cv::Scalar(0), cv::Scalar(255));
       std::vector<uchar> bytes;
       cv::imencode(".png", image, bytes);
-      images.push_back(std::make_shared<const std::vector<std::uint8_t>>(bytes.begin(), bytes.end()));
+      images.push_back(
+          std::make_shared<const std::vector<std::uint8_t>>(bytes.begin(), bytes.end()));
     }
     const TimeNs t0 = secondsToNs(1700000000);
     for (int i = 0; i < frames; ++i) {
@@ -56,7 +59,8 @@ int main(int argc, char** argv) {
       marker.t = t + 300;
       marker.camera = "cam00";
       marker.marker_id = 3;
-      marker.camera_from_marker = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.1, 0.2, 3.0));
+      marker.camera_from_marker =
+          Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.1, 0.2, 3.0));
       writer->write(marker);
       BlobObservation blobs;
       blobs.t = t + 400;
@@ -65,7 +69,8 @@ int main(int argc, char** argv) {
       writer->write(blobs);
     }
     writer->finish();
-    std::cout << "wrote " << argv[2] << ": " << frames << " frames of " << width << "x" << height << "\n";
+    std::cout << "wrote " << argv[2] << ": " << frames << " frames of " << width << "x" << height
+              << "\n";
   } catch (const Error& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 1;

@@ -25,7 +25,8 @@ const char* dataKindName(DataKind kind) {
 }
 
 std::optional<DataKind> parseDataKind(const std::string& name) {
-  for (DataKind kind : {DataKind::kAuto, DataKind::kRawlog, DataKind::kFolder, DataKind::kBag, DataKind::kTum}) {
+  for (DataKind kind :
+       {DataKind::kAuto, DataKind::kRawlog, DataKind::kFolder, DataKind::kBag, DataKind::kTum}) {
     if (name == dataKindName(kind)) return kind;
   }
   return std::nullopt;
@@ -61,7 +62,8 @@ namespace {
 DatasetKind asDatasetKind(DataKind kind, const fs::path& path) {
   if (kind == DataKind::kRawlog) return DatasetKind::kRawlog;
   if (kind == DataKind::kFolder) return DatasetKind::kFolder;
-  throw Error({path.string(), 0, "", ""}, std::string("expected a dataset here, not a ") + dataKindName(kind));
+  throw Error({path.string(), 0, "", ""},
+              std::string("expected a dataset here, not a ") + dataKindName(kind));
 }
 
 void addTrajectories(const ConvertOptions& options, Manifest& manifest, DatasetWriter& writer,
@@ -90,11 +92,13 @@ ConvertSummary datasetToDataset(const ConvertOptions& options, DataKind from_kin
   auto reader = DatasetReader::open(options.from, read_options);
   (void)asDatasetKind(from_kind, options.from);
   Manifest manifest = reader->manifest();
-  manifest.name = to_kind == DataKind::kRawlog ? options.to.stem().string() : options.to.filename().string();
+  manifest.name =
+      to_kind == DataKind::kRawlog ? options.to.stem().string() : options.to.filename().string();
   manifest.rawlog_entries = -1;
   DatasetWriteOptions write_options;
   write_options.overwrite = options.overwrite;
-  auto writer = DatasetWriter::create(options.to, asDatasetKind(to_kind, options.to), manifest, write_options);
+  auto writer = DatasetWriter::create(options.to, asDatasetKind(to_kind, options.to), manifest,
+                                      write_options);
   const std::int64_t expected = reader->expectedCount();
   std::int64_t done = 0;
   while (auto record = reader->next()) {
@@ -132,25 +136,28 @@ ConvertSummary datasetToTum(const ConvertOptions& options, const ProgressReporte
       std::string labels;
       for (const auto& t : manifest.trajectories) labels += " " + t.label;
       throw Error({options.from.string(), 0, "", ""},
-                  manifest.trajectories.empty() ? "holds no trajectory"
-                                                : "holds several trajectories; choose one with --label:" + labels);
+                  manifest.trajectories.empty()
+                      ? "holds no trajectory"
+                      : "holds several trajectories; choose one with --label:" + labels);
     }
   }
   if (!manifest.findTrajectory(label)) {
-    throw Error({options.from.string(), 0, "trajectories", ""}, "no trajectory labelled '" + label + "'");
+    throw Error({options.from.string(), 0, "trajectories", ""},
+                "no trajectory labelled '" + label + "'");
   }
   if (fs::exists(options.to) && !options.overwrite) {
     throw Error({options.to.string(), 0, "", ""}, "already exists (use --overwrite to replace it)");
   }
   AtomicOutputFile out(options.to);
-  out.stream() << "# timestamp[s] tx ty tz qx qy qz qw (world_from_body) trajectory '" << label << "' of "
-               << options.from.filename().string() << "\n";
+  out.stream() << "# timestamp[s] tx ty tz qx qy qz qw (world_from_body) trajectory '" << label
+               << "' of " << options.from.filename().string() << "\n";
   std::int64_t done = 0;
   TimeNs last = 0;
   while (auto record = reader->next()) {
     if ((++done & 255) == 0) {
       progress.checkStop();
-      progress.report("export trajectory", done, reader->expectedCount() > 0 ? reader->expectedCount() : 0);
+      progress.report("export trajectory", done,
+                      reader->expectedCount() > 0 ? reader->expectedCount() : 0);
     }
     const auto* sample = std::get_if<PoseSample>(&*record);
     if (!sample || sample->label != label) continue;
@@ -168,10 +175,12 @@ ConvertSummary datasetToTum(const ConvertOptions& options, const ProgressReporte
   return summary;
 }
 
-ConvertSummary tumToDataset(const ConvertOptions& options, DataKind to_kind, const ProgressReporter& progress) {
+ConvertSummary tumToDataset(const ConvertOptions& options, DataKind to_kind,
+                            const ProgressReporter& progress) {
   ConvertSummary summary;
   Manifest manifest;
-  manifest.name = to_kind == DataKind::kRawlog ? options.to.stem().string() : options.to.filename().string();
+  manifest.name =
+      to_kind == DataKind::kRawlog ? options.to.stem().string() : options.to.filename().string();
   DatasetWriteOptions write_options;
   write_options.overwrite = options.overwrite;
   ConvertOptions with_input = options;
@@ -181,7 +190,8 @@ ConvertSummary tumToDataset(const ConvertOptions& options, DataKind to_kind, con
   input.info.metric = options.trajectory_metric;
   input.info.description = "imported from " + options.from.filename().string();
   with_input.add_trajectories.insert(with_input.add_trajectories.begin(), input);
-  auto writer = DatasetWriter::create(options.to, asDatasetKind(to_kind, options.to), manifest, write_options);
+  auto writer = DatasetWriter::create(options.to, asDatasetKind(to_kind, options.to), manifest,
+                                      write_options);
   addTrajectories(with_input, manifest, *writer, summary, progress);
   writer->finish(manifest);
   return summary;
@@ -191,16 +201,20 @@ ConvertSummary tumToDataset(const ConvertOptions& options, DataKind to_kind, con
 
 ConvertSummary convertData(const ConvertOptions& options, const ProgressReporter& progress) {
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
-  const DataKind from_kind = options.from_kind == DataKind::kAuto ? detectDataKind(options.from) : options.from_kind;
+  const DataKind from_kind =
+      options.from_kind == DataKind::kAuto ? detectDataKind(options.from) : options.from_kind;
   DataKind to_kind = options.to_kind;
   if (to_kind == DataKind::kAuto) {
     to_kind = options.to.extension() == ".rawlog" ? DataKind::kRawlog : detectDataKind(options.to);
   }
-  if (!fs::exists(options.from)) throw Error({options.from.string(), 0, "", ""}, "no such file or folder");
+  if (!fs::exists(options.from))
+    throw Error({options.from.string(), 0, "", ""}, "no such file or folder");
   if (from_kind == DataKind::kBag) {
-    throw Error({options.from.string(), 0, "", ""}, "ROS bags are imported with importRosbag (rosbag_import.h)");
+    throw Error({options.from.string(), 0, "", ""},
+                "ROS bags are imported with importRosbag (rosbag_import.h)");
   }
-  if (to_kind == DataKind::kBag) throw Error({options.to.string(), 0, "", ""}, "writing ROS bags is not supported");
+  if (to_kind == DataKind::kBag)
+    throw Error({options.to.string(), 0, "", ""}, "writing ROS bags is not supported");
   if (from_kind == DataKind::kTum) {
     if (to_kind == DataKind::kTum) throw Error("TUM to TUM: nothing to convert");
     return tumToDataset(options, to_kind, progress);

@@ -46,9 +46,11 @@ void DatasetReader::reportIssue(const std::string& where, const std::string& mes
 std::unique_ptr<DatasetReader> DatasetReader::open(const fs::path& path,
                                                    const DatasetReadOptions& options) {
   if (!fs::exists(path)) throw Error({path.string(), 0, "", ""}, "no such file or folder");
-  if (detectDatasetKind(path) == DatasetKind::kFolder) return internal::openFolderReader(path, options);
+  if (detectDatasetKind(path) == DatasetKind::kFolder)
+    return internal::openFolderReader(path, options);
   fs::path rawlog = path;
-  if (path.extension() != ".rawlog") rawlog = path.parent_path() / (path.stem().string() + ".rawlog");
+  if (path.extension() != ".rawlog")
+    rawlog = path.parent_path() / (path.stem().string() + ".rawlog");
   return internal::openRawlogReader(rawlog, options);
 }
 
@@ -72,8 +74,8 @@ namespace internal {
 fs::path temporarySibling(const fs::path& destination) {
   static std::atomic<unsigned> counter{0};
   const fs::path parent = destination.has_parent_path() ? destination.parent_path() : fs::path(".");
-  return parent / ("." + destination.filename().string() + ".tmp-" + std::to_string(::getpid()) + "-" +
-                   std::to_string(counter++));
+  return parent / ("." + destination.filename().string() + ".tmp-" + std::to_string(::getpid()) +
+                   "-" + std::to_string(counter++));
 }
 
 void checkOutputPath(const fs::path& destination, bool overwrite) {
@@ -83,7 +85,8 @@ void checkOutputPath(const fs::path& destination, bool overwrite) {
                 "cannot write: directory '" + parent.string() + "' does not exist");
   }
   if (fs::exists(destination) && !overwrite) {
-    throw Error({destination.string(), 0, "", ""}, "already exists (use --overwrite to replace it)");
+    throw Error({destination.string(), 0, "", ""},
+                "already exists (use --overwrite to replace it)");
   }
 }
 

@@ -14,13 +14,13 @@ namespace lookboth {
 
 const std::map<std::string, int>& knownMarkerDictionaries() {
   static const std::map<std::string, int> kDictionaries = {
-      {"DICT_4X4_50", 50},          {"DICT_4X4_100", 100},         {"DICT_4X4_250", 250},
-      {"DICT_4X4_1000", 1000},      {"DICT_5X5_50", 50},           {"DICT_5X5_100", 100},
-      {"DICT_5X5_250", 250},        {"DICT_5X5_1000", 1000},       {"DICT_6X6_50", 50},
-      {"DICT_6X6_100", 100},        {"DICT_6X6_250", 250},         {"DICT_6X6_1000", 1000},
-      {"DICT_7X7_50", 50},          {"DICT_7X7_100", 100},         {"DICT_7X7_250", 250},
-      {"DICT_7X7_1000", 1000},      {"DICT_ARUCO_ORIGINAL", 1024}, {"DICT_APRILTAG_16h5", 30},
-      {"DICT_APRILTAG_25h9", 35},   {"DICT_APRILTAG_36h10", 2320}, {"DICT_APRILTAG_36h11", 587}};
+      {"DICT_4X4_50", 50},        {"DICT_4X4_100", 100},         {"DICT_4X4_250", 250},
+      {"DICT_4X4_1000", 1000},    {"DICT_5X5_50", 50},           {"DICT_5X5_100", 100},
+      {"DICT_5X5_250", 250},      {"DICT_5X5_1000", 1000},       {"DICT_6X6_50", 50},
+      {"DICT_6X6_100", 100},      {"DICT_6X6_250", 250},         {"DICT_6X6_1000", 1000},
+      {"DICT_7X7_50", 50},        {"DICT_7X7_100", 100},         {"DICT_7X7_250", 250},
+      {"DICT_7X7_1000", 1000},    {"DICT_ARUCO_ORIGINAL", 1024}, {"DICT_APRILTAG_16h5", 30},
+      {"DICT_APRILTAG_25h9", 35}, {"DICT_APRILTAG_36h10", 2320}, {"DICT_APRILTAG_36h11", 587}};
   return kDictionaries;
 }
 
@@ -82,7 +82,8 @@ std::string Manifest::check() const {
   std::set<std::string> trajectory_labels;
   for (const TrajectoryInfo& t : trajectories) {
     if (t.label.empty()) return "'trajectories': empty label";
-    if (labels.count(t.label)) return "'trajectories': label '" + t.label + "' is also a camera label";
+    if (labels.count(t.label))
+      return "'trajectories': label '" + t.label + "' is also a camera label";
     if (!trajectory_labels.insert(t.label).second) {
       return "'trajectories': label '" + t.label + "' appears twice";
     }
@@ -94,7 +95,8 @@ std::string Manifest::check() const {
     }
   }
   for (const auto& [label, offset] : ground_truth.clock_offset) {
-    if (!labels.count(label)) return "'ground_truth.clock_offsets_ns." + label + "': unknown sensor";
+    if (!labels.count(label))
+      return "'ground_truth.clock_offsets_ns." + label + "': unknown sensor";
   }
   return "";
 }
@@ -125,7 +127,8 @@ struct Reader {
     return {source, node.IsDefined() ? static_cast<int>(node.Mark().line) + 1 : 0, field, ""};
   }
 
-  YAML::Node require(const YAML::Node& parent, const std::string& key, const std::string& field) const {
+  YAML::Node require(const YAML::Node& parent, const std::string& key,
+                     const std::string& field) const {
     const YAML::Node node = parent[key];
     if (!node.IsDefined() || node.IsNull()) throw Error(at(parent, field), "missing");
     return node;
@@ -160,10 +163,12 @@ struct Reader {
   }
 
   Rigid3d pose(const YAML::Node& node, const std::string& field) const {
-    if (!node.IsMap()) throw Error(at(node, field), "expected a mapping {tx, ty, tz, qx, qy, qz, qw}");
+    if (!node.IsMap())
+      throw Error(at(node, field), "expected a mapping {tx, ty, tz, qx, qy, qz, qw}");
     const char* keys[7] = {"tx", "ty", "tz", "qx", "qy", "qz", "qw"};
     double v[7];
-    for (int i = 0; i < 7; ++i) v[i] = number(require(node, keys[i], field + "." + keys[i]), field + "." + keys[i]);
+    for (int i = 0; i < 7; ++i)
+      v[i] = number(require(node, keys[i], field + "." + keys[i]), field + "." + keys[i]);
     Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
     const double norm = q.norm();
     if (std::abs(norm - 1.0) > 1e-3) {
@@ -244,7 +249,8 @@ std::string manifestToYaml(const Manifest& manifest) {
     out << YAML::EndMap;
   }
   if (manifest.rawlog_entries >= 0) {
-    out << YAML::Key << "rawlog_entries" << YAML::Value << static_cast<long long>(manifest.rawlog_entries);
+    out << YAML::Key << "rawlog_entries" << YAML::Value
+        << static_cast<long long>(manifest.rawlog_entries);
   }
   out << YAML::EndMap;
   return std::string("# lookboth dataset manifest (doc/formats.md)\n") + out.c_str() + "\n";
@@ -260,21 +266,25 @@ Manifest manifestFromYaml(const std::string& yaml, const std::string& source) {
   const Reader r{source};
   if (!root.IsMap()) throw Error({source, 0, "", ""}, "expected a YAML mapping");
   r.rejectUnknownKeys(root,
-                      {"lookboth_dataset", "name", "marker", "cameras", "trajectories", "ground_truth",
-                       "rawlog_entries"},
+                      {"lookboth_dataset", "name", "marker", "cameras", "trajectories",
+                       "ground_truth", "rawlog_entries"},
                       "");
-  const long long version = r.integer(r.require(root, "lookboth_dataset", "lookboth_dataset"), "lookboth_dataset");
+  const long long version =
+      r.integer(r.require(root, "lookboth_dataset", "lookboth_dataset"), "lookboth_dataset");
   if (version != 1) {
-    throw Error(r.at(root["lookboth_dataset"], "lookboth_dataset"),
-                "version " + std::to_string(version) + " is not supported (this lookboth reads version 1)");
+    throw Error(
+        r.at(root["lookboth_dataset"], "lookboth_dataset"),
+        "version " + std::to_string(version) + " is not supported (this lookboth reads version 1)");
   }
   Manifest manifest;
   if (root["name"]) manifest.name = r.text(root["name"], "name");
 
   const YAML::Node marker = r.require(root, "marker", "marker");
   r.rejectUnknownKeys(marker, {"dictionary", "id", "size_m"}, "marker");
-  manifest.marker.dictionary = r.text(r.require(marker, "dictionary", "marker.dictionary"), "marker.dictionary");
-  manifest.marker.id = static_cast<int>(r.integer(r.require(marker, "id", "marker.id"), "marker.id"));
+  manifest.marker.dictionary =
+      r.text(r.require(marker, "dictionary", "marker.dictionary"), "marker.dictionary");
+  manifest.marker.id =
+      static_cast<int>(r.integer(r.require(marker, "id", "marker.id"), "marker.id"));
   manifest.marker.size_m = r.number(r.require(marker, "size_m", "marker.size_m"), "marker.size_m");
   if (const std::string why = manifest.marker.check(); !why.empty()) {
     throw Error(r.at(marker, "marker"), why);
@@ -294,14 +304,17 @@ Manifest manifestFromYaml(const std::string& yaml, const std::string& source) {
       } else if (role == "env_camera") {
         sensor.role = SensorRole::kEnvCamera;
       } else {
-        throw Error(r.at(node["role"], field + ".role"), "unknown role '" + role + "' (fisheye, env_camera)");
+        throw Error(r.at(node["role"], field + ".role"),
+                    "unknown role '" + role + "' (fisheye, env_camera)");
       }
-      if (const YAML::Node calibration = node["calibration"]; calibration && !calibration.IsNull()) {
+      if (const YAML::Node calibration = node["calibration"];
+          calibration && !calibration.IsNull()) {
         YAML::Emitter text;
         text << calibration;
         try {
-          sensor.camera = cameraFromYaml(text.c_str(), source + " (" + field + ".calibration, line " +
-                                                           std::to_string(calibration.Mark().line + 1) + ")");
+          sensor.camera =
+              cameraFromYaml(text.c_str(), source + " (" + field + ".calibration, line " +
+                                               std::to_string(calibration.Mark().line + 1) + ")");
         } catch (const Error& e) {
           throw Error(ErrorContext{"", 0, "", sensor.label}, e.what());
         }
@@ -310,8 +323,10 @@ Manifest manifestFromYaml(const std::string& yaml, const std::string& source) {
     }
   }
 
-  if (const YAML::Node trajectories = root["trajectories"]; trajectories && !trajectories.IsNull()) {
-    if (!trajectories.IsSequence()) throw Error(r.at(trajectories, "trajectories"), "expected a list");
+  if (const YAML::Node trajectories = root["trajectories"];
+      trajectories && !trajectories.IsNull()) {
+    if (!trajectories.IsSequence())
+      throw Error(r.at(trajectories, "trajectories"), "expected a list");
     for (size_t i = 0; i < trajectories.size(); ++i) {
       const YAML::Node node = trajectories[i];
       const std::string field = "trajectories[" + std::to_string(i) + "]";
@@ -319,13 +334,15 @@ Manifest manifestFromYaml(const std::string& yaml, const std::string& source) {
       TrajectoryInfo info;
       info.label = r.text(r.require(node, "label", field + ".label"), field + ".label");
       info.metric = r.boolean(r.require(node, "metric", field + ".metric"), field + ".metric");
-      if (node["description"]) info.description = r.text(node["description"], field + ".description");
+      if (node["description"])
+        info.description = r.text(node["description"], field + ".description");
       manifest.trajectories.push_back(std::move(info));
     }
   }
 
   if (const YAML::Node gt = root["ground_truth"]; gt && !gt.IsNull()) {
-    r.rejectUnknownKeys(gt, {"fisheye_from_marker", "world_from_camera", "clock_offsets_ns"}, "ground_truth");
+    r.rejectUnknownKeys(gt, {"fisheye_from_marker", "world_from_camera", "clock_offsets_ns"},
+                        "ground_truth");
     if (gt["fisheye_from_marker"]) {
       manifest.ground_truth.fisheye_from_marker =
           r.pose(gt["fisheye_from_marker"], "ground_truth.fisheye_from_marker");
@@ -345,7 +362,8 @@ Manifest manifestFromYaml(const std::string& yaml, const std::string& source) {
       }
     }
   }
-  if (root["rawlog_entries"]) manifest.rawlog_entries = r.integer(root["rawlog_entries"], "rawlog_entries");
+  if (root["rawlog_entries"])
+    manifest.rawlog_entries = r.integer(root["rawlog_entries"], "rawlog_entries");
 
   if (const std::string why = manifest.check(); !why.empty()) throw Error({source, 0, "", ""}, why);
   return manifest;

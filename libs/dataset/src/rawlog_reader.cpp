@@ -26,7 +26,8 @@ namespace fs = std::filesystem;
 class RawlogReader : public DatasetReader {
  public:
   RawlogReader(const fs::path& rawlog, const DatasetReadOptions& options)
-      : DatasetReader(rawlog, DatasetKind::kRawlog, options), images_dir_(imagesDirectoryFor(rawlog)) {
+      : DatasetReader(rawlog, DatasetKind::kRawlog, options),
+        images_dir_(imagesDirectoryFor(rawlog)) {
     registerLookbothObservations();
     const fs::path manifest_path = manifestPathFor(rawlog);
     if (!fs::exists(manifest_path)) {
@@ -39,7 +40,9 @@ class RawlogReader : public DatasetReader {
     if (!stream_.open(rawlog.string())) {
       throw Error({rawlog.string(), 0, "", ""}, "cannot open for reading");
     }
-    archive_ = std::make_unique<mrpt::serialization::CArchiveStreamBase<mrpt::io::CFileGZInputStream>>(stream_);
+    archive_ =
+        std::make_unique<mrpt::serialization::CArchiveStreamBase<mrpt::io::CFileGZInputStream>>(
+            stream_);
   }
 
   std::int64_t expectedCount() const override { return manifest_.rawlog_entries; }
@@ -65,13 +68,14 @@ class RawlogReader : public DatasetReader {
     } catch (const mrpt::serialization::CExceptionEOF& e) {
       if (stream_.getPosition() != position) {
         at_end_ = true;
-        throw Error(where() + ": the file is truncated inside this entry (" + std::to_string(entry_) +
-                    " complete entries were read)");
+        throw Error(where() + ": the file is truncated inside this entry (" +
+                    std::to_string(entry_) + " complete entries were read)");
       }
       at_end_ = true;
       if (manifest_.rawlog_entries >= 0 && entry_ < manifest_.rawlog_entries) {
         throw Error(path_.string() + ": truncated: " + std::to_string(entry_) + " of the " +
-                    std::to_string(manifest_.rawlog_entries) + " entries listed in the manifest were found");
+                    std::to_string(manifest_.rawlog_entries) +
+                    " entries listed in the manifest were found");
       }
       return;
     } catch (const std::exception& e) {
@@ -80,8 +84,9 @@ class RawlogReader : public DatasetReader {
       if (message.find("not registered") != std::string::npos ||
           message.find("Unknown class") != std::string::npos ||
           message.find("registered") != std::string::npos) {
-        throw Error(where() + ": holds an object of a class that is not registered (an MRPT plugin "
-                              "or a newer lookboth may be needed): " +
+        throw Error(where() +
+                    ": holds an object of a class that is not registered (an MRPT plugin "
+                    "or a newer lookboth may be needed): " +
                     firstLine(message));
       }
       throw Error(where() + ": cannot be read (corrupt or truncated file): " + firstLine(message));
@@ -104,7 +109,8 @@ class RawlogReader : public DatasetReader {
   }
 
   void skippedOnce(const std::string& what) {
-    if (skipped_.insert(what).second) reportIssue(where(), what + " are not used by lookboth; skipped");
+    if (skipped_.insert(what).second)
+      reportIssue(where(), what + " are not used by lookboth; skipped");
   }
 
   // Drops duplicates and reports out-of-order stamps per (kind, label) stream.
@@ -120,7 +126,8 @@ class RawlogReader : public DatasetReader {
       }
       if (t < it->second) {
         reportIssue(where(), std::string(recordKindName(record)) + " of '" + recordLabel(record) +
-                                 "' at " + formatSeconds(t) + " s is earlier than the previous one (" +
+                                 "' at " + formatSeconds(t) +
+                                 " s is earlier than the previous one (" +
                                  formatSeconds(it->second) + " s)");
       }
     }
@@ -156,7 +163,8 @@ class RawlogReader : public DatasetReader {
         // Embedded in the rawlog (other tools do this): re-encode losslessly.
         std::vector<uchar> bytes;
         cv::imencode(".png", image->image.asCvMatRef(), bytes);
-        frame.encoded = std::make_shared<const std::vector<std::uint8_t>>(bytes.begin(), bytes.end());
+        frame.encoded =
+            std::make_shared<const std::vector<std::uint8_t>>(bytes.begin(), bytes.end());
         frame.extension = ".png";
       }
       push(std::move(frame));
@@ -203,7 +211,8 @@ class RawlogReader : public DatasetReader {
 
 }  // namespace
 
-std::unique_ptr<DatasetReader> openRawlogReader(const fs::path& rawlog, const DatasetReadOptions& options) {
+std::unique_ptr<DatasetReader> openRawlogReader(const fs::path& rawlog,
+                                                const DatasetReadOptions& options) {
   return std::make_unique<RawlogReader>(rawlog, options);
 }
 

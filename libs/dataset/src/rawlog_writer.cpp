@@ -34,8 +34,9 @@ class RawlogWriter : public DatasetWriter {
     if (!stream_.open(temporary_rawlog_.string())) {
       throw Error({rawlog_.string(), 0, "", ""}, "cannot open a temporary file for writing");
     }
-    archive_ = std::make_unique<mrpt::serialization::CArchiveStreamBase<mrpt::io::CFileGZOutputStream>>(
-        stream_);
+    archive_ =
+        std::make_unique<mrpt::serialization::CArchiveStreamBase<mrpt::io::CFileGZOutputStream>>(
+            stream_);
     for (const CameraSensor& sensor : manifest.cameras) {
       if (!sensor.camera) continue;
       try {
@@ -110,7 +111,9 @@ class RawlogWriter : public DatasetWriter {
     } else {
       std::error_code ec;
       fs::copy_file(frame.image_file, target, ec);
-      if (ec) throw Error({frame.image_file.string(), 0, "", frame.sensor}, "cannot copy image: " + ec.message());
+      if (ec)
+        throw Error({frame.image_file.string(), 0, "", frame.sensor},
+                    "cannot copy image: " + ec.message());
     }
     mrpt::obs::CObservationImage obs;
     obs.sensorLabel = frame.sensor;

@@ -15,7 +15,8 @@ class ConvertTest : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = fs::temp_directory_path() /
-           ("lookboth_convert_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+           ("lookboth_convert_" +
+            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
@@ -50,7 +51,8 @@ class ConvertTest : public ::testing::Test {
   static void expectSameRecords(const std::vector<Record>& a, const std::vector<Record>& b) {
     const auto sa = sorted(a), sb = sorted(b);
     ASSERT_EQ(sa.size(), sb.size());
-    for (size_t i = 0; i < sa.size(); ++i) EXPECT_TRUE(testing::sameRecord(sa[i], sb[i])) << "record " << i;
+    for (size_t i = 0; i < sa.size(); ++i)
+      EXPECT_TRUE(testing::sameRecord(sa[i], sb[i])) << "record " << i;
   }
 
   static void expectSameManifest(const Manifest& a, const Manifest& b) {
@@ -74,10 +76,12 @@ class ConvertTest : public ::testing::Test {
     }
     EXPECT_EQ(a.ground_truth.world_from_camera.size(), b.ground_truth.world_from_camera.size());
     for (const auto& [label, pose] : a.ground_truth.world_from_camera) {
-      EXPECT_LT((b.ground_truth.world_from_camera.at(label).translation - pose.translation).norm(), 1e-12);
+      EXPECT_LT((b.ground_truth.world_from_camera.at(label).translation - pose.translation).norm(),
+                1e-12);
     }
     EXPECT_EQ(a.ground_truth.clock_offset, b.ground_truth.clock_offset);
-    ASSERT_EQ(a.ground_truth.fisheye_from_marker.has_value(), b.ground_truth.fisheye_from_marker.has_value());
+    ASSERT_EQ(a.ground_truth.fisheye_from_marker.has_value(),
+              b.ground_truth.fisheye_from_marker.has_value());
   }
 
   fs::path dir_;
@@ -98,7 +102,8 @@ TEST_F(ConvertTest, RawlogToFolderToRawlogLosesNothing) {
   convertData(back, ProgressReporter());
 
   expectSameRecords(readAll(rawlog), readAll(dir_ / "again.rawlog"));
-  expectSameManifest(DatasetReader::open(rawlog)->manifest(), DatasetReader::open(dir_ / "again.rawlog")->manifest());
+  expectSameManifest(DatasetReader::open(rawlog)->manifest(),
+                     DatasetReader::open(dir_ / "again.rawlog")->manifest());
   EXPECT_EQ(DatasetReader::open(dir_ / "again.rawlog")->manifest().name, "again");
 }
 
@@ -114,7 +119,8 @@ TEST_F(ConvertTest, ShippedFolderSampleToRawlogAndBack) {
   to_folder.to = dir_ / "small_folder";
   convertData(to_folder, ProgressReporter());
   expectSameRecords(readAll(sample), readAll(dir_ / "small_folder"));
-  expectSameManifest(DatasetReader::open(sample)->manifest(), DatasetReader::open(dir_ / "small_folder")->manifest());
+  expectSameManifest(DatasetReader::open(sample)->manifest(),
+                     DatasetReader::open(dir_ / "small_folder")->manifest());
 }
 
 TEST_F(ConvertTest, TrajectoriesInAndOutAsTum) {
@@ -159,7 +165,8 @@ TEST_F(ConvertTest, TrajectoriesInAndOutAsTum) {
   default_label.from = rawlog;
   default_label.to = dir_ / "odometry.tum";
   convertData(default_label, ProgressReporter());
-  EXPECT_EQ(readTumFile(dir_ / "odometry.tum").startTime(), secondsToNs(1700000000));  // odometry, not ground_truth
+  EXPECT_EQ(readTumFile(dir_ / "odometry.tum").startTime(),
+            secondsToNs(1700000000));  // odometry, not ground_truth
 }
 
 TEST_F(ConvertTest, RefusesToWriteOverInputsOrExistingOutputs) {

@@ -30,7 +30,8 @@ TEST(Manifest, YamlRoundTripIsExact) {
             original.ground_truth.world_from_camera.at("cam01").translation);
   EXPECT_EQ(back.ground_truth.world_from_camera.at("cam01").rotation.coeffs(),
             original.ground_truth.world_from_camera.at("cam01").rotation.coeffs());
-  EXPECT_EQ(back.ground_truth.fisheye_from_marker->translation, original.ground_truth.fisheye_from_marker->translation);
+  EXPECT_EQ(back.ground_truth.fisheye_from_marker->translation,
+            original.ground_truth.fisheye_from_marker->translation);
   EXPECT_EQ(back.ground_truth.clock_offset.at("cam01"), -700'000);
   EXPECT_EQ(back.fisheye()->label, "fisheye");
 }
@@ -40,7 +41,8 @@ void expectError(const std::string& yaml, const std::vector<std::string>& needle
     manifestFromYaml(yaml, "m.yaml");
     FAIL() << "expected an error for:\n" << yaml;
   } catch (const Error& e) {
-    for (const auto& needle : needles) EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    for (const auto& needle : needles)
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
   }
 }
 
@@ -48,21 +50,33 @@ TEST(Manifest, ErrorsNameTheField) {
   const std::string head = "lookboth_dataset: 1\n";
   const std::string marker = "marker: {dictionary: DICT_4X4_50, id: 3, size_m: 0.2}\n";
   expectError(head, {"m.yaml", "'marker'", "missing"});
-  expectError(head + "marker: {dictionary: DICT_9X9_50, id: 3, size_m: 0.2}\n", {"m.yaml:2", "dictionary", "DICT_9X9_50"});
-  expectError(head + "marker: {dictionary: DICT_4X4_50, id: 50, size_m: 0.2}\n", {"'id'", "ids 0..49"});
+  expectError(head + "marker: {dictionary: DICT_9X9_50, id: 3, size_m: 0.2}\n",
+              {"m.yaml:2", "dictionary", "DICT_9X9_50"});
+  expectError(head + "marker: {dictionary: DICT_4X4_50, id: 50, size_m: 0.2}\n",
+              {"'id'", "ids 0..49"});
   expectError(head + "marker: {dictionary: DICT_4X4_50, id: 3, size_m: -1}\n", {"size_m"});
   expectError("lookboth_dataset: 2\n" + marker, {"version 2"});
   expectError(head + marker + "colour: red\n", {"m.yaml:3", "'colour'", "unknown key"});
-  expectError(head + marker + "cameras:\n  - {label: a, role: env_camera}\n  - {label: a, role: env_camera}\n",
+  expectError(head + marker +
+                  "cameras:\n  - {label: a, role: env_camera}\n  - {label: a, role: env_camera}\n",
               {"label 'a' appears twice"});
-  expectError(head + marker + "cameras:\n  - {label: a, role: ceiling}\n", {"cameras[0].role", "ceiling"});
-  expectError(head + marker + "ground_truth:\n  world_from_camera:\n    camX: {tx: 0, ty: 0, tz: 0, qx: 0, qy: 0, qz: 0, qw: 1}\n",
+  expectError(head + marker + "cameras:\n  - {label: a, role: ceiling}\n",
+              {"cameras[0].role", "ceiling"});
+  expectError(head + marker +
+                  "ground_truth:\n  world_from_camera:\n    camX: {tx: 0, ty: 0, tz: 0, qx: 0, qy: "
+                  "0, qz: 0, qw: 1}\n",
               {"ground_truth.world_from_camera.camX", "no environment camera"});
-  expectError(head + marker + "ground_truth:\n  fisheye_from_marker: {tx: 0, ty: 0, tz: 0, qx: 0, qy: 0, qz: 0, qw: 2}\n",
+  expectError(head + marker +
+                  "ground_truth:\n  fisheye_from_marker: {tx: 0, ty: 0, tz: 0, qx: 0, qy: 0, qz: "
+                  "0, qw: 2}\n",
               {"m.yaml:4", "fisheye_from_marker", "norm"});
-  expectError(head + marker + "cameras:\n  - label: c\n    role: env_camera\n    calibration: {lookboth_camera: 1, model: pinhole, width: 10, height: 10, params: {fx: -1, fy: 1, cx: 5, cy: 5}}\n",
-              {"cameras[0].calibration", "fx", "[c]"});
-  expectError(head + marker + "trajectories:\n  - {label: vo, metric: maybe}\n", {"trajectories[0].metric", "maybe"});
+  expectError(
+      head + marker +
+          "cameras:\n  - label: c\n    role: env_camera\n    calibration: {lookboth_camera: 1, "
+          "model: pinhole, width: 10, height: 10, params: {fx: -1, fy: 1, cx: 5, cy: 5}}\n",
+      {"cameras[0].calibration", "fx", "[c]"});
+  expectError(head + marker + "trajectories:\n  - {label: vo, metric: maybe}\n",
+              {"trajectories[0].metric", "maybe"});
   expectError("lookboth_dataset: [1\n", {"m.yaml", "not valid YAML"});
 }
 

@@ -17,7 +17,8 @@ class RawlogIoTest : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = fs::temp_directory_path() /
-           ("lookboth_rawlog_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+           ("lookboth_rawlog_" +
+            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     rawlog_ = dir_ / "sample.rawlog";
@@ -40,7 +41,8 @@ class RawlogIoTest : public ::testing::Test {
 
   std::vector<std::string> entries() const {
     std::vector<std::string> names;
-    for (const auto& e : fs::directory_iterator(dir_)) names.push_back(e.path().filename().string());
+    for (const auto& e : fs::directory_iterator(dir_))
+      names.push_back(e.path().filename().string());
     std::sort(names.begin(), names.end());
     return names;
   }
@@ -69,7 +71,8 @@ TEST_F(RawlogIoTest, RoundTripLosesNothing) {
   EXPECT_EQ(entries(), (std::vector<std::string>{"sample.rawlog", "sample.yaml", "sample_Images"}));
   const auto back = readAll(rawlog_);
   ASSERT_EQ(back.size(), records.size());
-  for (size_t i = 0; i < records.size(); ++i) EXPECT_TRUE(testing::sameRecord(records[i], back[i])) << i;
+  for (size_t i = 0; i < records.size(); ++i)
+    EXPECT_TRUE(testing::sameRecord(records[i], back[i])) << i;
   EXPECT_TRUE(issues_.empty());
   const Manifest manifest = loadManifest(dir_ / "sample.yaml");
   EXPECT_EQ(manifest.rawlog_entries, static_cast<std::int64_t>(records.size()));
@@ -85,7 +88,8 @@ TEST_F(RawlogIoTest, MrptReadsOurRawlogAndFindsTheImages) {
   EXPECT_EQ(rawlog.size(), testing::sampleRecords().size());
   mrpt::img::CImage::setImagesPathBase(imagesDirectoryFor(rawlog_).string());
   for (size_t i = 0; i < rawlog.size(); ++i) {
-    if (auto image = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(rawlog.getAsObservation(i))) {
+    if (auto image =
+            std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(rawlog.getAsObservation(i))) {
       EXPECT_EQ(image->image.getWidth(), 32u);  // loads the external file
       EXPECT_EQ(image->image.getHeight(), 24u);
     }
@@ -95,11 +99,13 @@ TEST_F(RawlogIoTest, MrptReadsOurRawlogAndFindsTheImages) {
 TEST_F(RawlogIoTest, RefusesToOverwriteUnlessAskedAndCleansUpWhenAbandoned) {
   writeSample(testing::sampleRecords(), rawlog_);
   const auto before = entries();
-  EXPECT_THROW(DatasetWriter::create(rawlog_, DatasetKind::kRawlog, testing::sampleManifest()), Error);
+  EXPECT_THROW(DatasetWriter::create(rawlog_, DatasetKind::kRawlog, testing::sampleManifest()),
+               Error);
   {
     DatasetWriteOptions overwrite;
     overwrite.overwrite = true;
-    auto writer = DatasetWriter::create(rawlog_, DatasetKind::kRawlog, testing::sampleManifest(), overwrite);
+    auto writer =
+        DatasetWriter::create(rawlog_, DatasetKind::kRawlog, testing::sampleManifest(), overwrite);
     for (const Record& r : testing::sampleRecords()) writer->write(r);
     // destroyed without finish(): an interruption
   }
@@ -107,11 +113,13 @@ TEST_F(RawlogIoTest, RefusesToOverwriteUnlessAskedAndCleansUpWhenAbandoned) {
   EXPECT_EQ(readAll(rawlog_).size(), testing::sampleRecords().size());
   DatasetWriteOptions overwrite;
   overwrite.overwrite = true;
-  auto writer = DatasetWriter::create(rawlog_, DatasetKind::kRawlog, testing::sampleManifest(), overwrite);
+  auto writer =
+      DatasetWriter::create(rawlog_, DatasetKind::kRawlog, testing::sampleManifest(), overwrite);
   writer->write(testing::sampleRecords().front());  // a pose: the new dataset has no images
   writer->finish();
   EXPECT_EQ(readAll(rawlog_).size(), 1u);
-  EXPECT_EQ(entries(), (std::vector<std::string>{"sample.rawlog", "sample.yaml"}));  // stale images removed
+  EXPECT_EQ(entries(),
+            (std::vector<std::string>{"sample.rawlog", "sample.yaml"}));  // stale images removed
 }
 
 TEST_F(RawlogIoTest, TruncationInsideAnEntryIsAnErrorAfterTheGoodEntries) {
@@ -139,7 +147,8 @@ TEST_F(RawlogIoTest, TruncationAtAnEntryBoundaryIsCaughtByTheManifestCount) {
     readAll(rawlog_);
     FAIL() << "expected an error";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("truncated: 50 of the 51 entries"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("truncated: 50 of the 51 entries"), std::string::npos)
+        << e.what();
   }
 }
 
@@ -182,7 +191,8 @@ TEST_F(RawlogIoTest, MissingImageIsReportedAndSkipped) {
   const auto back = readAll(rawlog_);
   EXPECT_EQ(back.size(), testing::sampleRecords().size() - 1);
   ASSERT_EQ(issues_.size(), 1u);
-  EXPECT_NE(issues_[0].message.find(victim.filename().string()), std::string::npos) << issues_[0].message;
+  EXPECT_NE(issues_[0].message.find(victim.filename().string()), std::string::npos)
+      << issues_[0].message;
   EXPECT_NE(issues_[0].message.find("missing"), std::string::npos);
 }
 

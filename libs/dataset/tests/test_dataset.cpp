@@ -15,7 +15,8 @@ std::vector<std::uint8_t> bytesOf(const ImageFrame& frame) {
 }
 
 bool samePose(const Rigid3d& a, const Rigid3d& b) {
-  return (a.translation - b.translation).norm() < 1e-12 && a.rotation.angularDistance(b.rotation) < 1e-9;
+  return (a.translation - b.translation).norm() < 1e-12 &&
+         a.rotation.angularDistance(b.rotation) < 1e-9;
 }
 
 }  // namespace
@@ -29,7 +30,8 @@ bool samePose(const Rigid3d& a, const Rigid3d& b) {
     return ::testing::AssertionFailure() << "labels " << recordLabel(a) << " vs " << recordLabel(b);
   }
   if (const auto* fa = std::get_if<ImageFrame>(&a)) {
-    if (bytesOf(*fa) != bytesOf(std::get<ImageFrame>(b))) return ::testing::AssertionFailure() << "image bytes differ";
+    if (bytesOf(*fa) != bytesOf(std::get<ImageFrame>(b)))
+      return ::testing::AssertionFailure() << "image bytes differ";
   } else if (const auto* ma = std::get_if<MarkerObservation>(&a)) {
     const auto& mb = std::get<MarkerObservation>(b);
     if (ma->marker_id != mb.marker_id || !samePose(ma->camera_from_marker, mb.camera_from_marker) ||
@@ -38,10 +40,12 @@ bool samePose(const Rigid3d& a, const Rigid3d& b) {
     }
   } else if (const auto* ba = std::get_if<BlobObservation>(&a)) {
     const auto& bb = std::get<BlobObservation>(b);
-    if (ba->blobs.size() != bb.blobs.size()) return ::testing::AssertionFailure() << "blob counts differ";
+    if (ba->blobs.size() != bb.blobs.size())
+      return ::testing::AssertionFailure() << "blob counts differ";
     for (size_t i = 0; i < ba->blobs.size(); ++i) {
       if (ba->blobs[i].u != bb.blobs[i].u || ba->blobs[i].v != bb.blobs[i].v ||
-          ba->blobs[i].diameter_px != bb.blobs[i].diameter_px || ba->blobs[i].response != bb.blobs[i].response) {
+          ba->blobs[i].diameter_px != bb.blobs[i].diameter_px ||
+          ba->blobs[i].response != bb.blobs[i].response) {
         return ::testing::AssertionFailure() << "blob " << i << " differs";
       }
     }

@@ -15,9 +15,12 @@ inline Manifest sampleManifest() {
   m.name = "sample";
   m.marker = {"DICT_4X4_50", 7, 0.2};
   const std::string cams = std::string(LOOKBOTH_SHARE_DIR) + "/cameras/";
-  m.cameras.push_back({"fisheye", SensorRole::kFisheye, loadCamera(cams + "fisheye_calib_results.txt")});
-  m.cameras.push_back({"cam00", SensorRole::kEnvCamera, loadCamera(cams + "ceiling_camera_ros.yaml")});
-  m.cameras.push_back({"cam01", SensorRole::kEnvCamera, loadCamera(cams + "fisheye_double_sphere.yaml")});
+  m.cameras.push_back(
+      {"fisheye", SensorRole::kFisheye, loadCamera(cams + "fisheye_calib_results.txt")});
+  m.cameras.push_back(
+      {"cam00", SensorRole::kEnvCamera, loadCamera(cams + "ceiling_camera_ros.yaml")});
+  m.cameras.push_back(
+      {"cam01", SensorRole::kEnvCamera, loadCamera(cams + "fisheye_double_sphere.yaml")});
   m.trajectories.push_back({"odometry", false, "monocular VO"});
   m.trajectories.push_back({"ground_truth", true, "simulation"});
   m.ground_truth.world_from_camera["cam00"] =

@@ -30,7 +30,7 @@ DatasetKind detectDatasetKind(const std::filesystem::path& path);
 /// A problem in the input that does not stop reading (a duplicated
 /// timestamp, a missing image...): the record concerned is skipped.
 struct DatasetIssue {
-  std::string where;    ///< "x.rawlog: entry 1234" or "cameras/cam03/frames.csv:17".
+  std::string where;  ///< "x.rawlog: entry 1234" or "cameras/cam03/frames.csv:17".
   std::string message;
 };
 

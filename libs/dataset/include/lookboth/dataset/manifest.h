@@ -39,9 +39,9 @@ struct CameraSensor {
 
 /// A trajectory held in the dataset as PoseSample records with this label.
 struct TrajectoryInfo {
-  std::string label;          ///< e.g. "odometry", "vo", "ground_truth".
-  bool metric = true;         ///< false: known up to an unknown scale (monocular VO).
-  std::string description;    ///< Free text ("wheel+IMU", "lookboth odometry", ...).
+  std::string label;        ///< e.g. "odometry", "vo", "ground_truth".
+  bool metric = true;       ///< false: known up to an unknown scale (monocular VO).
+  std::string description;  ///< Free text ("wheel+IMU", "lookboth odometry", ...).
 };
 
 /// What a simulation knows and a real recording usually does not.
@@ -49,7 +49,9 @@ struct GroundTruth {
   std::map<std::string, Rigid3d> world_from_camera;  ///< By environment camera label.
   std::optional<Rigid3d> fisheye_from_marker;
   std::map<std::string, TimeNs> clock_offset;  ///< node clock - robot clock, by sensor label [ns].
-  bool empty() const { return world_from_camera.empty() && !fisheye_from_marker && clock_offset.empty(); }
+  bool empty() const {
+    return world_from_camera.empty() && !fisheye_from_marker && clock_offset.empty();
+  }
 };
 
 struct Manifest {

@@ -2,10 +2,11 @@
 // sensor's own clock, as `TimeNs` nanoseconds (doc/conventions.md).
 //
 //   record              MRPT class in the rawlog            folder format (doc/formats.md)
-//   ImageFrame          mrpt::obs::CObservationImage        fisheye/frames.csv, cameras/<label>/frames.csv
-//   MarkerObservation   mrpt::obs::CObservation6DFeatures   detections/markers.csv
-//   BlobObservation     lookboth::CObservationBlobs         detections/blobs.csv
-//   PoseSample          mrpt::obs::CObservationRobotPose    odometry/trajectory.tum, ground_truth/trajectory.tum,
+//   ImageFrame          mrpt::obs::CObservationImage        fisheye/frames.csv,
+//   cameras/<label>/frames.csv MarkerObservation   mrpt::obs::CObservation6DFeatures
+//   detections/markers.csv BlobObservation     lookboth::CObservationBlobs detections/blobs.csv
+//   PoseSample          mrpt::obs::CObservationRobotPose    odometry/trajectory.tum,
+//   ground_truth/trajectory.tum,
 //                                                           trajectories/<label>.tum
 #pragma once
 
@@ -51,7 +52,7 @@ struct MarkerObservation {
 /// Blobs (environment cameras' housings) found in one fisheye frame.
 struct BlobObservation {
   TimeNs t = 0;
-  std::string camera;  ///< The camera whose frame holds the blobs (the fisheye).
+  std::string camera;   ///< The camera whose frame holds the blobs (the fisheye).
   int image_width = 0;  ///< Frame size [px]; 0 when unknown.
   int image_height = 0;
   std::vector<Blob> blobs;
