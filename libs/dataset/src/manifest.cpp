@@ -9,6 +9,7 @@
 #include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
+#include "lookboth/core/yaml_reader.h"
 
 namespace lookboth {
 
@@ -120,55 +121,18 @@ void emitPose(YAML::Emitter& out, const Rigid3d& pose) {
 
 // ---- reading ----
 
-struct Reader {
-  std::string source;
-
-  ErrorContext at(const YAML::Node& node, const std::string& field) const {
-    return {source, node.IsDefined() ? static_cast<int>(node.Mark().line) + 1 : 0, field, ""};
-  }
-
-  YAML::Node require(const YAML::Node& parent, const std::string& key,
-                     const std::string& field) const {
-    const YAML::Node node = parent[key];
-    if (!node.IsDefined() || node.IsNull()) throw Error(at(parent, field), "missing");
-    return node;
-  }
-
-  double number(const YAML::Node& node, const std::string& field) const {
-    if (!node.IsScalar()) throw Error(at(node, field), "expected a number");
-    const auto value = parseDouble(node.Scalar());
-    if (!value || !std::isfinite(*value)) {
-      throw Error(at(node, field), "'" + node.Scalar() + "' is not a finite number");
-    }
-    return *value;
-  }
-
-  long long integer(const YAML::Node& node, const std::string& field) const {
-    if (!node.IsScalar()) throw Error(at(node, field), "expected an integer");
-    const auto value = parseInt(node.Scalar());
-    if (!value) throw Error(at(node, field), "'" + node.Scalar() + "' is not an integer");
-    return *value;
-  }
-
-  std::string text(const YAML::Node& node, const std::string& field) const {
-    if (!node.IsScalar()) throw Error(at(node, field), "expected text");
-    return node.Scalar();
-  }
-
-  bool boolean(const YAML::Node& node, const std::string& field) const {
-    const std::string value = text(node, field);
-    if (value == "true" || value == "yes") return true;
-    if (value == "false" || value == "no") return false;
-    throw Error(at(node, field), "expected true or false, got '" + value + "'");
-  }
+// The shared strict reader plus the pose mapping used in manifests.
+struct Reader : YamlReader {
+  using YamlReader::YamlReader;
 
   Rigid3d pose(const YAML::Node& node, const std::string& field) const {
     if (!node.IsMap())
       throw Error(at(node, field), "expected a mapping {tx, ty, tz, qx, qy, qz, qw}");
     const char* keys[7] = {"tx", "ty", "tz", "qx", "qy", "qz", "qw"};
     double v[7];
-    for (int i = 0; i < 7; ++i)
+    for (int i = 0; i < 7; ++i) {
       v[i] = number(require(node, keys[i], field + "." + keys[i]), field + "." + keys[i]);
+    }
     Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
     const double norm = q.norm();
     if (std::abs(norm - 1.0) > 1e-3) {
@@ -176,19 +140,6 @@ struct Reader {
     }
     q.normalize();
     return Rigid3d(q, Eigen::Vector3d(v[0], v[1], v[2]));
-  }
-
-  void rejectUnknownKeys(const YAML::Node& node, const std::set<std::string>& known,
-                         const std::string& field) const {
-    for (const auto& entry : node) {
-      const std::string key = entry.first.as<std::string>();
-      if (!known.count(key)) {
-        std::string list;
-        for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
-        throw Error(at(entry.first, field.empty() ? key : field + "." + key),
-                    "unknown key (known: " + list + ")");
-      }
-    }
   }
 };
 
@@ -257,13 +208,8 @@ std::string manifestToYaml(const Manifest& manifest) {
 }
 
 Manifest manifestFromYaml(const std::string& yaml, const std::string& source) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml);
-  } catch (const YAML::Exception& e) {
-    throw Error({source, e.mark.line + 1, "", ""}, "not valid YAML: " + e.msg);
-  }
-  const Reader r{source};
+  const Reader r(source);
+  const YAML::Node root = r.parse(yaml);
   if (!root.IsMap()) throw Error({source, 0, "", ""}, "expected a YAML mapping");
   r.rejectUnknownKeys(root,
                       {"lookboth_dataset", "name", "marker", "cameras", "trajectories",

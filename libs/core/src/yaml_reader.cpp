@@ -1,0 +1,70 @@
+#include "lookboth/core/yaml_reader.h"
+
+#include <cmath>
+
+#include "lookboth/core/text.h"
+
+namespace lookboth {
+
+YAML::Node YamlReader::parse(const std::string& text) const {
+  try {
+    return YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw Error({source_, e.mark.line + 1, "", ""}, "not valid YAML: " + e.msg);
+  }
+}
+
+ErrorContext YamlReader::at(const YAML::Node& node, const std::string& field) const {
+  return {source_, node.IsDefined() ? static_cast<int>(node.Mark().line) + 1 : 0, field, ""};
+}
+
+YAML::Node YamlReader::require(const YAML::Node& parent, const std::string& key,
+                               const std::string& field) const {
+  const YAML::Node node = parent[key];
+  if (!node.IsDefined() || node.IsNull()) throw Error(at(parent, field), "missing");
+  return node;
+}
+
+double YamlReader::number(const YAML::Node& node, const std::string& field) const {
+  if (!node.IsScalar()) throw Error(at(node, field), "expected a number");
+  const auto value = parseDouble(node.Scalar());
+  if (!value || !std::isfinite(*value)) {
+    throw Error(at(node, field), "'" + node.Scalar() + "' is not a finite number");
+  }
+  return *value;
+}
+
+long long YamlReader::integer(const YAML::Node& node, const std::string& field) const {
+  if (!node.IsScalar()) throw Error(at(node, field), "expected an integer");
+  const auto value = parseInt(node.Scalar());
+  if (!value) throw Error(at(node, field), "'" + node.Scalar() + "' is not an integer");
+  return *value;
+}
+
+std::string YamlReader::text(const YAML::Node& node, const std::string& field) const {
+  if (!node.IsScalar()) throw Error(at(node, field), "expected text");
+  return node.Scalar();
+}
+
+bool YamlReader::boolean(const YAML::Node& node, const std::string& field) const {
+  const std::string value = text(node, field);
+  if (value == "true" || value == "yes") return true;
+  if (value == "false" || value == "no") return false;
+  throw Error(at(node, field), "expected true or false, got '" + value + "'");
+}
+
+void YamlReader::rejectUnknownKeys(const YAML::Node& node, const std::set<std::string>& known,
+                                   const std::string& field) const {
+  if (!node.IsMap()) throw Error(at(node, field), "expected a mapping");
+  for (const auto& entry : node) {
+    const std::string key = entry.first.as<std::string>();
+    if (!known.count(key)) {
+      std::string list;
+      for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
+      throw Error(at(entry.first, field.empty() ? key : field + "." + key),
+                  "unknown key (known: " + list + ")");
+    }
+  }
+}
+
+}  // namespace lookboth
