@@ -17,5 +17,6 @@ using CommandBody = std::function<int()>;
 void registerVersionCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerCameraCommands(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerConvertCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
+void registerSimulateCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 
 }  // namespace lookboth::app

@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
   lookboth::app::registerVersionCommand(app, set_body);
   lookboth::app::registerCameraCommands(app, set_body);
   lookboth::app::registerConvertCommand(app, set_body);
+  lookboth::app::registerSimulateCommand(app, set_body);
 
   try {
     app.parse(argc, argv);
