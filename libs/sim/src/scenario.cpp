@@ -13,6 +13,7 @@
 #include "lookboth/core/error.h"
 #include "lookboth/core/paths.h"
 #include "lookboth/core/text.h"
+#include "lookboth/core/yaml_reader.h"
 
 namespace lookboth::sim {
 namespace {
@@ -41,44 +42,18 @@ std::pair<std::string, std::string> splitFieldMessage(const std::string& text) {
 // ---------------------------------------------------------------------------
 // YAML reading
 
-class Parser {
+// The shared strict reader (lookboth/core/yaml_reader.h) plus what scenarios
+// need on top: line bookkeeping, number lists, calibration file lookup.
+class Parser : public YamlReader {
  public:
   Parser(std::string source, fs::path base_dir, Scenario& scenario)
-      : source_(std::move(source)), base_dir_(std::move(base_dir)), scenario_(scenario) {}
+      : YamlReader(std::move(source)), base_dir_(std::move(base_dir)), scenario_(scenario) {}
 
-  ErrorContext at(const YAML::Node& node, const std::string& field) const {
-    int line = 0;
-    if (node.IsDefined()) line = static_cast<int>(node.Mark().line) + 1;
-    return {source_, line, field, ""};
-  }
   void note(const std::string& field, const YAML::Node& node) {
     if (node.IsDefined() && node.Mark().line >= 0)
       scenario_.lines[field] = static_cast<int>(node.Mark().line) + 1;
   }
 
-  double number(const YAML::Node& node, const std::string& field) const {
-    if (!node.IsScalar()) throw Error(at(node, field), "expected a number");
-    const auto value = parseDouble(node.Scalar());
-    if (!value || !std::isfinite(*value))
-      throw Error(at(node, field), "'" + node.Scalar() + "' is not a finite number");
-    return *value;
-  }
-  long long integer(const YAML::Node& node, const std::string& field) const {
-    if (!node.IsScalar()) throw Error(at(node, field), "expected an integer");
-    const auto value = parseInt(node.Scalar());
-    if (!value) throw Error(at(node, field), "'" + node.Scalar() + "' is not an integer");
-    return *value;
-  }
-  std::string text(const YAML::Node& node, const std::string& field) const {
-    if (!node.IsScalar()) throw Error(at(node, field), "expected text");
-    return node.Scalar();
-  }
-  bool boolean(const YAML::Node& node, const std::string& field) const {
-    const std::string value = text(node, field);
-    if (value == "true" || value == "yes") return true;
-    if (value == "false" || value == "no") return false;
-    throw Error(at(node, field), "expected true or false, got '" + value + "'");
-  }
   std::vector<double> numbers(const YAML::Node& node, const std::string& field,
                               size_t count) const {
     if (!node.IsSequence()) throw Error(at(node, field), "expected a list of numbers");
@@ -113,10 +88,7 @@ class Parser {
     throw Error(at(node, field), "calibration file not found (tried:" + tried + ")");
   }
 
-  const std::string& source() const { return source_; }
-
  private:
-  std::string source_;
   fs::path base_dir_;
   Scenario& scenario_;
 };
