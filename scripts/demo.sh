@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # Sets up, builds (Release) and runs lookboth's main job on the embedded
-# default data. Today the pipeline that exists is the camera-model layer and
-# the dataset layer, so the demo (1) self-checks every shipped calibration over
-# its whole field of view, (2) converts a small recording from the plain folder
-# layout into an MRPT rawlog dataset and back, and (3) has MRPT's rawlog-edit
-# read that rawlog through lookboth's observation plugin. Later stages grow
-# this script into simulate -> detect -> odometry -> register -> report.
+# default: the simulator's `small` scenario. Today the pipeline that exists is
+# simulate -> dataset; the demo (1) simulates `small` (rendered fisheye and
+# environment-camera frames, ground truth) into an MRPT rawlog dataset,
+# (2) self-checks every shipped camera calibration over its whole field of
+# view, (3) converts the dataset to the plain folder layout and exports the
+# ground-truth trajectory as TUM, and (4) has MRPT's rawlog-edit read the
+# dataset through lookboth's observation plugin. Later stages grow this
+# script into simulate -> detect -> odometry -> register -> report.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
@@ -16,15 +18,17 @@ OUT="${LOOKBOTH_DEMO_OUT:-$LOOKBOTH_ROOT/out/demo}"
 mkdir -p "$OUT"
 
 echo "== lookboth $("$LOOKBOTH" --version | awk '{print $2}')"
-echo "== 1. Camera models: project/unproject round trips over each model's whole field of view"
-"$LOOKBOTH" camera check
+echo "== 1. Simulate the 'small' scenario (6 ceiling cameras, a 22 m loop, rendered frames, ground truth)"
+"$LOOKBOTH" simulate --scenario small --out "$OUT/small.rawlog" --overwrite
 echo
-echo "== 2. Datasets: a small recording in the folder layout -> MRPT rawlog -> folder"
-"$LOOKBOTH" convert --from "$LOOKBOTH_ROOT/tests/data/datasets/folder_small" --to "$OUT/small.rawlog" --overwrite
+echo "== 2. Camera models: project/unproject round trips over each model's whole field of view"
+"$LOOKBOTH" camera check --samples 2000
+echo
+echo "== 3. The dataset in the plain folder layout, and the ground-truth trajectory as TUM"
 "$LOOKBOTH" convert --from "$OUT/small.rawlog" --to "$OUT/small_folder" --overwrite
 "$LOOKBOTH" convert --from "$OUT/small.rawlog" --to "$OUT/ground_truth.tum" --label ground_truth --overwrite
 echo
-echo "== 3. MRPT's rawlog-edit reads the dataset through lookboth's plugin"
+echo "== 4. MRPT's rawlog-edit reads the dataset through lookboth's plugin"
 (cd "$OUT" && rawlog-edit -p "$PLUGIN" -i small.rawlog --info 2>&1 | grep -E "objects|labels|Sensor")
 echo
-echo "Outputs in $OUT"
+echo "Outputs in $OUT (frames in $OUT/small_Images)"
