@@ -4,7 +4,7 @@
 set -euo pipefail
 
 PACKAGES=(
-  build-essential cmake ninja-build pkg-config clang-format
+  build-essential cmake ninja-build pkg-config clang-format time
   libeigen3-dev libceres-dev
   libmrpt-dev mrpt-apps
   libopencv-dev libopencv-contrib-dev
