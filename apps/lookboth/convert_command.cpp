@@ -113,16 +113,8 @@ int runConvert(const ConvertArgs& args) {
   const ProgressReporter progress(makeConsoleProgress());
   const StopOnSignal stop_on_signal(progress);
   try {
-    const DataKind from_kind =
-        options.from_kind == DataKind::kAuto ? detectDataKind(options.from) : options.from_kind;
-    if (from_kind == DataKind::kBag) {
-      DataKind to_kind = options.to_kind;
-      if (to_kind == DataKind::kAuto) {
-        to_kind =
-            options.to.extension() == ".rawlog" ? DataKind::kRawlog : detectDataKind(options.to);
-      }
-      return runImportBag(args, to_kind, progress);
-    }
+    const auto [from_kind, to_kind] = resolveDataKinds(options);
+    if (from_kind == DataKind::kBag) return runImportBag(args, to_kind, progress);
     const ConvertSummary summary = convertData(options, progress);
     std::cout << "wrote " << args.to << ": " << summary.total() << " records";
     std::string sep = " (";

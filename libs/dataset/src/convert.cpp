@@ -199,14 +199,19 @@ ConvertSummary tumToDataset(const ConvertOptions& options, DataKind to_kind,
 
 }  // namespace
 
-ConvertSummary convertData(const ConvertOptions& options, const ProgressReporter& progress) {
-  if (const std::string why = options.check(); !why.empty()) throw Error(why);
+std::pair<DataKind, DataKind> resolveDataKinds(const ConvertOptions& options) {
   const DataKind from_kind =
       options.from_kind == DataKind::kAuto ? detectDataKind(options.from) : options.from_kind;
   DataKind to_kind = options.to_kind;
   if (to_kind == DataKind::kAuto) {
     to_kind = options.to.extension() == ".rawlog" ? DataKind::kRawlog : detectDataKind(options.to);
   }
+  return {from_kind, to_kind};
+}
+
+ConvertSummary convertData(const ConvertOptions& options, const ProgressReporter& progress) {
+  if (const std::string why = options.check(); !why.empty()) throw Error(why);
+  const auto [from_kind, to_kind] = resolveDataKinds(options);
   if (!fs::exists(options.from))
     throw Error({options.from.string(), 0, "", ""}, "no such file or folder");
   if (from_kind == DataKind::kBag) {

@@ -99,7 +99,7 @@ class RawlogWriter : public DatasetWriter {
       images_written_ = true;
     }
     const fs::path target = temporary_images_ / name;
-    if (!names_.insert(name).second) {
+    if (fs::exists(target)) {
       throw Error({rawlog_.string(), 0, "", frame.sensor},
                   "two frames of the same camera at t=" + std::to_string(frame.t) + " ns");
     }
@@ -164,7 +164,6 @@ class RawlogWriter : public DatasetWriter {
   mrpt::io::CFileGZOutputStream stream_;
   std::unique_ptr<mrpt::serialization::CArchiveStreamBase<mrpt::io::CFileGZOutputStream>> archive_;
   std::map<std::string, mrpt::img::TCamera> mrpt_cameras_;
-  std::set<std::string> names_;
   bool images_written_ = false;
   bool finished_ = false;
   std::int64_t entries_ = 0;

@@ -6,6 +6,7 @@
 #include <functional>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "lookboth/core/progress.h"
@@ -46,6 +47,10 @@ struct ConvertOptions {
   /// Empty when valid; else a message naming the option.
   std::string check() const;
 };
+
+/// The input and output kinds of a conversion: the forced ones, else those
+/// detected from the paths (an output "x.rawlog" need not exist yet).
+std::pair<DataKind, DataKind> resolveDataKinds(const ConvertOptions& options);
 
 struct ConvertSummary {
   std::map<std::string, std::int64_t> records;  ///< by kind ("image", "marker", "blobs", "pose")
