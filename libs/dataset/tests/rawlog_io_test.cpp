@@ -207,5 +207,24 @@ TEST_F(RawlogIoTest, MissingManifestIsNamed) {
   }
 }
 
+TEST_F(RawlogIoTest, RefusesTwoFramesOfOneCameraAtOneTime) {
+  auto writer = DatasetWriter::create(rawlog_, DatasetKind::kRawlog, testing::sampleManifest());
+  ImageFrame frame;
+  frame.t = 1000;
+  frame.sensor = "cam00";
+  frame.encoded = testing::pngBytes(1);
+  frame.extension = ".png";
+  writer->write(frame);
+  try {
+    writer->write(frame);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("two frames of the same camera at t=1000 ns"),
+              std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("[cam00]"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace lookboth
