@@ -110,16 +110,15 @@ int drawLegend(cv::Mat& image, const std::vector<std::pair<std::string, cv::Scal
     y += line_height;
   }
   for (const std::string& note : notes) {
-    cv::putText(image, note, cv::Point(origin.x + 8, y), kFont, font_scale, kBlack, 1,
-                cv::LINE_AA);
+    cv::putText(image, note, cv::Point(origin.x + 8, y), kFont, font_scale, kBlack, 1, cv::LINE_AA);
     y += line_height;
   }
   return box.height;
 }
 
 int FisheyeCheck::associated() const {
-  return static_cast<int>(std::count_if(cameras.begin(), cameras.end(),
-                                        [](const ProjectedCamera& c) { return c.blob.has_value(); }));
+  return static_cast<int>(std::count_if(
+      cameras.begin(), cameras.end(), [](const ProjectedCamera& c) { return c.blob.has_value(); }));
 }
 
 double FisheyeCheck::worstResidualAfter() const {
@@ -147,8 +146,8 @@ cv::Mat drawFisheyeCheck(const FisheyeCheck& check, const cv::Mat& image, cv::Si
   // Legend with the frame's numbers and a 10 px (source image) scale bar,
   // drawn first: the overlays stay visible where they cross it.
   std::vector<std::string> notes;
-  notes.push_back("frame " + std::to_string(check.frame_index) + ", t = " +
-                  formatFixed(check.seconds, 2) + " s" +
+  notes.push_back("frame " + std::to_string(check.frame_index) +
+                  ", t = " + formatFixed(check.seconds, 2) + " s" +
                   (check.why.empty() ? "" : " (" + check.why + ")"));
   int associated = 0;
   double sum_before = 0, sum_after = 0;
@@ -162,18 +161,17 @@ cv::Mat drawFisheyeCheck(const FisheyeCheck& check, const cv::Mat& image, cv::Si
   notes.push_back(std::to_string(check.cameras.size()) + " cameras in view, " +
                   std::to_string(associated) + " with a blob");
   if (n_before || n_after) {
-    notes.push_back("RMS before " + (n_before ? formatFixed(std::sqrt(sum_before / n_before), 1) : "-") +
-                    " px, after " + (n_after ? formatFixed(std::sqrt(sum_after / n_after), 1) : "-") +
-                    " px");
+    notes.push_back(
+        "RMS before " + (n_before ? formatFixed(std::sqrt(sum_before / n_before), 1) : "-") +
+        " px, after " + (n_after ? formatFixed(std::sqrt(sum_after / n_after), 1) : "-") + " px");
   }
   if (image.empty()) notes.push_back("no image in the dataset: detections only");
-  const int legend_height = drawLegend(
-      canvas,
-      {{"detected blob", colours::kBlob},
-       {"camera position before refinement", colours::kBefore},
-       {"camera position after refinement", colours::kAfter},
-       {"residual (blob to after)", colours::kResidual}},
-      {}, font, cv::Point(4, 4));
+  const int legend_height = drawLegend(canvas,
+                                       {{"detected blob", colours::kBlob},
+                                        {"camera position before refinement", colours::kBefore},
+                                        {"camera position after refinement", colours::kAfter},
+                                        {"residual (blob to after)", colours::kResidual}},
+                                       {}, font, cv::Point(4, 4));
   const cv::Size notes_size = measureLegend({}, notes, font);
   drawLegend(canvas, {}, notes, font, cv::Point(4, out_size.height - notes_size.height - 4));
   const int bar = static_cast<int>(std::lround(10 * scale.sx));
@@ -199,9 +197,8 @@ cv::Mat drawFisheyeCheck(const FisheyeCheck& check, const cv::Mat& image, cv::Si
     mark("blob", "", at, colours::kBlob);
   }
   for (const auto& c : check.cameras) {
-    if (c.blob && std::none_of(check.blobs.begin(), check.blobs.end(), [&](const auto& b) {
-          return (b - *c.blob).norm() < 1e-9;
-        })) {
+    if (c.blob && std::none_of(check.blobs.begin(), check.blobs.end(),
+                               [&](const auto& b) { return (b - *c.blob).norm() < 1e-9; })) {
       const cv::Point2d at = scale(*c.blob);
       cv::circle(canvas, rounded(at), ring, colours::kBlob, std::max(2, unit / 2), cv::LINE_8);
       mark("blob", c.label, at, colours::kBlob);
@@ -217,8 +214,7 @@ cv::Mat drawFisheyeCheck(const FisheyeCheck& check, const cv::Mat& image, cv::Si
   for (const auto& c : check.cameras) {
     if (!c.after) continue;
     const cv::Point2d at = scale(*c.after);
-    cv::circle(canvas, rounded(at), 2 * unit + 1, colours::kAfter, cv::FILLED,
-               cv::LINE_8);
+    cv::circle(canvas, rounded(at), 2 * unit + 1, colours::kAfter, cv::FILLED, cv::LINE_8);
     mark("after", c.label, at, colours::kAfter);
   }
   for (const auto& c : check.cameras) {
@@ -303,7 +299,7 @@ namespace {
 
 /// World (metres) -> plot pixels with equal scale on both axes.
 struct PlotFrame {
-  cv::Rect area;       ///< Pixels of the plotting area.
+  cv::Rect area;  ///< Pixels of the plotting area.
   double min_a = 0, min_b = 0, pixels_per_metre = 1;
   double span_b = 0;
   cv::Point2d operator()(double a, double b) const {
@@ -317,8 +313,8 @@ PlotFrame fitFrame(const cv::Rect& area, double min_a, double max_a, double min_
   min_a -= margin, max_a += margin, min_b -= margin, max_b += margin;
   PlotFrame frame;
   frame.area = area;
-  frame.pixels_per_metre =
-      std::min(area.width / std::max(max_a - min_a, 1e-6), area.height / std::max(max_b - min_b, 1e-6));
+  frame.pixels_per_metre = std::min(area.width / std::max(max_a - min_a, 1e-6),
+                                    area.height / std::max(max_b - min_b, 1e-6));
   // Centre the content.
   const double used_a = (max_a - min_a) * frame.pixels_per_metre;
   const double used_b = (max_b - min_b) * frame.pixels_per_metre;
@@ -382,7 +378,8 @@ void drawPanel(cv::Mat& canvas, const cv::Rect& area, int axis_a, int axis_b,
   for (const auto& t : trajectories) {
     std::vector<cv::Point> points;
     for (const auto& p : t.positions) points.push_back(rounded(frame(p[axis_a], p[axis_b])));
-    if (points.size() >= 2) cv::polylines(canvas, points, false, t.colour, t.thickness, cv::LINE_AA);
+    if (points.size() >= 2)
+      cv::polylines(canvas, points, false, t.colour, t.thickness, cv::LINE_AA);
   }
   // Lines between corresponding cameras of the first two sets.
   if (cameras.size() >= 2) {
@@ -402,8 +399,9 @@ void drawPanel(cv::Mat& canvas, const cv::Rect& area, int axis_a, int axis_b,
       if (set.filled) {
         cv::circle(canvas, rounded(at), radius, set.colour, cv::FILLED, cv::LINE_AA);
       } else {
-        cv::rectangle(canvas, cv::Rect(rounded(at) - cv::Point(radius + 2, radius + 2),
-                                       cv::Size(2 * radius + 5, 2 * radius + 5)),
+        cv::rectangle(canvas,
+                      cv::Rect(rounded(at) - cv::Point(radius + 2, radius + 2),
+                               cv::Size(2 * radius + 5, 2 * radius + 5)),
                       set.colour, 2);
       }
       if (s == 0) {

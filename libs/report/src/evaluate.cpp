@@ -105,7 +105,8 @@ CameraPoseSet readCamerasCsv(const fs::path& path) {
     }
   }
   if (!have_header) {
-    throw Error({path.string(), 0, "", ""}, "no header line (expected 'label,tx,ty,tz,qx,qy,qz,qw')");
+    throw Error({path.string(), 0, "", ""},
+                "no header line (expected 'label,tx,ty,tz,qx,qy,qz,qw')");
   }
   return set;
 }
@@ -259,12 +260,12 @@ nlohmann::json comparisonJson(const PoseComparison& c) {
   j["reference"] = c.reference_source;
   j["estimate"] = c.estimate_source;
   const Sim3d& t = c.reference_from_estimate;
-  j["alignment"] = {{"type", c.with_scale ? "Sim3" : "SE3"},
-                    {"scale", t.scale},
-                    {"rotation_xyzw",
-                     {t.rotation.x(), t.rotation.y(), t.rotation.z(), t.rotation.w()}},
-                    {"translation", vectorJson(t.translation)},
-                    {"cameras_used", c.cameras.size()}};
+  j["alignment"] = {
+      {"type", c.with_scale ? "Sim3" : "SE3"},
+      {"scale", t.scale},
+      {"rotation_xyzw", {t.rotation.x(), t.rotation.y(), t.rotation.z(), t.rotation.w()}},
+      {"translation", vectorJson(t.translation)},
+      {"cameras_used", c.cameras.size()}};
   nlohmann::json cameras = nlohmann::json::array();
   for (const CameraDifference& d : c.cameras) {
     cameras.push_back({{"label", d.label},
@@ -319,9 +320,11 @@ std::string evaluationToJson(const Evaluation& e) {
   if (e.reprojection) {
     nlohmann::json r = statsJson(e.reprojection->total);
     nlohmann::json cameras = nlohmann::json::object();
-    for (const auto& [camera, stats] : e.reprojection->by_camera) cameras[camera] = statsJson(stats);
+    for (const auto& [camera, stats] : e.reprojection->by_camera)
+      cameras[camera] = statsJson(stats);
     r["cameras"] = cameras;
-    if (e.reported_reprojection) r["reported_by_registration"] = statsJson(*e.reported_reprojection);
+    if (e.reported_reprojection)
+      r["reported_by_registration"] = statsJson(*e.reported_reprojection);
     j["reprojection"] = r;
   }
   return j.dump(2) + "\n";

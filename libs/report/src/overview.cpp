@@ -1,7 +1,5 @@
 #include "lookboth/report/overview.h"
 
-#include <algorithm>
-#include <cmath>
 #include <mrpt/opengl/CBox.h>
 #include <mrpt/opengl/CFBORender.h>
 #include <mrpt/opengl/CFrustum.h>
@@ -13,6 +11,8 @@
 #include <mrpt/opengl/CText.h>
 #include <mrpt/opengl/stock_objects.h>
 #include <mrpt/poses/CPose3D.h>
+#include <algorithm>
+#include <cmath>
 #include <opencv2/imgproc.hpp>
 
 #include "lookboth/core/error.h"
@@ -137,15 +137,19 @@ cv::Mat renderOverview(const OverviewInput& input, cv::Size size) {
   if (image.size() != size) cv::resize(image, image, size);
 
   const double font = std::clamp(size.width / 1900.0, 0.33, 0.8);
-  cv::putText(image, input.title, {10, 22}, cv::FONT_HERSHEY_SIMPLEX, font * 1.1, cv::Scalar(0, 0, 0),
-              1, cv::LINE_AA);
+  cv::putText(image, input.title, {10, 22}, cv::FONT_HERSHEY_SIMPLEX, font * 1.1,
+              cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   std::vector<std::pair<std::string, cv::Scalar>> entries = {
       {"camera (frustum, axes x red y green z blue)", bgr(OverviewColours::kCamera)}};
-  if (std::any_of(input.cameras.begin(), input.cameras.end(), [](const auto& c) { return c.suspect; }))
+  if (std::any_of(input.cameras.begin(), input.cameras.end(),
+                  [](const auto& c) { return c.suspect; }))
     entries.push_back({"suspect camera", bgr(OverviewColours::kSuspect)});
-  if (!input.trajectory.empty()) entries.push_back({"robot trajectory", bgr(OverviewColours::kTrajectory)});
-  if (!input.rays.empty()) entries.push_back({"marker detections (camera to marker)", bgr(OverviewColours::kRay)});
-  if (!input.reference.empty()) entries.push_back({"reference camera positions", bgr(OverviewColours::kReference)});
+  if (!input.trajectory.empty())
+    entries.push_back({"robot trajectory", bgr(OverviewColours::kTrajectory)});
+  if (!input.rays.empty())
+    entries.push_back({"marker detections (camera to marker)", bgr(OverviewColours::kRay)});
+  if (!input.reference.empty())
+    entries.push_back({"reference camera positions", bgr(OverviewColours::kReference)});
   const cv::Size legend = measureLegend(entries, {"grid: 1 m"}, font);
   drawLegend(image, entries, {"grid: 1 m"}, font, cv::Point(8, size.height - legend.height - 8));
   return image;

@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
-#include <tuple>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
+#include <tuple>
 
 #include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
@@ -33,8 +33,10 @@ FrameSelection FrameSelection::parse(const std::string& text) {
     const auto t0 = parseDouble(text.substr(0, colon));
     const auto t1 = parseDouble(text.substr(colon + 1));
     if (!t0 || !t1 || !(*t1 >= *t0) || *t0 < 0) {
-      throw Error(where, "expected 'auto', indices 'i,j,k' or seconds 't0:t1' with 0 <= t0 <= t1, "
-                         "got '" + text + "'");
+      throw Error(where,
+                  "expected 'auto', indices 'i,j,k' or seconds 't0:t1' with 0 <= t0 <= t1, "
+                  "got '" +
+                      text + "'");
     }
     selection.mode = Mode::kTimeRange;
     selection.t0_s = *t0;
@@ -80,7 +82,7 @@ namespace {
 struct DatasetContents {
   Manifest manifest;
   std::string fisheye_label;
-  std::vector<ImageFrame> fisheye_frames;              ///< In time order.
+  std::vector<ImageFrame> fisheye_frames;                ///< In time order.
   std::map<TimeNs, std::vector<Eigen::Vector2d>> blobs;  ///< By fisheye frame time.
   std::map<std::string, std::vector<ImageFrame>> env_frames;
   std::map<std::string, std::vector<MarkerObservation>> markers;
@@ -113,15 +115,18 @@ DatasetContents readDataset(const fs::path& path, const ProgressReporter& progre
       auto& list = data.blobs[blobs->t];
       for (const Blob& blob : blobs->blobs) list.emplace_back(blob.u, blob.v);
     } else if (auto* marker = std::get_if<MarkerObservation>(&*record)) {
-      if (marker->marker_id == data.manifest.marker.id) data.markers[marker->camera].push_back(*marker);
+      if (marker->marker_id == data.manifest.marker.id)
+        data.markers[marker->camera].push_back(*marker);
     } else if (auto* pose = std::get_if<PoseSample>(&*record)) {
       data.trajectories[pose->label].push_back({pose->t, pose->world_from_body});
     }
   }
   const auto by_time = [](const auto& a, const auto& b) { return a.t < b.t; };
   std::stable_sort(data.fisheye_frames.begin(), data.fisheye_frames.end(), by_time);
-  for (auto& [camera, frames] : data.env_frames) std::stable_sort(frames.begin(), frames.end(), by_time);
-  for (auto& [label, samples] : data.trajectories) std::stable_sort(samples.begin(), samples.end(), by_time);
+  for (auto& [camera, frames] : data.env_frames)
+    std::stable_sort(frames.begin(), frames.end(), by_time);
+  for (auto& [label, samples] : data.trajectories)
+    std::stable_sort(samples.begin(), samples.end(), by_time);
   if (!data.fisheye_frames.empty()) {
     for (const ImageFrame& frame : data.fisheye_frames) data.frame_times.push_back(frame.t);
   } else {
@@ -220,10 +225,9 @@ std::vector<std::pair<int, std::string>> chooseFrames(
   if (selection.mode == FrameSelection::Mode::kIndices) {
     for (int index : selection.indices) {
       if (index >= n) {
-        throw Error({"", 0, "--frames", ""}, "frame " + std::to_string(index) +
-                                                 " does not exist: the dataset has " +
-                                                 std::to_string(n) + " fisheye frames (0 to " +
-                                                 std::to_string(n - 1) + ")");
+        throw Error({"", 0, "--frames", ""},
+                    "frame " + std::to_string(index) + " does not exist: the dataset has " +
+                        std::to_string(n) + " fisheye frames (0 to " + std::to_string(n - 1) + ")");
       }
       chosen.push_back({index, "requested"});
     }
@@ -233,7 +237,8 @@ std::vector<std::pair<int, std::string>> chooseFrames(
     const TimeNs start = times.front();
     for (int i = 0; i < n; ++i) {
       const double s = nsToSeconds(times[i] - start);
-      if (s >= selection.t0_s - 1e-9 && s <= selection.t1_s + 1e-9) chosen.push_back({i, "requested"});
+      if (s >= selection.t0_s - 1e-9 && s <= selection.t1_s + 1e-9)
+        chosen.push_back({i, "requested"});
     }
     if (chosen.empty()) {
       throw Error({"", 0, "--frames", ""},
@@ -299,8 +304,7 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
   if (!fs::is_directory(options.out)) {
     throw Error({options.out.string(), 0, "", ""}, "cannot create the output folder");
   }
-  const cv::Size plot_size =
-      options.size.width > 0 ? options.size : cv::Size(1280, 720);
+  const cv::Size plot_size = options.size.width > 0 ? options.size : cv::Size(1280, 720);
   const TimeNs start = data.frame_times.empty() ? 0 : data.frame_times.front();
   const auto add = [&](SnapshotPicture picture, const cv::Mat& image) {
     writePng(picture.file, image);
@@ -322,9 +326,8 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
     const auto check_at = [&](int index) {
       const TimeNs t = data.frame_times[index];
       const auto blobs = data.blobs.find(t);
-      FisheyeCheck check = makeCheck(reg, fisheye, t,
-                                     blobs == data.blobs.end() ? kNoBlobs : blobs->second,
-                                     rows_by_time);
+      FisheyeCheck check = makeCheck(
+          reg, fisheye, t, blobs == data.blobs.end() ? kNoBlobs : blobs->second, rows_by_time);
       check.frame_index = index;
       check.seconds = nsToSeconds(t - start);
       return check;
@@ -347,8 +350,8 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
       picture.file = options.out / ("fisheye_check_f" + std::string(index_text) + "_t" +
                                     secondsText(check.seconds) + "s.png");
       picture.caption = "Fisheye frame " + std::to_string(index) + " at " +
-                        secondsText(check.seconds) + " s (" + why + "): " +
-                        std::to_string(check.cameras.size()) + " cameras in view, " +
+                        secondsText(check.seconds) + " s (" + why +
+                        "): " + std::to_string(check.cameras.size()) + " cameras in view, " +
                         std::to_string(check.associated()) + " with a detected blob.";
       const cv::Mat drawn = drawFisheyeCheck(check, image, options.size, &picture.marks);
       add(std::move(picture), drawn);
@@ -389,9 +392,9 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
       for (const MarkerObservation& m : markers->second) {
         const ImageFrame* frame = nullptr;
         if (frames != data.env_frames.end()) {
-          const auto found = std::lower_bound(
-              frames->second.begin(), frames->second.end(), m.t,
-              [](const ImageFrame& f, TimeNs t) { return f.t < t; });
+          const auto found =
+              std::lower_bound(frames->second.begin(), frames->second.end(), m.t,
+                               [](const ImageFrame& f, TimeNs t) { return f.t < t; });
           if (found == frames->second.end() || found->t != m.t) continue;
           frame = &*found;
         }
@@ -424,12 +427,12 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
     picture.kind = "env_view";
     picture.t = view.t;
     const double seconds = nsToSeconds(view.t - start);
-    picture.file = options.out / ("env_view_" + safeName(sensor.label) + "_t" +
-                                  secondsText(seconds) + "s.png");
-    picture.caption = "Camera " + sensor.label + " at " + secondsText(seconds) + " s: " +
-                      (view.detected_camera_from_marker ? "the detected marker with its axes, and "
-                                                        : "") +
-                      "the marker where the registration puts it.";
+    picture.file = options.out /
+                   ("env_view_" + safeName(sensor.label) + "_t" + secondsText(seconds) + "s.png");
+    picture.caption =
+        "Camera " + sensor.label + " at " + secondsText(seconds) + " s: " +
+        (view.detected_camera_from_marker ? "the detected marker with its axes, and " : "") +
+        "the marker where the registration puts it.";
     const cv::Mat drawn = drawEnvCameraView(view, camera, image, options.size, &picture.marks);
     add(std::move(picture), drawn);
     ++env_views;
@@ -437,7 +440,8 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
 
   // Trajectory positions for the plots.
   std::vector<Eigen::Vector3d> trajectory;
-  for (const StampedPose& s : reg.trajectory.samples()) trajectory.push_back(s.world_from_body.translation);
+  for (const StampedPose& s : reg.trajectory.samples())
+    trajectory.push_back(s.world_from_body.translation);
 
   // 3. The 3-D overview.
   if (options.overview) {
@@ -458,15 +462,17 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
         rays.push_back({pose->second.translation, pose->second * m.camera_from_marker.translation});
       }
     }
-    const size_t step = std::max<size_t>(1, (rays.size() + options.max_rays - 1) /
-                                                std::max(1, options.max_rays));
+    const size_t step =
+        std::max<size_t>(1, (rays.size() + options.max_rays - 1) / std::max(1, options.max_rays));
     for (size_t i = 0; i < rays.size(); i += step) input.rays.push_back(rays[i]);
-    if (rays.empty()) result.notes.push_back("no marker detection in the dataset: no rays in the 3-D overview");
+    if (rays.empty())
+      result.notes.push_back("no marker detection in the dataset: no rays in the 3-D overview");
     SnapshotPicture picture;
     picture.kind = "overview_3d";
     picture.file = options.out / "overview_3d.png";
-    picture.caption = "3-D overview: the robot's trajectory, every registered camera (frustum, "
-                      "axes, label) and marker detections as rays.";
+    picture.caption =
+        "3-D overview: the robot's trajectory, every registered camera (frustum, "
+        "axes, label) and marker detections as rays.";
     add(std::move(picture), renderOverview(input, plot_size));
     progress.report("snapshot: 3-D overview", 1, 1);
   }
@@ -495,23 +501,25 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
     if (const auto gt = data.trajectories.find("ground_truth");
         gt != data.trajectories.end() && options.reference_name == "ground_truth") {
       PlotTrajectory truth{"ground truth trajectory", cv::Scalar(120, 200, 255), {}, 1};
-      for (const StampedPose& s : gt->second) truth.positions.push_back(s.world_from_body.translation);
+      for (const StampedPose& s : gt->second)
+        truth.positions.push_back(s.world_from_body.translation);
       trajectories.push_back(truth);
     }
     SnapshotPicture picture;
     picture.kind = "compare";
-    picture.file = options.out / ("compare_top_side_vs_" + safeName(options.reference_name) + ".png");
+    picture.file =
+        options.out / ("compare_top_side_vs_" + safeName(options.reference_name) + ".png");
     picture.caption = "Camera positions of " + reg.name + " (blue discs) against " +
                       options.reference_name + " (orange squares), top and side views, after " +
                       (options.reference_with_scale ? "Sim(3)" : "SE(3)") +
-                      " alignment: position RMS " + formatFixed(comparison.rms.position_m_total, 3) +
-                      " m, rotation RMS " + formatFixed(comparison.rms.rotation_deg_total, 2) +
-                      " deg.";
-    const cv::Mat drawn = drawTopSideView(
-        reg.name + " vs " + options.reference_name + ": position RMS " +
-            formatFixed(comparison.rms.position_m_total, 3) + " m, rotation RMS " +
-            formatFixed(comparison.rms.rotation_deg_total, 2) + " deg",
-        {estimate, reference}, trajectories, plot_size, &picture.marks);
+                      " alignment: position RMS " +
+                      formatFixed(comparison.rms.position_m_total, 3) + " m, rotation RMS " +
+                      formatFixed(comparison.rms.rotation_deg_total, 2) + " deg.";
+    const cv::Mat drawn =
+        drawTopSideView(reg.name + " vs " + options.reference_name + ": position RMS " +
+                            formatFixed(comparison.rms.position_m_total, 3) + " m, rotation RMS " +
+                            formatFixed(comparison.rms.rotation_deg_total, 2) + " deg",
+                        {estimate, reference}, trajectories, plot_size, &picture.marks);
     add(std::move(picture), drawn);
   }
 
@@ -526,15 +534,18 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
     const auto after = data.trajectories.find(closed);
     if (after == data.trajectories.end()) continue;
     PlotTrajectory before_plot{label, colours::kBefore, {}, 2};
-    for (const StampedPose& s : samples) before_plot.positions.push_back(s.world_from_body.translation);
+    for (const StampedPose& s : samples)
+      before_plot.positions.push_back(s.world_from_body.translation);
     PlotTrajectory after_plot{closed + " (after loop closure)", cv::Scalar(0, 160, 0), {}, 2};
-    for (const StampedPose& s : after->second) after_plot.positions.push_back(s.world_from_body.translation);
+    for (const StampedPose& s : after->second)
+      after_plot.positions.push_back(s.world_from_body.translation);
     SnapshotPicture picture;
     picture.kind = "loop_closure";
     picture.file = options.out / ("trajectory_loop_closure_" + safeName(closed) + ".png");
-    picture.caption = "Trajectory " + closed + " before (red) and after (green) loop closure, top view.";
-    const cv::Mat drawn = drawTopView("Trajectory " + closed + " before and after loop closure",
-                                      {}, {before_plot, after_plot}, plot_size, &picture.marks);
+    picture.caption =
+        "Trajectory " + closed + " before (red) and after (green) loop closure, top view.";
+    const cv::Mat drawn = drawTopView("Trajectory " + closed + " before and after loop closure", {},
+                                      {before_plot, after_plot}, plot_size, &picture.marks);
     add(std::move(picture), drawn);
   }
   return result;

@@ -151,8 +151,9 @@ TEST(Evaluate, TooFewCommonCamerasIsAnError) {
 }
 
 TEST(Evaluate, RollPitchYawRoundTrip) {
-  for (const Eigen::Vector3d& rpy : {Eigen::Vector3d(0.1, -0.2, 0.3), Eigen::Vector3d(3.0, 0.5, -2.5),
-                                    Eigen::Vector3d(-1.0, 1.2, 0.0)}) {
+  for (const Eigen::Vector3d& rpy :
+       {Eigen::Vector3d(0.1, -0.2, 0.3), Eigen::Vector3d(3.0, 0.5, -2.5),
+        Eigen::Vector3d(-1.0, 1.2, 0.0)}) {
     const Eigen::Matrix3d r = (Eigen::AngleAxisd(rpy.z(), Eigen::Vector3d::UnitZ()) *
                                Eigen::AngleAxisd(rpy.y(), Eigen::Vector3d::UnitY()) *
                                Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()))
@@ -164,9 +165,9 @@ TEST(Evaluate, RollPitchYawRoundTrip) {
 class CamerasCsv : public ::testing::Test {
  protected:
   fs::path write(const std::string& text) {
-    const fs::path path = fs::temp_directory_path() /
-                          ("lookboth_report_cameras_" + std::to_string(::getpid()) + "_" +
-                           std::to_string(counter_++) + ".csv");
+    const fs::path path =
+        fs::temp_directory_path() / ("lookboth_report_cameras_" + std::to_string(::getpid()) + "_" +
+                                     std::to_string(counter_++) + ".csv");
     std::ofstream(path) << text;
     paths_.push_back(path);
     return path;
@@ -188,8 +189,8 @@ class CamerasCsv : public ::testing::Test {
 };
 
 TEST_F(CamerasCsv, ReadsAnyColumnOrder) {
-  const fs::path path = write(
-      "# comment\nqw,qx,qy,qz,label,tx,ty,tz\n1,0,0,0,a,1,2,3\n\n0,1,0,0,b,4,5,6\n");
+  const fs::path path =
+      write("# comment\nqw,qx,qy,qz,label,tx,ty,tz\n1,0,0,0,a,1,2,3\n\n0,1,0,0,b,4,5,6\n");
   const CameraPoseSet set = readCamerasCsv(path);
   ASSERT_EQ(set.world_from_camera.size(), 2u);
   EXPECT_EQ(set.world_from_camera.at("b").translation, Eigen::Vector3d(4, 5, 6));

@@ -2,9 +2,8 @@
 // size, the overlays sit at the projected positions (computed here
 // independently of the drawing code), the 3-D overview is not empty.
 //
-// The registration here is the simulator's ground truth (final poses) and the
-// ground truth moved by a known offset ("before refinement"), so the test does
-// not depend on the estimator.
+// The registration here is made from the simulator's ground truth
+// (truth_registration.h), so the test does not depend on the estimator.
 #include <gtest/gtest.h>
 
 #include <opencv2/imgcodecs.hpp>
@@ -15,6 +14,7 @@
 #include "lookboth/report/overview.h"
 #include "lookboth/report/snapshot.h"
 #include "lookboth/sim/simulate.h"
+#include "truth_registration.h"
 
 namespace lookboth::report {
 namespace {
@@ -26,61 +26,14 @@ struct Simulated {
   RegistrationView view;
 };
 
-/// A registration view from the ground truth of `dataset`: final = truth,
-/// before = truth + (0.15, -0.1, 0.05) m, associations = blobs (or truth
-/// projections when there are none) matched to the nearest projection.
+/// The registration view of the truth-made registration (through
+/// viewOfRegistration, the bridge from libs/calib): final = truth, before =
+/// truth + (0.15, -0.1, 0.05) m.
 Simulated viewFromTruth(const fs::path& dataset) {
   Simulated s;
-  auto reader = DatasetReader::open(dataset);
-  s.manifest = reader->manifest();
-  const Camera& fisheye = *s.manifest.fisheye()->camera;
-  std::vector<BlobObservation> blobs;
-  std::vector<TimeNs> frame_times;
-  while (auto record = reader->next()) {
-    if (const auto* pose = std::get_if<PoseSample>(&*record); pose && pose->label == "ground_truth") {
-      s.view.trajectory.append(pose->t, pose->world_from_body);
-    } else if (const auto* b = std::get_if<BlobObservation>(&*record)) {
-      blobs.push_back(*b);
-    } else if (const auto* f = std::get_if<ImageFrame>(&*record); f && f->sensor == "fisheye") {
-      frame_times.push_back(f->t);
-    }
-  }
-  s.view.name = "truth";
-  for (const auto& [label, pose] : s.manifest.ground_truth.world_from_camera) {
-    s.view.world_from_camera[label] = pose;
-    Rigid3d before = pose;
-    before.translation += Eigen::Vector3d(0.15, -0.1, 0.05);
-    s.view.world_from_camera_before[label] = before;
-  }
-  s.view.fisheye_from_marker = s.manifest.ground_truth.fisheye_from_marker;
-  const auto project = [&](TimeNs t, const Rigid3d& world_from_camera) -> std::optional<Eigen::Vector2d> {
-    const InterpolationResult r = s.view.trajectory.interpolate(t, 0);
-    if (!r.ok()) return std::nullopt;
-    const auto uv = fisheye.project(r.world_from_body.inverse() * world_from_camera.translation);
-    if (uv && fisheye.isInImage(*uv)) return uv;
-    return std::nullopt;
-  };
-  if (blobs.empty()) {  // Rendered dataset: the truth projections, 1.5 px off, as "blobs".
-    for (TimeNs t : frame_times) {
-      for (const auto& [label, pose] : s.view.world_from_camera) {
-        const auto after = project(t, pose);
-        if (!after) continue;
-        s.view.blob_associations.push_back({t, label, after->x() + 1.5, after->y(),
-                                            project(t, s.view.world_from_camera_before[label]), after});
-      }
-    }
-  } else {
-    for (const BlobObservation& b : blobs) {
-      for (const Blob& blob : b.blobs) {
-        for (const auto& [label, pose] : s.view.world_from_camera) {
-          const auto after = project(b.t, pose);
-          if (!after || (*after - Eigen::Vector2d(blob.u, blob.v)).norm() > 8) continue;
-          s.view.blob_associations.push_back(
-              {b.t, label, blob.u, blob.v, project(b.t, s.view.world_from_camera_before[label]), after});
-        }
-      }
-    }
-  }
+  s.manifest = DatasetReader::open(dataset)->manifest();
+  s.view = viewOfRegistration(
+      testing::registrationFromTruth(dataset, Eigen::Vector3d(0.15, -0.1, 0.05)), "truth");
   return s;
 }
 
@@ -132,7 +85,8 @@ void expectOverlaysAtProjections(const SnapshotResult& result, const Registratio
     ASSERT_FALSE(image.empty()) << picture.file;
     std::vector<cv::Point2d> afters;
     for (const ReprojectionRow& row : view.blob_associations) {
-      if (row.t == picture.t && row.after) afters.push_back(toOutput(*row.after, fisheye_size, image.size()));
+      if (row.t == picture.t && row.after)
+        afters.push_back(toOutput(*row.after, fisheye_size, image.size()));
     }
     for (const cv::Point2d& at : afters) {
       const cv::Point p(static_cast<int>(std::lround(at.x)), static_cast<int>(std::lround(at.y)));
@@ -202,8 +156,9 @@ TEST_F(SnapshotTest, DetectionsOnlySmallScenario) {
       for (int x = 0; x < image.cols; ++x) {
         const cv::Vec3b p = image.at<cv::Vec3b>(y, x);
         if (p != cv::Vec3b(255, 255, 255)) ++drawn;
-        if (colourNear(p, cv::Scalar(OverviewColours::kCamera[2], OverviewColours::kCamera[1],
-                                     OverviewColours::kCamera[0]),
+        if (colourNear(p,
+                       cv::Scalar(OverviewColours::kCamera[2], OverviewColours::kCamera[1],
+                                  OverviewColours::kCamera[0]),
                        50)) {
           ++camera_blue;
         }

@@ -22,15 +22,15 @@ namespace lookboth::report {
 
 /// Overlay colours (OpenCV BGR order).
 namespace colours {
-inline const cv::Scalar kBlob(0, 200, 0);                // detected blob: green ring
-inline const cv::Scalar kBefore(0, 0, 255);              // projected before refinement: red cross
-inline const cv::Scalar kAfter(255, 128, 0);             // projected after refinement: blue disc
-inline const cv::Scalar kResidual(0, 215, 255);          // residual segment blob -> after: yellow
-inline const cv::Scalar kDetectedMarker(0, 215, 255);    // detected marker outline: yellow
-inline const cv::Scalar kPredictedMarker(255, 0, 255);   // marker where the registration puts it
-inline const cv::Scalar kEstimate(200, 90, 0);           // estimate in plots: blue
-inline const cv::Scalar kReference(0, 120, 255);         // reference in plots: orange
-inline const cv::Scalar kTrajectory(90, 90, 90);         // trajectory in plots: grey
+inline const cv::Scalar kBlob(0, 200, 0);               // detected blob: green ring
+inline const cv::Scalar kBefore(0, 0, 255);             // projected before refinement: red cross
+inline const cv::Scalar kAfter(255, 128, 0);            // projected after refinement: blue disc
+inline const cv::Scalar kResidual(0, 215, 255);         // residual segment blob -> after: yellow
+inline const cv::Scalar kDetectedMarker(0, 215, 255);   // detected marker outline: yellow
+inline const cv::Scalar kPredictedMarker(255, 0, 255);  // marker where the registration puts it
+inline const cv::Scalar kEstimate(200, 90, 0);          // estimate in plots: blue
+inline const cv::Scalar kReference(0, 120, 255);        // reference in plots: orange
+inline const cv::Scalar kTrajectory(90, 90, 90);        // trajectory in plots: grey
 }  // namespace colours
 
 /// Where something was drawn, in output pixels (for tests and image maps).
@@ -45,10 +45,10 @@ struct OverlayMark {
 /// (pixel (0,0) = centre of the top-left pixel).
 struct FisheyeCheck {
   TimeNs t = 0;
-  int frame_index = -1;      ///< Index among the dataset's fisheye frames.
-  double seconds = 0;        ///< Time since the first fisheye frame [s].
-  std::string why;           ///< Why this frame was chosen ("most cameras in view"...).
-  cv::Size image_size;       ///< The fisheye image size.
+  int frame_index = -1;                ///< Index among the dataset's fisheye frames.
+  double seconds = 0;                  ///< Time since the first fisheye frame [s].
+  std::string why;                     ///< Why this frame was chosen ("most cameras in view"...).
+  cv::Size image_size;                 ///< The fisheye image size.
   std::vector<Eigen::Vector2d> blobs;  ///< Every blob detected in the frame.
   struct ProjectedCamera {
     std::string label;

@@ -30,6 +30,10 @@
 #include "lookboth/geometry/sim3.h"
 #include "lookboth/geometry/time.h"
 
+namespace lookboth {
+struct Registration;
+}
+
 namespace lookboth::report {
 
 /// Camera poses from one source (a registration, ground truth...).
@@ -115,11 +119,11 @@ struct ReprojectionRow {
 };
 
 struct ReprojectionSummary {
-  int blobs = 0;              ///< Rows counted.
-  int blobs_before = 0;       ///< Rows with a projection before.
-  int blobs_after = 0;        ///< Rows with a projection after.
-  double rms_px_before = 0;   ///< RMS of |(u,v) - before| [px].
-  double rms_px_after = 0;    ///< RMS of |(u,v) - after| [px].
+  int blobs = 0;             ///< Rows counted.
+  int blobs_before = 0;      ///< Rows with a projection before.
+  int blobs_after = 0;       ///< Rows with a projection after.
+  double rms_px_before = 0;  ///< RMS of |(u,v) - before| [px].
+  double rms_px_after = 0;   ///< RMS of |(u,v) - after| [px].
   double max_px_before = 0;
   double max_px_after = 0;
 };
@@ -145,6 +149,27 @@ struct Evaluation {
   /// (registration.yaml), for comparison with the recomputed table.
   std::optional<ReprojectionSummary> reported_reprojection;
 };
+
+/// Registered and suspect cameras' poses of a registration; unregistered
+/// cameras go to without_pose.
+CameraPoseSet poseSetOfRegistration(const Registration& registration, const std::string& source);
+
+/// Stage 4's blob associations as reprojection rows (a non-finite
+/// projection becomes nullopt).
+std::vector<ReprojectionRow> reprojectionRows(const Registration& registration);
+
+struct EvaluateOptions {
+  std::filesystem::path ground_truth;  ///< Dataset, dataset folder or cameras.csv; empty = none.
+  std::filesystem::path against;       ///< Another registration directory; empty = none.
+  bool with_scale = false;             ///< Sim(3) alignment (scale free) instead of SE(3).
+  std::string check() const;
+};
+
+/// Loads the registration in `registration_dir` (loadRegistration) and
+/// evaluates it: against ground truth, against another registration, and
+/// its reprojection table (when it has blob associations).
+Evaluation evaluateRegistration(const std::filesystem::path& registration_dir,
+                                const EvaluateOptions& options);
 
 /// evaluation.json text (doc/formats.md, "evaluation.json").
 std::string evaluationToJson(const Evaluation& evaluation);

@@ -51,8 +51,8 @@ RegistrationView viewOfRegistration(const Registration& registration, const std:
 /// Which fisheye frames to check.
 struct FrameSelection {
   enum class Mode { kAuto, kIndices, kTimeRange } mode = Mode::kAuto;
-  std::vector<int> indices;         ///< kIndices: 0-based among the fisheye frames.
-  double t0_s = 0, t1_s = 0;        ///< kTimeRange: seconds since the first fisheye frame.
+  std::vector<int> indices;   ///< kIndices: 0-based among the fisheye frames.
+  double t0_s = 0, t1_s = 0;  ///< kTimeRange: seconds since the first fisheye frame.
   /// "auto", "3,10,42" or "12.5:14" (throws lookboth::Error naming '--frames').
   static FrameSelection parse(const std::string& text);
 };
@@ -63,14 +63,14 @@ struct SnapshotOptions {
   /// Size of every picture [px]; {0, 0}: camera pictures at the image's own
   /// size, plots and the 3-D overview at 1280x720.
   cv::Size size{0, 0};
-  int auto_frames = 6;       ///< Frames picked by --frames auto.
-  int max_env_views = 12;    ///< Environment camera pictures at most (0 = none).
-  bool overview = true;      ///< Render the 3-D overview (needs EGL).
-  int max_rays = 400;        ///< Detection rays drawn in the overview at most.
+  int auto_frames = 6;     ///< Frames picked by --frames auto.
+  int max_env_views = 12;  ///< Environment camera pictures at most (0 = none).
+  bool overview = true;    ///< Render the 3-D overview (needs EGL).
+  int max_rays = 400;      ///< Detection rays drawn in the overview at most.
   /// A reference to compare with (ground truth or another registration).
   std::optional<CameraPoseSet> reference;
-  std::string reference_name;          ///< For file names: "ground_truth", "run2"...
-  bool reference_with_scale = false;   ///< Align the reference with Sim(3).
+  std::string reference_name;         ///< For file names: "ground_truth", "run2"...
+  bool reference_with_scale = false;  ///< Align the reference with Sim(3).
   std::string check() const;
 };
 
@@ -79,13 +79,13 @@ struct SnapshotPicture {
   std::string kind;     ///< "fisheye_check", "env_view", "overview_3d", "compare", "loop_closure".
   std::string caption;  ///< One sentence saying what it shows.
   cv::Size size;
-  TimeNs t = 0;  ///< The frame's time (camera pictures).
+  TimeNs t = 0;                    ///< The frame's time (camera pictures).
   std::vector<OverlayMark> marks;  ///< What was drawn where (output pixels).
 };
 
 struct SnapshotResult {
   std::vector<SnapshotPicture> pictures;
-  std::vector<std::string> notes;  ///< What could not be drawn and why.
+  std::vector<std::string> notes;            ///< What could not be drawn and why.
   std::optional<PoseComparison> comparison;  ///< Against the reference, when given.
 };
 
