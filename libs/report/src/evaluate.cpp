@@ -299,7 +299,11 @@ nlohmann::json statsJson(const ReprojectionSummary& s) {
           {"max_px_after", s.max_px_after}};
 }
 
-std::string fixed(double value, int decimals) { return formatFixed(value, decimals); }
+/// Fixed notation without "-0.000" for values that round to zero.
+std::string fixed(double value, int decimals) {
+  if (std::abs(value) < 0.5 * std::pow(10.0, -decimals)) value = 0.0;
+  return formatFixed(value, decimals);
+}
 
 std::string pad(const std::string& text, size_t width) {
   return text.size() >= width ? text : std::string(width - text.size(), ' ') + text;
@@ -376,9 +380,10 @@ std::string formatComparisonTable(const PoseComparison& c, const std::string& ti
 
 std::string formatTableTwoRow(const PoseComparison& c, const std::string& row_name) {
   std::ostringstream out;
-  out << "  " << padRight("", 24) << pad("roll [deg]", 11) << pad("pitch [deg]", 12)
+  const size_t name_width = std::max<size_t>(24, row_name.size() + 2);
+  out << "  " << padRight("", name_width) << pad("roll [deg]", 11) << pad("pitch [deg]", 12)
       << pad("yaw [deg]", 11) << pad("X [m]", 9) << pad("Y [m]", 9) << pad("Z [m]", 9) << "\n";
-  out << "  " << padRight(row_name, 24) << pad(fixed(c.rms.roll_pitch_yaw_deg.x(), 4), 11)
+  out << "  " << padRight(row_name, name_width) << pad(fixed(c.rms.roll_pitch_yaw_deg.x(), 4), 11)
       << pad(fixed(c.rms.roll_pitch_yaw_deg.y(), 4), 12)
       << pad(fixed(c.rms.roll_pitch_yaw_deg.z(), 4), 11) << pad(fixed(c.rms.position_m.x(), 4), 9)
       << pad(fixed(c.rms.position_m.y(), 4), 9) << pad(fixed(c.rms.position_m.z(), 4), 9) << "\n";
