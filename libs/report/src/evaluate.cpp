@@ -253,7 +253,14 @@ ReprojectionTable reprojectionTable(const std::vector<ReprojectionRow>& rows) {
 
 namespace {
 
-nlohmann::json vectorJson(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+// Named fields, as every lookboth JSON/YAML output (doc/conventions.md).
+nlohmann::json vectorJson(const Eigen::Vector3d& v) {
+  return {{"x", v.x()}, {"y", v.y()}, {"z", v.z()}};
+}
+
+nlohmann::json anglesJson(const Eigen::Vector3d& roll_pitch_yaw) {
+  return {{"roll", roll_pitch_yaw.x()}, {"pitch", roll_pitch_yaw.y()}, {"yaw", roll_pitch_yaw.z()}};
+}
 
 nlohmann::json comparisonJson(const PoseComparison& c) {
   nlohmann::json j;
@@ -271,8 +278,8 @@ nlohmann::json comparisonJson(const PoseComparison& c) {
     cameras.push_back({{"label", d.label},
                        {"position_error_m", d.position_error_m},
                        {"rotation_error_deg", d.rotation_error_deg},
-                       {"dxyz_m", vectorJson(d.position_m)},
-                       {"droll_dpitch_dyaw_deg", vectorJson(d.roll_pitch_yaw_deg)}});
+                       {"position_difference_m", vectorJson(d.position_m)},
+                       {"rotation_difference_deg", anglesJson(d.roll_pitch_yaw_deg)}});
   }
   j["cameras"] = cameras;
   j["rms"] = {{"position_m", c.rms.position_m_total},
