@@ -1,11 +1,15 @@
 #include "lookboth/report/snapshot.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <exception>
 #include <functional>
+#include <mutex>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
+#include <thread>
 #include <tuple>
 
 #include "lookboth/core/atomic_file.h"
@@ -140,6 +144,10 @@ cv::Mat decodeImage(const ImageFrame& frame) {
   if (frame.encoded) {
     image = cv::imdecode(*frame.encoded, cv::IMREAD_UNCHANGED);
   } else if (!frame.image_file.empty()) {
+    std::error_code ec;
+    if (!fs::is_regular_file(frame.image_file, ec)) {
+      throw Error({frame.image_file.string(), 0, "", frame.sensor}, "image file missing");
+    }
     image = cv::imread(frame.image_file.string(), cv::IMREAD_UNCHANGED);
   }
   if (image.empty()) {
@@ -155,7 +163,7 @@ cv::Mat decodeImage(const ImageFrame& frame) {
 
 void writePng(const fs::path& path, const cv::Mat& image) {
   std::vector<std::uint8_t> bytes;
-  if (!cv::imencode(".png", image, bytes, {cv::IMWRITE_PNG_COMPRESSION, 3})) {
+  if (!cv::imencode(".png", image, bytes, {cv::IMWRITE_PNG_COMPRESSION, 1})) {
     throw Error({path.string(), 0, "", ""}, "cannot encode the PNG");
   }
   AtomicOutputFile file(path, true);
@@ -334,29 +342,57 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
     };
     const auto chosen =
         chooseFrames(options.frames, options.auto_frames, data.frame_times, check_at, result.notes);
-    int done = 0;
-    for (const auto& [index, why] : chosen) {
-      progress.checkStop();
-      progress.report("snapshot: fisheye checks", done++, static_cast<std::int64_t>(chosen.size()));
-      FisheyeCheck check = check_at(index);
-      check.why = why;
-      cv::Mat image;
-      if (!data.fisheye_frames.empty()) image = decodeImage(data.fisheye_frames[index]);
-      SnapshotPicture picture;
-      picture.kind = "fisheye_check";
-      picture.t = check.t;
-      char index_text[16];
-      std::snprintf(index_text, sizeof index_text, "%04d", index);
-      picture.file = options.out / ("fisheye_check_f" + std::string(index_text) + "_t" +
-                                    secondsText(check.seconds) + "s.png");
-      picture.caption = "Fisheye frame " + std::to_string(index) + " at " +
-                        secondsText(check.seconds) + " s (" + why +
-                        "): " + std::to_string(check.cameras.size()) + " cameras in view, " +
-                        std::to_string(check.associated()) + " with a detected blob.";
-      const cv::Mat drawn = drawFisheyeCheck(check, image, options.size, &picture.marks);
-      add(std::move(picture), drawn);
+    // Frames are independent: decode, draw, encode and write them on a few
+    // threads (pictures are returned in frame order whatever the threads).
+    const int total = static_cast<int>(chosen.size());
+    std::vector<std::optional<SnapshotPicture>> pictures(chosen.size());
+    std::atomic<int> next{0}, done{0};
+    std::mutex mutex;  // progress callback and the first error
+    std::exception_ptr error;
+    const auto work = [&] {
+      for (int k = next++; k < total; k = next++) {
+        if (progress.stopRequested()) return;
+        try {
+          const auto& [index, why] = chosen[k];
+          FisheyeCheck check = check_at(index);
+          check.why = why;
+          cv::Mat image;
+          if (!data.fisheye_frames.empty()) image = decodeImage(data.fisheye_frames[index]);
+          SnapshotPicture picture;
+          picture.kind = "fisheye_check";
+          picture.t = check.t;
+          char index_text[16];
+          std::snprintf(index_text, sizeof index_text, "%04d", index);
+          picture.file = options.out / ("fisheye_check_f" + std::string(index_text) + "_t" +
+                                        secondsText(check.seconds) + "s.png");
+          picture.caption = "Fisheye frame " + std::to_string(index) + " at " +
+                            secondsText(check.seconds) + " s (" + why +
+                            "): " + std::to_string(check.cameras.size()) + " cameras in view, " +
+                            std::to_string(check.associated()) + " with a detected blob.";
+          const cv::Mat drawn = drawFisheyeCheck(check, image, options.size, &picture.marks);
+          writePng(picture.file, drawn);
+          picture.size = drawn.size();
+          pictures[k] = std::move(picture);
+          const std::lock_guard<std::mutex> lock(mutex);
+          progress.report("snapshot: fisheye checks", ++done, total);
+        } catch (...) {
+          const std::lock_guard<std::mutex> lock(mutex);
+          if (!error) error = std::current_exception();
+          return;
+        }
+      }
+    };
+    const int threads =
+        std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, std::min(4, total));
+    std::vector<std::thread> workers;
+    for (int i = 1; i < threads; ++i) workers.emplace_back(work);
+    work();
+    for (std::thread& worker : workers) worker.join();
+    if (error) std::rethrow_exception(error);
+    progress.checkStop();
+    for (auto& picture : pictures) {
+      if (picture) result.pictures.push_back(std::move(*picture));
     }
-    progress.report("snapshot: fisheye checks", done, static_cast<std::int64_t>(chosen.size()));
   }
 
   // 2. Environment camera views of the marker.
