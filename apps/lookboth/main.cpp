@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   lookboth::app::registerCameraCommands(app, set_body);
   lookboth::app::registerConvertCommand(app, set_body);
   lookboth::app::registerSimulateCommand(app, set_body);
+  lookboth::app::registerRegisterCommand(app, set_body);
   lookboth::app::registerEvaluateCommand(app, set_body);
   lookboth::app::registerSnapshotCommand(app, set_body);
   lookboth::app::registerReportCommand(app, set_body);
