@@ -338,10 +338,12 @@ std::string metresText(double metres) {
 }
 
 /// One panel: axes a (right) and b (up) are two coordinates of the world.
-void drawPanel(cv::Mat& canvas, const cv::Rect& area, int axis_a, int axis_b,
-               const std::string& panel_title, const std::vector<PlotCameras>& cameras,
-               const std::vector<PlotTrajectory>& trajectories, double font,
-               std::vector<OverlayMark>* marks) {
+/// Returns the frame used, so that a second panel can share its horizontal
+/// scale (`same_horizontal`: the top view's frame, for the side view).
+PlotFrame drawPanel(cv::Mat& canvas, const cv::Rect& area, int axis_a, int axis_b,
+                    const std::string& panel_title, const std::vector<PlotCameras>& cameras,
+                    const std::vector<PlotTrajectory>& trajectories, double font,
+                    std::vector<OverlayMark>* marks, const PlotFrame* same_horizontal = nullptr) {
   double min_a = 1e300, max_a = -1e300, min_b = 1e300, max_b = -1e300;
   const auto extend = [&](const Eigen::Vector3d& p) {
     min_a = std::min(min_a, p[axis_a]), max_a = std::max(max_a, p[axis_a]);
@@ -354,7 +356,14 @@ void drawPanel(cv::Mat& canvas, const cv::Rect& area, int axis_a, int axis_b,
     for (const auto& p : t.positions) extend(p);
   }
   if (min_a > max_a) min_a = max_a = min_b = max_b = 0;
-  const PlotFrame frame = fitFrame(area, min_a, max_a, min_b, max_b);
+  PlotFrame frame = fitFrame(area, min_a, max_a, min_b, max_b);
+  if (same_horizontal &&
+      (max_b - min_b) * same_horizontal->pixels_per_metre <= area.height * 0.95) {
+    // Same horizontal scale and offset as the other panel, vertically centred.
+    frame.pixels_per_metre = same_horizontal->pixels_per_metre;
+    frame.min_a = same_horizontal->min_a;
+    frame.min_b = (min_b + max_b) / 2 - area.height / 2.0 / frame.pixels_per_metre;
+  }
 
   cv::rectangle(canvas, area, cv::Scalar(160, 160, 160), 1);
   // Grid at a round step, about 8 lines across.
@@ -423,6 +432,7 @@ void drawPanel(cv::Mat& canvas, const cv::Rect& area, int axis_a, int axis_b,
   const cv::Size text_size = cv::getTextSize(text, kFont, font, 1, &baseline);
   cv::putText(canvas, text, bar_end - cv::Point(bar_px / 2 + text_size.width / 2, 9), kFont, font,
               kBlack, 1, cv::LINE_AA);
+  return frame;
 }
 
 std::vector<std::pair<std::string, cv::Scalar>> legendEntries(
@@ -446,10 +456,30 @@ cv::Mat drawTopSideView(const std::string& title, const std::vector<PlotCameras>
   const auto entries = legendEntries(cameras, trajectories);
   const cv::Size legend = measureLegend(entries, {}, font);
   const int panel_width = std::max(out_size.width / 2, out_size.width - legend.width - 30);
-  const cv::Rect top(10, title_height, panel_width, usable * 2 / 3 - 5);
+  // Split the height between the views in proportion to what they show, so
+  // that both can use the same scale (equal metres per pixel).
+  double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+  const auto extend = [&](const Eigen::Vector3d& p) {
+    for (int i = 0; i < 3; ++i) lo[i] = std::min(lo[i], p[i]), hi[i] = std::max(hi[i], p[i]);
+  };
+  for (const auto& set : cameras) {
+    for (const auto& [label, p] : set.positions) extend(p);
+  }
+  for (const auto& t : trajectories) {
+    for (const auto& p : t.positions) extend(p);
+  }
+  double top_share = 0.6;
+  if (lo[0] <= hi[0]) {
+    const double x = hi[0] - lo[0], y = hi[1] - lo[1], z = hi[2] - lo[2];
+    const double top_needed = y + 0.12 * std::max({x, y, 1.0});
+    const double side_needed = z + 0.12 * std::max({x, z, 1.0});
+    top_share = std::clamp(top_needed / (top_needed + side_needed), 0.5, 0.85);
+  }
+  const cv::Rect top(10, title_height, panel_width, static_cast<int>(usable * top_share) - 5);
   const cv::Rect side(10, top.y + top.height + 10, panel_width, usable - top.height - 10);
-  drawPanel(canvas, top, 0, 1, "top view", cameras, trajectories, font, marks);
-  drawPanel(canvas, side, 0, 2, "side view", cameras, trajectories, font, nullptr);
+  const PlotFrame top_frame =
+      drawPanel(canvas, top, 0, 1, "top view", cameras, trajectories, font, marks);
+  drawPanel(canvas, side, 0, 2, "side view", cameras, trajectories, font, nullptr, &top_frame);
   drawLegend(canvas, entries, {}, font, cv::Point(top.x + top.width + 10, top.y));
   return canvas;
 }

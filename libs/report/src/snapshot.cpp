@@ -529,18 +529,19 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
       reference.positions.push_back({label, pose.translation});
     }
     std::vector<PlotTrajectory> trajectories;
+    if (const auto gt = data.trajectories.find("ground_truth");
+        gt != data.trajectories.end() && options.reference_name == "ground_truth") {
+      PlotTrajectory truth{"ground truth trajectory", cv::Scalar(120, 200, 255), {}, 3};
+      for (const StampedPose& s : gt->second) {
+        truth.positions.push_back(s.world_from_body.translation);
+      }
+      trajectories.push_back(truth);
+    }
     PlotTrajectory estimate_trajectory{reg.name + " trajectory", colours::kTrajectory, {}, 1};
     for (const auto& p : trajectory) {
       estimate_trajectory.positions.push_back(comparison.reference_from_estimate * p);
     }
     trajectories.push_back(estimate_trajectory);
-    if (const auto gt = data.trajectories.find("ground_truth");
-        gt != data.trajectories.end() && options.reference_name == "ground_truth") {
-      PlotTrajectory truth{"ground truth trajectory", cv::Scalar(120, 200, 255), {}, 1};
-      for (const StampedPose& s : gt->second)
-        truth.positions.push_back(s.world_from_body.translation);
-      trajectories.push_back(truth);
-    }
     SnapshotPicture picture;
     picture.kind = "compare";
     picture.file =
