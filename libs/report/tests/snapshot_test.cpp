@@ -9,7 +9,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <random>
 
+#include "lookboth/calib/pipeline.h"
 #include "lookboth/core/error.h"
+#include "lookboth/geometry/tum.h"
 #include "lookboth/report/draw.h"
 #include "lookboth/report/overview.h"
 #include "lookboth/report/snapshot.h"
@@ -189,6 +191,80 @@ TEST_F(SnapshotTest, RenderedFramesByIndexAtNativeSize) {
   int checked = 0;
   expectOverlaysAtProjections(result, s.view, {640, 360}, &checked);
   EXPECT_GE(checked, 3);
+}
+
+// The estimator's own output (libs/calib's pipeline on the whole `small`
+// scenario, detections only, metric odometry trajectory): the overlays sit at
+// the positions of its blob_associations.
+TEST_F(SnapshotTest, RealRegistrationOfSmall) {
+  const fs::path dataset = simulateSmall(true, 0);
+  RegisterOptions register_options;
+  register_options.dataset = dataset;
+  register_options.mode = TrajectoryMode::kMetric;
+  const RegistrationController controller(loadRegistrationConfig(std::nullopt));
+  const RegistrationRun run = controller.run(
+      loadRegistrationInput(register_options, ProgressReporter()), ProgressReporter());
+  ASSERT_GE(run.registration.registeredCount(), 4);
+  const RegistrationView view = viewOfRegistration(run.registration, "registration");
+  ASSERT_FALSE(view.blob_associations.empty());
+  ASSERT_FALSE(view.world_from_camera_before.empty());
+  SnapshotOptions options;
+  options.out = dir_ / "pictures";
+  options.size = cv::Size(960, 540);
+  options.overview = false;
+  const SnapshotResult result = writeSnapshots(dataset, view, options, ProgressReporter());
+  int checked = 0;
+  expectOverlaysAtProjections(result, view, {640, 360}, &checked);
+  EXPECT_GE(checked, 10);
+}
+
+// A dataset with a trajectory and the same before loop closure gets the
+// figure-8 picture.
+TEST_F(SnapshotTest, LoopClosurePicture) {
+  sim::SimulateOptions sim_options;
+  sim_options.scenario = "small";
+  sim_options.out = dir_ / "small_folder";
+  sim_options.kind = DatasetKind::kFolder;
+  sim_options.detections_only = true;
+  sim_options.max_duration_s = 10;
+  sim::simulate(sim_options, ProgressReporter());
+  const Simulated s = viewFromTruth(sim_options.out);
+  Trajectory closed, open;
+  for (const StampedPose& p : s.view.trajectory.samples()) {
+    closed.append(p.t, p.world_from_body);
+    Rigid3d drifted = p.world_from_body;
+    drifted.translation.x() += 0.1 * drifted.translation.y();  // a drift growing with y
+    open.append(p.t, drifted);
+  }
+  fs::create_directories(sim_options.out / "trajectories");
+  writeTumFile(sim_options.out / "trajectories" / "vo.tum", closed);
+  writeTumFile(sim_options.out / "trajectories" / "vo_before_loop_closure.tum", open);
+  SnapshotOptions options;
+  options.out = dir_ / "pictures";
+  options.overview = false;
+  options.max_env_views = 0;
+  options.auto_frames = 1;
+  const SnapshotResult result =
+      writeSnapshots(sim_options.out, s.view, options, ProgressReporter());
+  bool found = false;
+  for (const SnapshotPicture& picture : result.pictures) {
+    if (picture.kind != "loop_closure") continue;
+    found = true;
+    EXPECT_EQ(picture.file.filename(), "trajectory_loop_closure_vo.png");
+    const cv::Mat image = cv::imread(picture.file.string(), cv::IMREAD_COLOR);
+    EXPECT_EQ(image.size(), cv::Size(1280, 720));
+    int red = 0, green = 0;
+    for (int y = 0; y < image.rows; ++y) {
+      for (int x = 0; x < image.cols; ++x) {
+        const cv::Vec3b p = image.at<cv::Vec3b>(y, x);
+        red += colourNear(p, colours::kBefore, 30);
+        green += colourNear(p, cv::Scalar(0, 160, 0), 30);
+      }
+    }
+    EXPECT_GT(red, 300);
+    EXPECT_GT(green, 300);
+  }
+  EXPECT_TRUE(found);
 }
 
 TEST(FrameSelection, ParsesAndRefuses) {
