@@ -37,13 +37,14 @@ int runSnapshot(const SnapshotArgs& args) {
   options.overview = !args.no_overview;
   options.reference_with_scale = args.with_scale;
   if (!args.ground_truth.empty()) {
-    options.reference = report::loadGroundTruthPoses(args.ground_truth);
-    options.reference_name = "ground_truth";
-  } else if (!args.against.empty()) {
-    options.reference = report::poseSetOfRegistration(loadRegistration(args.against), args.against);
-    options.reference_name =
+    options.references.push_back({"ground_truth", report::loadGroundTruthPoses(args.ground_truth)});
+  }
+  if (!args.against.empty()) {
+    const std::string name =
         std::filesystem::path(args.against).lexically_normal().filename().string();
-    if (options.reference_name.empty()) options.reference_name = "other";
+    options.references.push_back(
+        {name.empty() ? "other" : name,
+         report::poseSetOfRegistration(loadRegistration(args.against), args.against)});
   }
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
   const report::RegistrationView view =

@@ -254,13 +254,10 @@ ReportSummary writeReport(const fs::path& dataset, const fs::path& registration_
   snapshot.auto_frames = options.auto_frames;
   snapshot.max_env_views = options.max_env_views;
   snapshot.overview = options.overview;
-  if (truth_poses) {
-    snapshot.reference = truth_poses;
-    snapshot.reference_name = "ground_truth";
-  } else if (other_poses) {
-    snapshot.reference = other_poses;
-    snapshot.reference_name = fs::path(options.against).filename().string();
-    if (snapshot.reference_name.empty()) snapshot.reference_name = "other";
+  if (truth_poses) snapshot.references.push_back({"ground_truth", *truth_poses});
+  if (other_poses) {
+    const std::string name = fs::path(options.against).lexically_normal().filename().string();
+    snapshot.references.push_back({name.empty() ? "other" : name, *other_poses});
   }
   snapshot.reference_with_scale = options.with_scale;
   const SnapshotResult pictures = writeSnapshots(dataset, view, snapshot, progress);

@@ -514,23 +514,23 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
   }
 
   // 4. Comparison with a reference (top and side views), ground truth trajectory.
-  if (options.reference) {
+  for (const SnapshotOptions::Reference& ref : options.references) {
     progress.checkStop();
-    const PoseComparison comparison = comparePoses(*options.reference, reg.poseSet(),
-                                                   CompareOptions{options.reference_with_scale});
-    result.comparison = comparison;
+    const PoseComparison comparison =
+        comparePoses(ref.poses, reg.poseSet(), CompareOptions{options.reference_with_scale});
+    result.comparisons.push_back(comparison);
     // Draw in the reference's frame: the estimate is mapped by the alignment.
     PlotCameras estimate{reg.name, colours::kEstimate, {}, true};
     for (const auto& [label, pose] : reg.world_from_camera) {
       estimate.positions.push_back({label, comparison.reference_from_estimate * pose.translation});
     }
-    PlotCameras reference{options.reference_name, colours::kReference, {}, false};
-    for (const auto& [label, pose] : options.reference->world_from_camera) {
+    PlotCameras reference{ref.name, colours::kReference, {}, false};
+    for (const auto& [label, pose] : ref.poses.world_from_camera) {
       reference.positions.push_back({label, pose.translation});
     }
     std::vector<PlotTrajectory> trajectories;
     if (const auto gt = data.trajectories.find("ground_truth");
-        gt != data.trajectories.end() && options.reference_name == "ground_truth") {
+        gt != data.trajectories.end() && ref.name == "ground_truth") {
       PlotTrajectory truth{"ground truth trajectory", cv::Scalar(120, 200, 255), {}, 3};
       for (const StampedPose& s : gt->second) {
         truth.positions.push_back(s.world_from_body.translation);
@@ -544,16 +544,15 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
     trajectories.push_back(estimate_trajectory);
     SnapshotPicture picture;
     picture.kind = "compare";
-    picture.file =
-        options.out / ("compare_top_side_vs_" + safeName(options.reference_name) + ".png");
-    picture.caption = "Camera positions of " + reg.name + " (blue discs) against " +
-                      options.reference_name + " (orange squares), top and side views, after " +
+    picture.file = options.out / ("compare_top_side_vs_" + safeName(ref.name) + ".png");
+    picture.caption = "Camera positions of " + reg.name + " (blue discs) against " + ref.name +
+                      " (orange squares), top and side views, after " +
                       (options.reference_with_scale ? "Sim(3)" : "SE(3)") +
                       " alignment: position RMS " +
                       formatFixed(comparison.rms.position_m_total, 3) + " m, rotation RMS " +
                       formatFixed(comparison.rms.rotation_deg_total, 2) + " deg.";
     const cv::Mat drawn =
-        drawTopSideView(reg.name + " vs " + options.reference_name + ": position RMS " +
+        drawTopSideView(reg.name + " vs " + ref.name + ": position RMS " +
                             formatFixed(comparison.rms.position_m_total, 3) + " m, rotation RMS " +
                             formatFixed(comparison.rms.rotation_deg_total, 2) + " deg",
                         {estimate, reference}, trajectories, plot_size, &picture.marks);

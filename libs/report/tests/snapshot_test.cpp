@@ -117,8 +117,9 @@ TEST_F(SnapshotTest, DetectionsOnlySmallScenario) {
   SnapshotOptions options;
   options.out = dir_ / "pictures";
   options.size = cv::Size(800, 450);
-  options.reference = CameraPoseSet{"ground truth", s.manifest.ground_truth.world_from_camera, {}};
-  options.reference_name = "ground_truth";
+  options.references.push_back(
+      {"ground_truth",
+       CameraPoseSet{"ground truth", s.manifest.ground_truth.world_from_camera, {}}});
   const SnapshotResult result = writeSnapshots(dataset, s.view, options, ProgressReporter());
 
   std::map<std::string, int> kinds;
@@ -133,8 +134,8 @@ TEST_F(SnapshotTest, DetectionsOnlySmallScenario) {
   EXPECT_GE(kinds["env_view"], 1);
   EXPECT_EQ(kinds["overview_3d"], 1);
   EXPECT_EQ(kinds["compare"], 1);
-  ASSERT_TRUE(result.comparison);
-  EXPECT_LT(result.comparison->rms.position_m_total, 1e-9);
+  ASSERT_EQ(result.comparisons.size(), 1u);
+  EXPECT_LT(result.comparisons[0].rms.position_m_total, 1e-9);
 
   int checked = 0;
   expectOverlaysAtProjections(result, s.view, {640, 360}, &checked);

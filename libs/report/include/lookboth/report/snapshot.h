@@ -67,10 +67,14 @@ struct SnapshotOptions {
   int max_env_views = 12;  ///< Environment camera pictures at most (0 = none).
   bool overview = true;    ///< Render the 3-D overview (needs EGL).
   int max_rays = 400;      ///< Detection rays drawn in the overview at most.
-  /// A reference to compare with (ground truth or another registration).
-  std::optional<CameraPoseSet> reference;
-  std::string reference_name;         ///< For file names: "ground_truth", "run2"...
-  bool reference_with_scale = false;  ///< Align the reference with Sim(3).
+  /// References to compare with (ground truth, other registrations): one
+  /// top/side picture each.
+  struct Reference {
+    std::string name;  ///< For file names and legends: "ground_truth", "run2"...
+    CameraPoseSet poses;
+  };
+  std::vector<Reference> references;
+  bool reference_with_scale = false;  ///< Align the references with Sim(3).
   std::string check() const;
 };
 
@@ -85,8 +89,8 @@ struct SnapshotPicture {
 
 struct SnapshotResult {
   std::vector<SnapshotPicture> pictures;
-  std::vector<std::string> notes;            ///< What could not be drawn and why.
-  std::optional<PoseComparison> comparison;  ///< Against the reference, when given.
+  std::vector<std::string> notes;           ///< What could not be drawn and why.
+  std::vector<PoseComparison> comparisons;  ///< One per reference, in order.
 };
 
 /// Reads the dataset once and writes the pictures (each PNG atomically).
