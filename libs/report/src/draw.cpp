@@ -204,6 +204,14 @@ cv::Mat drawFisheyeCheck(const FisheyeCheck& check, const cv::Mat& image, cv::Si
       mark("blob", c.label, at, colours::kBlob);
     }
   }
+  // Labels under the markers, so that no label hides a projection.
+  for (const auto& c : check.cameras) {
+    const std::optional<Eigen::Vector2d>& anchor = c.after ? c.after : c.before;
+    if (!anchor) continue;
+    const cv::Point at = rounded(scale(*anchor)) + cv::Point(5 * unit, -3 * unit);
+    outlinedText(canvas, c.label, at, font);
+  }
+
   // Before: red crosses. After: blue discs, drawn last.
   for (const auto& c : check.cameras) {
     if (!c.before) continue;
@@ -217,13 +225,6 @@ cv::Mat drawFisheyeCheck(const FisheyeCheck& check, const cv::Mat& image, cv::Si
     cv::circle(canvas, rounded(at), 2 * unit + 1, colours::kAfter, cv::FILLED, cv::LINE_8);
     mark("after", c.label, at, colours::kAfter);
   }
-  for (const auto& c : check.cameras) {
-    const std::optional<Eigen::Vector2d>& anchor = c.after ? c.after : c.before;
-    if (!anchor) continue;
-    const cv::Point at = rounded(scale(*anchor)) + cv::Point(5 * unit, -3 * unit);
-    outlinedText(canvas, c.label, at, font);
-  }
-
   return canvas;
 }
 
