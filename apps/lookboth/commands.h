@@ -19,5 +19,6 @@ void registerCameraCommands(CLI::App& app, const std::function<void(CommandBody)
 void registerConvertCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerSimulateCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerDetectCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
+void registerRegisterCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 
 }  // namespace lookboth::app
