@@ -18,5 +18,6 @@ void registerVersionCommand(CLI::App& app, const std::function<void(CommandBody)
 void registerCameraCommands(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerConvertCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerSimulateCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
+void registerOdometryCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 
 }  // namespace lookboth::app

@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   lookboth::app::registerCameraCommands(app, set_body);
   lookboth::app::registerConvertCommand(app, set_body);
   lookboth::app::registerSimulateCommand(app, set_body);
+  lookboth::app::registerOdometryCommand(app, set_body);
 
   try {
     app.parse(argc, argv);
