@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -15,7 +17,9 @@ namespace lookboth::vo {
 namespace {
 
 constexpr int kPatch = 31;
-constexpr int kPad = 32;  // ORB skips keypoints closer than its patch to the border.
+constexpr int kPad = 32;
+/// Matches of fresh ORB corners to landmarks: RANSAC bound x this.
+constexpr double kLooseThreshold = 3.0;  // ORB skips keypoints closer than its patch to the border.
 
 cv::Ptr<cv::ORB> makeOrb(int features) {
   return cv::ORB::create(features, 1.2f, 1, kPatch, 0, 2, cv::ORB::HARRIS_SCORE, kPatch, 12);
@@ -36,6 +40,20 @@ float centroidAngle(const cv::Mat& padded, const cv::Point2f& p) {
     }
   }
   return cv::fastAtan2(static_cast<float>(m01), static_cast<float>(m10));
+}
+
+/// ORB corners, oriented and described exactly as the landmarks are (so
+/// that both kinds of descriptors match).
+void detectAndDescribe(const cv::Mat& padded, const cv::Mat& padded_mask, int features,
+                       std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors) {
+  const cv::Ptr<cv::ORB> orb = makeOrb(features);
+  orb->detect(padded, keypoints, padded_mask);
+  for (cv::KeyPoint& kp : keypoints) {
+    kp.angle = centroidAngle(padded, kp.pt);
+    kp.size = float(kPatch);
+    kp.octave = 0;
+  }
+  orb->compute(padded, keypoints, descriptors);
 }
 
 int popcount256(const uchar* a, const uchar* b) {
@@ -91,10 +109,25 @@ std::vector<std::pair<int, int>> matchDescriptors(const cv::Mat& query, const cv
 
 LoopCloser::LoopCloser(const OdometryOptions& options) : options_(options) {}
 
-void LoopCloser::describe(const cv::Mat& image, const std::vector<cv::Point2f>& pixels,
-                          const std::vector<int>& landmarks, Keyframe& keyframe) const {
-  cv::Mat padded;
+void LoopCloser::describe(const cv::Mat& image, const cv::Mat& mask,
+                          const std::vector<cv::Point2f>& pixels, const std::vector<int>& landmarks,
+                          const BearingOf& bearing_of, Keyframe& keyframe) const {
+  cv::Mat padded, padded_mask;
   cv::copyMakeBorder(image, padded, kPad, kPad, kPad, kPad, cv::BORDER_REFLECT_101);
+  cv::copyMakeBorder(mask, padded_mask, kPad, kPad, kPad, kPad, cv::BORDER_CONSTANT, cv::Scalar(0));
+  {
+    std::vector<cv::KeyPoint> fresh;
+    cv::Mat fresh_descriptors;
+    detectAndDescribe(padded, padded_mask, options_.loop_features, fresh, fresh_descriptors);
+    keyframe.orb_bearings.clear();
+    keyframe.orb_descriptors = cv::Mat();
+    for (size_t i = 0; i < fresh.size(); ++i) {
+      const auto b = bearing_of(fresh[i].pt - cv::Point2f(kPad, kPad));
+      if (!b) continue;
+      keyframe.orb_bearings.push_back(*b);
+      keyframe.orb_descriptors.push_back(fresh_descriptors.row(static_cast<int>(i)));
+    }
+  }
   std::vector<cv::KeyPoint> keypoints;
   for (size_t i = 0; i < pixels.size(); ++i) {
     const cv::Point2f p(pixels[i].x + kPad, pixels[i].y + kPad);
@@ -114,7 +147,7 @@ void LoopCloser::describe(const cv::Mat& image, const std::vector<cv::Point2f>& 
 void LoopCloser::train(const Map& map, int up_to) {
   std::vector<const uchar*> rows;
   for (int k = 0; k <= up_to; ++k) {
-    const cv::Mat& d = map.keyframes[size_t(k)].descriptors;
+    const cv::Mat& d = map.keyframes[size_t(k)].orb_descriptors;
     for (int i = 0; i < d.rows; ++i) rows.push_back(d.ptr<uchar>(i));
   }
   const int words = std::min<int>(options_.vocabulary_words, static_cast<int>(rows.size()) / 4);
@@ -154,7 +187,8 @@ void LoopCloser::train(const Map& map, int up_to) {
   std::vector<int> documents(size_t(words), 0);
   for (int k = 0; k <= up_to; ++k) {
     std::set<int> seen;
-    for (int w : nearestWords(map.keyframes[size_t(k)].descriptors, vocabulary_)) seen.insert(w);
+    for (int w : nearestWords(map.keyframes[size_t(k)].orb_descriptors, vocabulary_))
+      seen.insert(w);
     for (int w : seen) ++documents[size_t(w)];
   }
   idf_.assign(size_t(words), 0);
@@ -162,7 +196,7 @@ void LoopCloser::train(const Map& map, int up_to) {
     idf_[size_t(w)] = std::log(double(up_to + 1) / double(1 + documents[size_t(w)])) + 1e-3;
   inverted_.assign(size_t(words), {});
   trained_ = true;
-  for (int k = 0; k <= up_to; ++k) insert(k, wordsOf(map.keyframes[size_t(k)].descriptors));
+  for (int k = 0; k <= up_to; ++k) insert(k, wordsOf(map.keyframes[size_t(k)].orb_descriptors));
 }
 
 std::map<int, double> LoopCloser::wordsOf(const cv::Mat& descriptors) const {
@@ -187,7 +221,30 @@ std::optional<LoopClosure> LoopCloser::detect(const Map& map, int k, const Ransa
     if (k + 1 >= options_.vocabulary_training_keyframes) train(map, k);
     return std::nullopt;
   }
-  const std::map<int, double> words = wordsOf(map.keyframes[size_t(k)].descriptors);
+  const std::map<int, double> words = wordsOf(map.keyframes[size_t(k)].orb_descriptors);
+  if (std::getenv("LOOKBOTH_VO_DEBUG") && k >= 3) {
+    const Keyframe& a = map.keyframes[size_t(k)];
+    const Keyframe& b = map.keyframes[size_t(k - 3)];
+    const auto m = matchDescriptors(a.descriptors, b.descriptors);
+    int same = 0;
+    for (const auto& [i, j] : m)
+      same += a.descriptor_landmarks[size_t(i)] == b.descriptor_landmarks[size_t(j)];
+    std::set<int> common(a.descriptor_landmarks.begin(), a.descriptor_landmarks.end());
+    int shared = 0;
+    for (int l : b.descriptor_landmarks) shared += common.count(l);
+    const auto m2 = matchDescriptors(a.orb_descriptors, b.descriptors);
+    Bearings bb;
+    std::vector<Eigen::Vector3d> pp;
+    for (const auto& [i, j] : m2) {
+      bb.push_back(a.orb_bearings[size_t(i)]);
+      pp.push_back(map.landmarks[size_t(b.descriptor_landmarks[size_t(j)])].p_in_world);
+    }
+    const auto pose = estimateAbsolutePose(bb, pp, ransac);
+    std::fprintf(stderr,
+                 "self-check kf %d vs %d: %d shared landmarks, %zu matches, %d same; fresh: %zu "
+                 "matches, %d p3p inliers\n",
+                 k, k - 3, shared, m.size(), same, m2.size(), pose ? pose->num_inliers : 0);
+  }
   std::optional<LoopClosure> found;
   if (k - last_closure_ >= 10) {
     // Score (L1 overlap of the normalised word vectors) of every older keyframe.
@@ -202,6 +259,9 @@ std::optional<LoopClosure> LoopCloser::detect(const Map& map, int k, const Ransa
     std::sort(ranked.begin(), ranked.end());
     for (size_t i = 0; i < ranked.size() && static_cast<int>(i) < options_.loop_candidates; ++i) {
       found = verify(map, k, ranked[i].second, ransac);
+      if (std::getenv("LOOKBOTH_VO_DEBUG"))
+        std::fprintf(stderr, "loop query kf %d: candidate %d score %.3f -> %s\n", k,
+                     ranked[i].second, -ranked[i].first, found ? "closed" : "rejected");
       if (found) {
         last_closure_ = k;
         break;
@@ -214,99 +274,67 @@ std::optional<LoopClosure> LoopCloser::detect(const Map& map, int k, const Ransa
 
 std::optional<LoopClosure> LoopCloser::verify(const Map& map, int k, int candidate,
                                               const RansacOptions& ransac) const {
+  // 2D-3D: the current keyframe's fresh ORB features against the landmarks of
+  // the candidate and its neighbours (same segment, old enough).
   const Keyframe& current = map.keyframes[size_t(k)];
-  // The candidate and its neighbours in the same segment.
   std::vector<int> old_landmarks;
-  std::vector<const uchar*> old_rows;
+  cv::Mat old_descriptors;
   std::set<int> seen;
   const std::set<int> current_set(current.landmarks.begin(), current.landmarks.end());
-  for (int j = std::max(0, candidate - 2);
-       j <= std::min<int>(candidate + 2, static_cast<int>(map.keyframes.size()) - 1); ++j) {
+  const int segment = map.keyframes[size_t(candidate)].segment;
+  for (int j = std::max(0, candidate - 4);
+       j <= std::min<int>(candidate + 4, static_cast<int>(map.keyframes.size()) - 1); ++j) {
     const Keyframe& kf = map.keyframes[size_t(j)];
-    if (kf.segment != map.keyframes[size_t(candidate)].segment ||
-        j > k - options_.loop_min_keyframe_gap)
-      continue;
+    if (kf.segment != segment || j > k - options_.loop_min_keyframe_gap) continue;
     for (int i = 0; i < kf.descriptors.rows; ++i) {
       const int l = kf.descriptor_landmarks[size_t(i)];
       if (!map.landmarks[size_t(l)].valid || current_set.count(l) || !seen.insert(l).second)
         continue;
       old_landmarks.push_back(l);
-      old_rows.push_back(kf.descriptors.ptr<uchar>(i));
+      old_descriptors.push_back(kf.descriptors.row(i));
     }
   }
-  if (static_cast<int>(old_rows.size()) < options_.loop_min_inliers) return std::nullopt;
-  cv::Mat old_descriptors(static_cast<int>(old_rows.size()), 32, CV_8U);
-  for (size_t i = 0; i < old_rows.size(); ++i)
-    std::memcpy(old_descriptors.ptr<uchar>(int(i)), old_rows[i], 32);
-  std::vector<int> current_landmarks;
-  cv::Mat current_descriptors;
-  for (int i = 0; i < current.descriptors.rows; ++i) {
-    const int l = current.descriptor_landmarks[size_t(i)];
-    if (!map.landmarks[size_t(l)].valid) continue;
-    current_landmarks.push_back(l);
-    current_descriptors.push_back(current.descriptors.row(i));
-  }
-  const auto matches = matchDescriptors(current_descriptors, old_descriptors);
+  if (old_descriptors.rows < options_.loop_min_inliers) return std::nullopt;
+  const auto matches = matchDescriptors(current.orb_descriptors, old_descriptors);
+  if (std::getenv("LOOKBOTH_VO_DEBUG"))
+    std::fprintf(stderr, "  verify %d-%d: %d vs %d descriptors, %zu matches\n", k, candidate,
+                 current.orb_descriptors.rows, old_descriptors.rows, matches.size());
   if (static_cast<int>(matches.size()) < options_.loop_min_inliers) return std::nullopt;
-
-  std::vector<Eigen::Vector3d> src, dst;
-  std::vector<double> depth;
-  const Eigen::Vector3d c_old = map.keyframes[size_t(candidate)].world_from_camera.translation;
+  Bearings bearings;
+  std::vector<Eigen::Vector3d> points;
   for (const auto& [qi, ti] : matches) {
-    src.push_back(map.landmarks[size_t(current_landmarks[size_t(qi)])].p_in_world);
-    dst.push_back(map.landmarks[size_t(old_landmarks[size_t(ti)])].p_in_world);
-    depth.push_back(std::max((dst.back() - c_old).norm(), 1e-9));
+    bearings.push_back(current.orb_bearings[size_t(qi)]);
+    points.push_back(map.landmarks[size_t(old_landmarks[size_t(ti)])].p_in_world);
   }
-  const double tolerance = 0.04;  // Of the depth from the old keyframe.
-  std::mt19937 rng(ransac.seed);
-  std::uniform_int_distribution<size_t> pick(0, src.size() - 1);
-  std::vector<bool> best;
-  int best_count = 0;
-  auto inliers_of = [&](const Sim3d& s, std::vector<bool>& in) {
-    in.assign(src.size(), false);
-    int n = 0;
-    for (size_t i = 0; i < src.size(); ++i) {
-      if ((s * src[i] - dst[i]).norm() < tolerance * depth[i]) {
-        in[i] = true;
-        ++n;
-      }
-    }
-    return n;
-  };
-  for (int it = 0; it < ransac.max_iterations; ++it) {
-    const size_t a = pick(rng), b = pick(rng), c = pick(rng);
-    if (a == b || b == c || a == c) continue;
-    const auto s = alignSim3({src[a], src[b], src[c]}, {dst[a], dst[b], dst[c]});
-    if (!s) continue;
-    std::vector<bool> in;
-    const int n = inliers_of(s->dst_from_src, in);
-    if (n > best_count) {
-      best_count = n;
-      best = in;
-    }
-  }
-  if (best_count < options_.loop_min_inliers) return std::nullopt;
-  std::vector<Eigen::Vector3d> s_in, d_in;
-  for (size_t i = 0; i < src.size(); ++i) {
-    if (best[i]) {
-      s_in.push_back(src[i]);
-      d_in.push_back(dst[i]);
-    }
-  }
-  const auto refined = alignSim3(s_in, d_in);
-  if (!refined) return std::nullopt;
-  std::vector<bool> in;
-  if (inliers_of(refined->dst_from_src, in) < options_.loop_min_inliers) return std::nullopt;
-  if (refined->dst_from_src.scale < 0.5 || refined->dst_from_src.scale > 2.0) return std::nullopt;
+  // Fresh ORB corners lie a few pixels from the tracked corners the landmarks
+  // were made of: a wider bound than for tracking.
+  RansacOptions loose = ransac;
+  loose.threshold_rad *= kLooseThreshold;
+  const auto pose = estimateAbsolutePose(bearings, points, loose);
+  if (std::getenv("LOOKBOTH_VO_DEBUG"))
+    std::fprintf(stderr, "  p3p inliers %d\n", pose ? pose->num_inliers : 0);
+  if (!pose || pose->num_inliers < options_.loop_min_inliers) return std::nullopt;
+
+  // Scale between the maps: depths of the same ceiling seen from the same
+  // place, in old units (verified landmarks from the verified pose) over
+  // current units (the current keyframe's median depth).
+  std::vector<double> depths;
   LoopClosure closure;
+  for (size_t i = 0; i < matches.size(); ++i) {
+    if (!pose->inliers[i]) continue;
+    depths.push_back((points[i] - pose->world_from_camera.translation).norm());
+    closure.observations.emplace_back(old_landmarks[size_t(matches[i].second)], bearings[i]);
+  }
+  std::nth_element(depths.begin(), depths.begin() + static_cast<long>(depths.size() / 2),
+                   depths.end());
+  const double scale = depths[depths.size() / 2] / std::max(current.median_depth, 1e-12);
+  if (!(scale > 0.2 && scale < 5)) return std::nullopt;
   closure.current_keyframe = k;
   closure.old_keyframe = candidate;
-  closure.old_from_current = refined->dst_from_src;
-  for (size_t i = 0; i < matches.size(); ++i) {
-    if (in[i])
-      closure.matches.emplace_back(current_landmarks[size_t(matches[i].first)],
-                                   old_landmarks[size_t(matches[i].second)]);
-  }
+  // old_from_current = old_world_from_camera * scale * camera_from_current_world.
+  closure.old_from_current = Sim3d(pose->world_from_camera) *
+                             Sim3d(scale, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero()) *
+                             Sim3d(current.world_from_camera.inverse());
   return closure;
 }
 
@@ -319,7 +347,7 @@ std::optional<Relocalisation> LoopCloser::relocalise(
   cv::copyMakeBorder(mask, padded_mask, kPad, kPad, kPad, kPad, cv::BORDER_CONSTANT, cv::Scalar(0));
   std::vector<cv::KeyPoint> keypoints;
   cv::Mat descriptors;
-  makeOrb(1000)->detectAndCompute(padded, padded_mask, keypoints, descriptors);
+  detectAndDescribe(padded, padded_mask, 2 * options_.loop_features, keypoints, descriptors);
   if (keypoints.size() < size_t(min_inliers)) return std::nullopt;
   std::vector<int> landmarks;
   std::vector<int> source;
@@ -348,7 +376,9 @@ std::optional<Relocalisation> LoopCloser::relocalise(
     points.push_back(map.landmarks[size_t(landmarks[size_t(ti)])].p_in_world);
     features.emplace_back(px, landmarks[size_t(ti)]);
   }
-  const auto pose = estimateAbsolutePose(bearings, points, ransac);
+  RansacOptions loose = ransac;
+  loose.threshold_rad *= kLooseThreshold;
+  const auto pose = estimateAbsolutePose(bearings, points, loose);
   if (!pose || pose->num_inliers < min_inliers) return std::nullopt;
   Relocalisation r;
   r.world_from_camera = pose->world_from_camera;

@@ -25,7 +25,8 @@ struct LoopClosure {
   int old_keyframe = -1;
   /// Maps the current (drifted) map coordinates onto the old keyframe's.
   Sim3d old_from_current;
-  std::vector<std::pair<int, int>> matches;  ///< Verified (current landmark, old landmark).
+  /// Verified matches: old landmarks seen in the current keyframe, with their bearings there.
+  std::vector<std::pair<int, Eigen::Vector3d>> observations;
 };
 
 struct Relocalisation {
@@ -39,8 +40,13 @@ class LoopCloser {
   explicit LoopCloser(const OdometryOptions& options);
 
   /// ORB descriptors of a keyframe's landmarks at the given working pixels.
-  void describe(const cv::Mat& image, const std::vector<cv::Point2f>& pixels,
-                const std::vector<int>& landmarks, Keyframe& keyframe) const;
+  using BearingOf = std::function<std::optional<Eigen::Vector3d>(const cv::Point2f&)>;
+
+  /// ORB descriptors of a keyframe's landmarks at the given working pixels,
+  /// and fresh ORB features inside `mask`.
+  void describe(const cv::Mat& image, const cv::Mat& mask, const std::vector<cv::Point2f>& pixels,
+                const std::vector<int>& landmarks, const BearingOf& bearing_of,
+                Keyframe& keyframe) const;
 
   /// Queries the database with keyframe k (described), verifies the best
   /// candidates, then adds k to the database.

@@ -36,7 +36,10 @@ struct Keyframe {
   // Loop closure and relocalisation: ORB descriptors of its landmark observations.
   cv::Mat descriptors;  ///< One row per entry of descriptor_landmarks.
   std::vector<int> descriptor_landmarks;
-  std::map<int, double> words;  ///< Visual word -> weight (L1-normalised); empty until trained.
+  // ORB features detected afresh in the keyframe (for place recognition and
+  // the 2D-3D verification of loops): descriptors and their bearings.
+  cv::Mat orb_descriptors;
+  std::vector<Eigen::Vector3d> orb_bearings;
 };
 
 struct Map {

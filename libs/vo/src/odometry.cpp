@@ -385,7 +385,9 @@ struct VisualOdometry::Impl {
     }
     {
       StageTimer timer(stats.stage_seconds, "describe");
-      loop->describe(image, pixels, landmarks, kf);
+      loop->describe(
+          image, mask, pixels, landmarks, [this](const cv::Point2f& p) { return bearingOf(p); },
+          kf);
     }
     last_keyframe = k;
     last_keyframe_tracked = 0;
@@ -526,23 +528,10 @@ struct VisualOdometry::Impl {
       kf.median_depth *= s.scale;
       kf.segment = segment_old;
     }
-    // Merge the matched landmarks into the old ones.
-    for (const auto& [current, old] : closure.matches) {
-      Landmark& lc = map.landmarks[size_t(current)];
-      Landmark& lo = map.landmarks[size_t(old)];
-      if (!lc.valid || !lo.valid || current == old) continue;
-      for (const Observation& o : lc.observations) {
-        bool seen = false;
-        for (const Observation& oo : lo.observations) seen = seen || oo.keyframe == o.keyframe;
-        if (!seen) {
-          lo.observations.push_back(o);
-          map.keyframes[size_t(o.keyframe)].landmarks.push_back(old);
-        }
-      }
-      lc.valid = false;
-      for (Track& tr : tracks) {
-        if (tr.landmark == current) tr.landmark = old;
-      }
+    // The current keyframe sees the verified old landmarks: the global
+    // adjustment then holds both ends of the loop together.
+    for (const auto& [landmark, bearing] : closure.observations) {
+      if (map.landmarks[size_t(landmark)].valid) map.observe(landmark, k, bearing);
     }
     // Global adjustment of the joined segment.
     {
@@ -558,7 +547,7 @@ struct VisualOdometry::Impl {
     ++stats.loop_closures;
     stats.events.push_back("loop closed: keyframe " + std::to_string(k) + " with keyframe " +
                            std::to_string(closure.old_keyframe) + " (" +
-                           std::to_string(closure.matches.size()) + " matches, scale " +
+                           std::to_string(closure.observations.size()) + " matches, scale " +
                            std::to_string(closure.old_from_current.scale) + ")");
   }
 

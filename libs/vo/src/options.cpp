@@ -47,6 +47,7 @@ std::string OdometryOptions::check() const {
       {"vocabulary_words", double(vocabulary_words)},
       {"vocabulary_training_keyframes", double(vocabulary_training_keyframes)},
       {"loop_candidates", double(loop_candidates)},
+      {"loop_features", double(loop_features)},
       {"global_iterations", double(global_iterations)},
       {"relocalisation_keyframes", double(relocalisation_keyframes)},
       {"max_lost_frames", double(max_lost_frames)},
@@ -125,6 +126,7 @@ OdometryOptions loadOdometryOptions(const std::filesystem::path& yaml,
   integer("vocabulary_words", &o.vocabulary_words);
   integer("vocabulary_training_keyframes", &o.vocabulary_training_keyframes);
   integer("loop_candidates", &o.loop_candidates);
+  integer("loop_features", &o.loop_features);
   integer("global_iterations", &o.global_iterations);
   integer("relocalisation_keyframes", &o.relocalisation_keyframes);
   integer("max_lost_frames", &o.max_lost_frames);

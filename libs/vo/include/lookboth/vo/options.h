@@ -17,14 +17,14 @@ struct OdometryOptions {
   double border_px = 8;  ///< Margin from the image border and the valid circle [px, working].
 
   // Features and tracking (pixel sizes at the working resolution).
-  int max_features = 300;  ///< Tracked features kept per frame.
+  int max_features = 500;  ///< Tracked features kept per frame.
   int grid_cols = 8;       ///< Detection grid: new features go to cells with few tracks.
   int grid_rows = 6;
-  double min_feature_distance_px = 12;  ///< Between tracked features [px].
-  double fast_threshold = 12;           ///< FAST corner threshold (intensity levels).
-  int klt_window_px = 21;               ///< Lucas-Kanade window side [px].
-  int klt_levels = 3;                   ///< Pyramid levels above the working image.
-  double klt_max_fb_error_px = 1.0;     ///< Forward-backward consistency bound [px].
+  double min_feature_distance_px = 8;  ///< Between tracked features [px].
+  double fast_threshold = 6;           ///< FAST corner threshold (intensity levels).
+  int klt_window_px = 15;              ///< Lucas-Kanade window side [px].
+  int klt_levels = 3;                  ///< Pyramid levels above the working image.
+  double klt_max_fb_error_px = 1.0;    ///< Forward-backward consistency bound [px].
 
   // Geometry.
   double ransac_threshold_px = 2.0;  ///< Inlier bound on the angular error x focal length [px].
@@ -39,17 +39,18 @@ struct OdometryOptions {
   double keyframe_tracked_ratio = 0.65;  ///< ... or when fewer than this share of landmarks remain.
   double keyframe_rotation_deg = 10;     ///< ... or after turning this much [deg].
   int max_frames_between_keyframes = 20;
-  int local_window = 8;      ///< Keyframes adjusted at each new keyframe.
-  int local_iterations = 6;  ///< Solver iterations of the local adjustment.
-  double huber_px = 1.5;     ///< Robust loss scale of the adjustments [px].
+  int local_window = 12;      ///< Keyframes adjusted at each new keyframe.
+  int local_iterations = 10;  ///< Solver iterations of the local adjustment.
+  double huber_px = 1.5;      ///< Robust loss scale of the adjustments [px].
 
   // Loop closure.
   bool loop_closure = true;
   int loop_min_keyframe_gap = 40;          ///< Candidates are at least this many keyframes older.
-  int loop_min_inliers = 30;               ///< Verified 3D-3D matches needed to close a loop.
+  int loop_min_inliers = 25;               ///< Verified 2D-3D matches needed to close a loop.
   int vocabulary_words = 512;              ///< Visual words (trained on the first keyframes).
   int vocabulary_training_keyframes = 30;  ///< Keyframes whose descriptors train the vocabulary.
-  int loop_candidates = 3;                 ///< Best-scoring keyframes verified per new keyframe.
+  int loop_candidates = 5;                 ///< Best-scoring keyframes verified per new keyframe.
+  int loop_features = 500;                 ///< ORB features per keyframe for place recognition.
   int global_iterations = 30;              ///< Solver iterations of the global adjustment.
 
   // Tracking loss.
