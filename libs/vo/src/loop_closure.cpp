@@ -222,29 +222,6 @@ std::optional<LoopClosure> LoopCloser::detect(const Map& map, int k, const Ransa
     return std::nullopt;
   }
   const std::map<int, double> words = wordsOf(map.keyframes[size_t(k)].orb_descriptors);
-  if (std::getenv("LOOKBOTH_VO_DEBUG") && k >= 3) {
-    const Keyframe& a = map.keyframes[size_t(k)];
-    const Keyframe& b = map.keyframes[size_t(k - 3)];
-    const auto m = matchDescriptors(a.descriptors, b.descriptors);
-    int same = 0;
-    for (const auto& [i, j] : m)
-      same += a.descriptor_landmarks[size_t(i)] == b.descriptor_landmarks[size_t(j)];
-    std::set<int> common(a.descriptor_landmarks.begin(), a.descriptor_landmarks.end());
-    int shared = 0;
-    for (int l : b.descriptor_landmarks) shared += common.count(l);
-    const auto m2 = matchDescriptors(a.orb_descriptors, b.descriptors);
-    Bearings bb;
-    std::vector<Eigen::Vector3d> pp;
-    for (const auto& [i, j] : m2) {
-      bb.push_back(a.orb_bearings[size_t(i)]);
-      pp.push_back(map.landmarks[size_t(b.descriptor_landmarks[size_t(j)])].p_in_world);
-    }
-    const auto pose = estimateAbsolutePose(bb, pp, ransac);
-    std::fprintf(stderr,
-                 "self-check kf %d vs %d: %d shared landmarks, %zu matches, %d same; fresh: %zu "
-                 "matches, %d p3p inliers\n",
-                 k, k - 3, shared, m.size(), same, m2.size(), pose ? pose->num_inliers : 0);
-  }
   std::optional<LoopClosure> found;
   if (k - last_closure_ >= 10) {
     // Score (L1 overlap of the normalised word vectors) of every older keyframe.

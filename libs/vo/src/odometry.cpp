@@ -545,6 +545,8 @@ struct VisualOdometry::Impl {
     dropInvalidTrackLandmarks();
     last_pose = map.keyframes[size_t(k)].world_from_camera;
     ++stats.loop_closures;
+    stats.loops.emplace_back(map.keyframes[size_t(k)].t,
+                             map.keyframes[size_t(closure.old_keyframe)].t);
     stats.events.push_back("loop closed: keyframe " + std::to_string(k) + " with keyframe " +
                            std::to_string(closure.old_keyframe) + " (" +
                            std::to_string(closure.observations.size()) + " matches, scale " +

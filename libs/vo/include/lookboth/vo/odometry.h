@@ -41,6 +41,8 @@ struct OdometryStatistics {
   /// "loop_correct", "global_ba", "detect" (new features), "init".
   std::map<std::string, double> stage_seconds;
   std::vector<std::string> events;  ///< Losses, relocalisations, loops, one line each.
+  /// Closed loops: (time of the current keyframe, time of the old one).
+  std::vector<std::pair<TimeNs, TimeNs>> loops;
 };
 
 struct OdometryResult {
