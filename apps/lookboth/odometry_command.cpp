@@ -65,15 +65,17 @@ int runOdometryCommand(const OdometryArgs& args) {
               << " relocalisations, " << st.segments << " segments\n";
     for (const std::string& e : st.events) std::cout << "  event:       " << e << "\n";
     const double n = std::max<double>(1, static_cast<double>(st.frames));
-    std::cout << "  time:        decode " << formatFixed(s.decode_seconds, 2)
-              << " s (second thread), tracking+mapping " << formatFixed(s.track_seconds, 2)
+    std::cout << "  time (CPU):  decode " << formatFixed(s.decode_seconds, 2)
+              << " s on the second thread = "
+              << formatFixed(n / std::max(s.decode_seconds, 1e-9), 1)
+              << " frames/s; tracking+mapping " << formatFixed(s.track_seconds, 2)
               << " s = " << formatFixed(n / std::max(s.track_seconds, 1e-9), 1)
-              << " frames/s, final adjustment " << formatFixed(s.finish_seconds, 2) << " s, wall "
-              << formatFixed(s.wall_seconds, 2) << " s\n";
+              << " frames/s; final adjustment " << formatFixed(s.finish_seconds, 2) << " s\n";
+    std::cout << "  time (wall): " << formatFixed(s.wall_seconds, 2) << " s\n";
     std::cout << "  stages:     ";
     for (const auto& [stage, seconds] : st.stage_seconds)
       std::cout << " " << stage << " " << formatFixed(1000 * seconds / n, 2) << " ms";
-    std::cout << " (per frame)\n";
+    std::cout << " (CPU per frame)\n";
     printAte("ATE frames:  ", s.ate);
     printAte("ATE keyfr.:  ", s.ate_keyframes);
     if (!args.tum.empty()) std::cout << "wrote " << args.tum << "\n";

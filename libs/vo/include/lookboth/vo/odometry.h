@@ -37,8 +37,8 @@ struct OdometryStatistics {
   std::int64_t segments = 0;         ///< Maps started (1 + losses not relocalised).
   double mean_tracked_features = 0;  ///< Per tracked frame.
   double mean_inliers = 0;           ///< Pose inliers per tracked frame.
-  /// Seconds spent per stage: "klt", "pose", "keyframe", "local_ba", "loop_detect",
-  /// "loop_correct", "global_ba", "detect" (new features), "init".
+  /// CPU seconds (of the tracking thread) spent per stage: "klt", "pose", "keyframe", "local_ba",
+  /// "loop_detect", "loop_correct", "global_ba", "detect" (new features), "init".
   std::map<std::string, double> stage_seconds;
   std::vector<std::string> events;  ///< Losses, relocalisations, loops, one line each.
   /// Closed loops: (time of the current keyframe, time of the old one).
@@ -82,6 +82,9 @@ class VisualOdometry {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+/// CPU time consumed by the calling thread so far [s].
+double threadCpuSeconds();
 
 /// Absolute trajectory error after Sim(3) alignment of `estimate` onto
 /// `ground_truth` (samples matched by time within `max_dt`).
