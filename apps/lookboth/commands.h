@@ -20,5 +20,6 @@ void registerConvertCommand(CLI::App& app, const std::function<void(CommandBody)
 void registerSimulateCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerDetectCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerRegisterCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
+void registerOdometryCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 
 }  // namespace lookboth::app

@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
   lookboth::app::registerSimulateCommand(app, set_body);
   lookboth::app::registerDetectCommand(app, set_body);
   lookboth::app::registerRegisterCommand(app, set_body);
+  lookboth::app::registerOdometryCommand(app, set_body);
 
   try {
     app.parse(argc, argv);
