@@ -8,7 +8,7 @@ PACKAGES=(
   libeigen3-dev libceres-dev
   libmrpt-dev mrpt-apps
   libopencv-dev libopencv-contrib-dev
-  libwxgtk3.2-dev
+  libwxgtk3.2-dev xvfb xauth
   libgtest-dev libgmock-dev libbenchmark-dev
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   librosbag-storage-dev libroscpp-core-dev
