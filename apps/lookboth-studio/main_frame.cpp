@@ -5,6 +5,7 @@
 #include <wx/choice.h>
 #include <wx/config.h>
 #include <wx/dcscreen.h>
+#include <wx/dirdlg.h>
 #include <wx/filedlg.h>
 #include <wx/gauge.h>
 #include <wx/listctrl.h>
@@ -32,6 +33,7 @@
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
 #include "lookboth/core/version.h"
+#include "lookboth/dataset/rosbag_import.h"
 #include "lookboth/sim/scenario.h"
 #include "lookboth/sim/simulate.h"
 #include "scene_view.h"
@@ -52,6 +54,8 @@ enum MenuId {
   kIdScreenshot,
   kIdNextFrame,
   kIdPrevFrame,
+  kIdOpenFolder,
+  kIdImportBag,
 };
 
 wxImage toWxImage(const cv::Mat& image) {
@@ -142,6 +146,10 @@ void MainFrame::buildMenus() {
   auto* file = new wxMenu;
   file->Append(wxID_OPEN, "&Open dataset...\tCtrl+O",
                "Open a lookboth dataset (.rawlog) or folder");
+  file->Append(kIdOpenFolder, "Open &folder dataset...\tCtrl+Shift+O",
+               "Open a dataset in the plain folder layout (doc/formats.md)");
+  file->Append(kIdImportBag, "&Import ROS bag...\tCtrl+I",
+               "Convert a ROS 1 bag to a dataset with a topic mapping file, then open it");
   auto* simulate = new wxMenu;
   const auto scenarios = sim::builtinScenarioNames();
   for (size_t i = 0; i < scenarios.size() && i < 50; ++i)
@@ -522,6 +530,34 @@ void MainFrame::simulateScenario(const std::string& scenario, bool detections_on
   startJob(
       "simulate " + scenario,
       [options](const ProgressReporter& progress) { sim::simulate(options, progress); },
+      [this, out] { openDataset(out); });
+}
+
+void MainFrame::importBag() {
+  wxFileDialog bag_dialog(this, "ROS 1 bag to import", "", "", "ROS bags (*.bag)|*.bag|All files|*",
+                          wxFD_OPEN | wxFD_FILE_MUST_EXIST);
+  if (bag_dialog.ShowModal() != wxID_OK) return;
+  wxFileDialog mapping_dialog(this, "Topic mapping (YAML, see the user guide)", "", "",
+                              "YAML (*.yaml;*.yml)|*.yaml;*.yml|All files|*",
+                              wxFD_OPEN | wxFD_FILE_MUST_EXIST);
+  if (mapping_dialog.ShowModal() != wxID_OK) return;
+  wxFileDialog out_dialog(this, "Dataset to write", "",
+                          fs::path(bag_dialog.GetPath().ToStdString()).stem().string() + ".rawlog",
+                          "lookboth dataset (*.rawlog)|*.rawlog",
+                          wxFD_SAVE | wxFD_OVERWRITE_PROMPT);
+  if (out_dialog.ShowModal() != wxID_OK) return;
+  const std::string bag = bag_dialog.GetPath().ToStdString();
+  const std::string mapping = mapping_dialog.GetPath().ToStdString();
+  const std::string out = out_dialog.GetPath().ToStdString();
+  startJob(
+      "import " + fs::path(bag).filename().string(),
+      [this, bag, mapping, out](const ProgressReporter& progress) {
+        RosbagImportOptions options = loadRosbagMapping(mapping);
+        options.on_warning = [this](const std::string& w) {
+          CallAfter([this, w] { log("  warning: " + wxString::FromUTF8(w)); });
+        };
+        importRosbag(bag, out, DatasetKind::kRawlog, options, DatasetWriteOptions{true}, progress);
+      },
       [this, out] { openDataset(out); });
 }
 

@@ -67,6 +67,7 @@ class MainFrame : public wxFrame {
   void openDataset(const std::string& path);
   void simulateScenario(const std::string& scenario, bool detections_only, std::string out,
                         double duration_s);
+  void importBag();
   void runAll();
   void cancelJob();
   void saveScreenshot(const std::string& path);
