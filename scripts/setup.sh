@@ -5,7 +5,7 @@ set -euo pipefail
 
 PACKAGES=(
   build-essential cmake ninja-build pkg-config clang-format time
-  libeigen3-dev libceres-dev
+  libeigen3-dev libceres-dev libopengv-dev
   libmrpt-dev mrpt-apps
   libopencv-dev libopencv-contrib-dev
   libwxgtk3.2-dev
