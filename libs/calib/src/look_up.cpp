@@ -9,6 +9,7 @@
 // Rotations are kept (the paper refines positions only). Given the
 // trajectory, cameras are independent: each is solved on its own.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <variant>
 
@@ -19,6 +20,8 @@
 
 namespace lookboth {
 namespace {
+
+constexpr std::size_t kMaxParams = 64;
 
 struct BlobReprojectionCost {
   BlobReprojectionCost(const Camera* fisheye, const Rigid3d& fisheye_from_world,
@@ -32,7 +35,10 @@ struct BlobReprojectionCost {
     const Eigen::Matrix<T, 3, 1> p_in_world =
         Eigen::Matrix<T, 3, 1>(position[0], position[1], position[2]) + offset_in_world.cast<T>();
     const Eigen::Matrix<T, 3, 1> p = fisheye_from_world.cast<T>() * p_in_world;
-    std::vector<T> params(fisheye->params().begin(), fisheye->params().end());
+    // The intrinsics as constants of type T (no allocation per evaluation).
+    std::array<T, kMaxParams> params;
+    const std::vector<double>& values = fisheye->params();
+    for (std::size_t i = 0; i < values.size() && i < kMaxParams; ++i) params[i] = T(values[i]);
     T pixel[2];
     const bool ok =
         std::visit([&](const auto& model) { return model.project(params.data(), p.data(), pixel); },
@@ -81,6 +87,12 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
     throw Error("look_up needs the metric trajectory: put 'motion_calibration' before it");
   }
   const Camera& fisheye = *fisheye_sensor->camera;
+  if (fisheye.params().size() > kMaxParams) {
+    result.warnings.push_back("look_up: the fisheye model has more than " +
+                              std::to_string(kMaxParams) +
+                              " parameters; camera positions are those of look_down");
+    return;
+  }
   const TimeNs max_gap = static_cast<TimeNs>(options.max_gap_s * 1e9);
 
   // Fisheye frames with a pose.
@@ -97,6 +109,7 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
     Eigen::Vector3d position;  // current estimate (optical centre)
     Eigen::Vector3d offset_in_world;
     std::vector<Match> matches;
+    double gate = 0;  // [px]: options.gate_px, then from the camera's own residuals
   };
   std::vector<Candidate> cameras;
   for (CameraRegistration& c : result.cameras) {
@@ -104,7 +117,8 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
     cameras.push_back({&c,
                        c.world_from_camera.translation,
                        c.world_from_camera.rotation * options.blob_offset_in_camera_m,
-                       {}});
+                       {},
+                       options.gate_px});
   }
   if (cameras.empty()) return;
   std::sort(cameras.begin(), cameras.end(),
@@ -113,15 +127,17 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
   for (const Candidate& c : cameras) xs.push_back(c.position.x());
   // Farthest a camera can be seen: from the look_down heights above the
   // fisheye and the fisheye's field of view (plus a margin).
-  const double max_angle = std::min(fisheye.maxIncidenceAngle(), 1.55);
+  // (Rays beyond 85 deg from the axis are ignored for the range: a camera
+  // there is near the image border and far away.)
+  const double max_angle = std::min(fisheye.maxIncidenceAngle(), 85.0 * M_PI / 180.0);
   double max_height = 0;
-  for (const Frame& f : frames) {
-    const Eigen::Vector3d o = f.fisheye_from_world.inverse().translation;
-    for (const Candidate& c : cameras)
+  if (!frames.empty()) {
+    const Eigen::Vector3d o = frames.front().fisheye_from_world.inverse().translation;
+    for (const Candidate& c : cameras) {
       max_height = std::max(max_height, std::abs(c.position.z() - o.z()));
-    break;
+    }
   }
-  const double range = std::max(5.0, (max_height + 2.0) * std::tan(max_angle) + 2.0);
+  const double range = std::max(5.0, (max_height + 1.0) * std::tan(max_angle) + 2.0);
 
   auto project = [&](const Frame& f, const Eigen::Vector3d& p) -> std::optional<Eigen::Vector2d> {
     const Eigen::Vector3d p_in_fisheye = f.fisheye_from_world * p;
@@ -132,26 +148,32 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
   // Association: each camera's projection to the nearest blob within the
   // gate, unambiguous (second nearest blob ambiguity_ratio times farther) and
   // not claimed by another camera.
-  auto associate = [&]() {
+  // Rounds associate on every association_frame_step-th frame (consecutive
+  // fisheye frames see nearly the same thing); the final association uses all.
+  auto associate = [&](std::size_t frame_step) {
     for (Candidate& c : cameras) c.matches.clear();
-    for (std::size_t fi = 0; fi < frames.size(); ++fi) {
+    std::vector<std::pair<std::size_t, Eigen::Vector2d>> projected;  // (camera, pixel)
+    for (std::size_t fi = 0; fi < frames.size(); fi += frame_step) {
       const Frame& f = frames[fi];
       const std::vector<Blob>& blobs = f.blobs->blobs;
       if (blobs.empty()) continue;
       const Eigen::Vector3d o = f.fisheye_from_world.inverse().translation;
       const auto lo = std::lower_bound(xs.begin(), xs.end(), o.x() - range) - xs.begin();
       const auto hi = std::upper_bound(xs.begin(), xs.end(), o.x() + range) - xs.begin();
-      std::vector<std::pair<std::size_t, std::size_t>> claims;  // (camera, blob)
-      std::vector<int> claim_count(blobs.size(), 0);
+      projected.clear();
       for (auto k = lo; k < hi; ++k) {
-        Candidate& c = cameras[static_cast<std::size_t>(k)];
+        const Candidate& c = cameras[static_cast<std::size_t>(k)];
         if (std::abs(c.position.y() - o.y()) > range) continue;
         const auto pixel = project(f, c.position + c.offset_in_world);
         if (!pixel || !fisheye.isInImage(*pixel, -options.gate_px)) continue;
+        projected.emplace_back(static_cast<std::size_t>(k), *pixel);
+      }
+      for (const auto& [k, pixel] : projected) {
+        // Nearest and second nearest blob to this camera's projection...
         double d1 = 1e300, d2 = 1e300;
         std::size_t best = 0;
         for (std::size_t b = 0; b < blobs.size(); ++b) {
-          const double d = (Eigen::Vector2d(blobs[b].u, blobs[b].v) - *pixel).norm();
+          const double d = (Eigen::Vector2d(blobs[b].u, blobs[b].v) - pixel).norm();
           if (d < d1) {
             d2 = d1;
             d1 = d;
@@ -160,12 +182,17 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
             d2 = d;
           }
         }
-        if (d1 > options.gate_px || d2 < options.ambiguity_ratio * d1) continue;
-        claims.emplace_back(static_cast<std::size_t>(k), best);
-        ++claim_count[best];
-      }
-      for (const auto& [k, b] : claims) {
-        if (claim_count[b] == 1) cameras[k].matches.push_back({fi, b});
+        if (d1 > cameras[k].gate || d2 < options.ambiguity_ratio * d1) continue;
+        // ...and this camera's projection the nearest to that blob, unambiguously.
+        const Eigen::Vector2d blob(blobs[best].u, blobs[best].v);
+        bool mutual = true;
+        for (const auto& [other, other_pixel] : projected) {
+          if (other != k && (other_pixel - blob).norm() < options.ambiguity_ratio * d1) {
+            mutual = false;
+            break;
+          }
+        }
+        if (mutual) cameras[k].matches.push_back({fi, best});
       }
     }
   };
@@ -189,7 +216,7 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
   for (int round = 0; round < options.rounds; ++round) {
     progress.checkStop();
     progress.report("look_up", round, options.rounds);
-    associate();
+    associate(static_cast<std::size_t>(options.association_frame_step));
     for (std::size_t k = 0; k < cameras.size(); ++k) {
       Candidate& c = cameras[k];
       if (static_cast<int>(c.matches.size()) < options.min_blobs) {
@@ -197,15 +224,25 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
         continue;
       }
       double p[3] = {c.position.x(), c.position.y(), c.position.z()};
-      ceres::Problem ceres_problem;
-      for (const Match& m : c.matches) {
+      ceres::Problem::Options problem_options;
+      problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;  // shared, below
+      ceres::Problem ceres_problem(problem_options);
+      // At most max_blobs_per_camera residuals, evenly spread in time.
+      const std::size_t n = c.matches.size();
+      const std::size_t keep =
+          options.max_blobs_per_camera > 0
+              ? std::min(n, static_cast<std::size_t>(options.max_blobs_per_camera))
+              : n;
+      auto* loss = new ceres::CauchyLoss(options.cauchy_px);
+      for (std::size_t q = 0; q < keep; ++q) {
+        const Match& m = c.matches[q * n / keep];
         const Frame& f = frames[m.frame];
         const Blob& blob = f.blobs->blobs[m.blob];
         ceres_problem.AddResidualBlock(
             new ceres::AutoDiffCostFunction<BlobReprojectionCost, 2, 3>(
                 new BlobReprojectionCost(&fisheye, f.fisheye_from_world, c.offset_in_world,
                                          Eigen::Vector2d(blob.u, blob.v))),
-            new ceres::CauchyLoss(options.cauchy_px), p);
+            loss, p);
       }
       ceres::Solver::Options solver;
       solver.linear_solver_type = ceres::DENSE_QR;
@@ -213,10 +250,13 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
       solver.num_threads = 1;
       ceres::Solver::Summary summary;
       ceres::Solve(solver, &ceres_problem, &summary);
+      delete loss;
       c.position = Eigen::Vector3d(p[0], p[1], p[2]);
+      // Tighter gate for the next association: 4x this camera's RMS, within [min_gate_px, gate_px].
+      c.gate = std::clamp(4.0 * rms(c, c.position), options.min_gate_px, options.gate_px);
     }
   }
-  associate();  // the final associations, for the statistics
+  associate(1);  // the final associations, for the statistics
 
   int total_blobs = 0;
   double sum_before = 0, sum_after = 0;

@@ -46,7 +46,8 @@ constexpr double kDeg = M_PI / 180.0;
 struct MotionPair {
   Rigid3d a_unscaled;  ///< F_i^-1 F_j, trajectory units.
   Rigid3d b;           ///< M_i^-1 M_j.
-  Matrix6d b_covariance;
+  Rigid3d mi;          ///< M_i (its rotation maps the detections' noise into B).
+  Matrix6d covariance_i, covariance_j;
   std::size_t i = 0, j = 0;  ///< Association indices.
 };
 
@@ -275,7 +276,9 @@ void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationO
       p.a_unscaled = ai.world_from_fisheye.inverse() * aj.world_from_fisheye;
       const Rigid3d& mi = problem.marker(ai).camera_from_marker;
       p.b = mi.inverse() * problem.marker(aj).camera_from_marker;
-      p.b_covariance = relativeCovariance(mi, p.b, covariances[p.i], covariances[p.j]);
+      p.mi = mi;
+      p.covariance_i = covariances[p.i];
+      p.covariance_j = covariances[p.j];
       pairs.push_back(p);
     }
   }
@@ -312,7 +315,13 @@ void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationO
       Matrix6d J = Matrix6d::Zero();
       J.topLeftCorner<3, 3>() = -Rx;
       J.bottomRightCorner<3, 3>() = -Eigen::Matrix3d::Identity();
-      Matrix6d cov = J * p.b_covariance * J.transpose();
+      // Covariance of B at the PREDICTED relative motion X^-1 A X: weights
+      // from the measured B would favour pairs whose noise shortened them
+      // (a bias of the scale).
+      const Rigid3d a_scaled(p.a_unscaled.rotation, scale * p.a_unscaled.translation);
+      const Rigid3d b_predicted = X.inverse() * a_scaled * X;
+      Matrix6d cov =
+          J * relativeCovariance(p.mi, b_predicted, p.covariance_i, p.covariance_j) * J.transpose();
       cov.topLeftCorner<3, 3>().diagonal().array() += sigma_t * sigma_t;
       cov.bottomRightCorner<3, 3>().diagonal().array() += sigma_r * sigma_r;
       const Matrix6d sqrt_info = sqrtInformation(cov.inverse());

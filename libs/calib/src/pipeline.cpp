@@ -31,7 +31,11 @@ StageConfig RegistrationConfig::stageConfig(const std::string& name) const {
   for (const StageConfig::Layer& layer : layers) {
     StageConfig::Layer stage_layer;
     stage_layer.reader = layer.reader;
-    if (layer.node.IsDefined() && layer.node.IsMap()) stage_layer.node = layer.node[name];
+    if (layer.node.IsDefined() && layer.node.IsMap()) {
+      // (Assigning a missing key's node to a Node throws in yaml-cpp; test first.)
+      const YAML::Node section = layer.node[name];
+      if (section.IsDefined()) stage_layer.node = section;
+    }
     config.layers.push_back(stage_layer);
   }
   return config;

@@ -172,14 +172,18 @@ std::string LookDownOptions::check() const {
 
 void LookUpOptions::read(const YamlReader& r, const YAML::Node& node, const std::string& field) {
   r.rejectUnknownKeys(node,
-                      {"gate_px", "ambiguity_ratio", "cauchy_px", "rounds", "min_blobs",
-                       "max_shift_m", "blob_offset_in_camera_m", "max_gap_s"},
+                      {"gate_px", "min_gate_px", "ambiguity_ratio", "cauchy_px", "rounds",
+                       "max_blobs_per_camera", "association_frame_step", "min_blobs", "max_shift_m",
+                       "blob_offset_in_camera_m", "max_gap_s"},
                       field);
   const Section s{r, node, field};
   s.number("gate_px", gate_px);
+  s.number("min_gate_px", min_gate_px);
   s.number("ambiguity_ratio", ambiguity_ratio);
   s.number("cauchy_px", cauchy_px);
   s.integer("rounds", rounds);
+  s.integer("max_blobs_per_camera", max_blobs_per_camera);
+  s.integer("association_frame_step", association_frame_step);
   s.integer("min_blobs", min_blobs);
   s.number("max_shift_m", max_shift_m);
   s.vector3("blob_offset_in_camera_m", blob_offset_in_camera_m);
@@ -195,8 +199,13 @@ std::string LookUpOptions::check() const {
     if (std::string why = positive(name, value); !why.empty()) return why;
   }
   if (ambiguity_ratio < 1) return "'ambiguity_ratio': must be at least 1";
+  if (!(min_gate_px > 0) || min_gate_px > gate_px) {
+    return "'min_gate_px': must be positive and at most gate_px";
+  }
   if (rounds < 1) return "'rounds': must be at least 1";
   if (min_blobs < 1) return "'min_blobs': must be at least 1";
+  if (max_blobs_per_camera < 0) return "'max_blobs_per_camera': must not be negative";
+  if (association_frame_step < 1) return "'association_frame_step': must be at least 1";
   return "";
 }
 
