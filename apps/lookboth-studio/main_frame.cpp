@@ -830,6 +830,8 @@ void MainFrame::refreshScene() {
       if (c.status != CameraStatus::kUnregistered)
         content.cameras.push_back(SceneCamera{c.label, c.world_from_camera, status});
     }
+    // At most ~16 rays per camera: enough to see where it saw the marker from.
+    std::map<std::string, int> rays_per_camera;
     for (const auto& ray : rays_) {
       // Rays are drawn from the camera nearest to their start.
       std::string nearest;
@@ -841,7 +843,10 @@ void MainFrame::refreshScene() {
           nearest = c.label;
         }
       }
-      if (!nearest.empty()) content.rays.emplace_back(nearest, ray.to);
+      if (nearest.empty()) continue;
+      const int n = rays_per_camera[nearest]++;
+      if (n % std::max<int>(1, static_cast<int>(rays_.size() / content.cameras.size() / 16)) == 0)
+        content.rays.emplace_back(nearest, ray.to);
     }
     content.caption = "registration";
   } else {
@@ -906,8 +911,10 @@ void MainFrame::showFisheyeFrame(int i) {
     std::vector<Eigen::Vector2d> blob_pixels;
     if (const BlobObservation* blobs = index_->blobsAt(t))
       for (const Blob& b : blobs->blobs) blob_pixels.emplace_back(b.u, b.v);
-    const report::FisheyeCheck check =
-        report::makeFisheyeCheck(*view, *fisheye->camera, t, blob_pixels);
+    report::FisheyeCheck check = report::makeFisheyeCheck(*view, *fisheye->camera, t, blob_pixels);
+    check.frame_index = i;
+    const TimeNs t0 = has_images ? frames.front().t : index_->blobs().front().t;
+    check.seconds = static_cast<double>(t - t0) * 1e-9;
     std::vector<report::OverlayMark> marks;
     const cv::Mat base = has_images ? canvas : cv::Mat();
     cv::Mat drawn = report::drawFisheyeCheck(check, base, canvas.size(), &marks);
