@@ -52,11 +52,15 @@ TEST_F(StudioScreenshotTest, SimulatesOpensAndShowsEveryView) {
   // HOME in the work dir: the app's recent-files settings go there, not to the user's.
   const std::string command = "cd " + dir_.string() + " && HOME=" + dir_.string() +
                               " xvfb-run -a -s '-screen 0 1600x1000x24' " LOOKBOTH_STUDIO_EXE
-                              " --simulate small --detections-only --duration 20 --simulate-out " +
-                              (dir_ / "small.rawlog").string() + " --select cam01 --screenshot " +
+                              " --simulate small --detections-only --duration 30 --simulate-out " +
+                              (dir_ / "small.rawlog").string() +
+                              " --run-all --trajectory metric --select cam01 --screenshot " +
                               shot.string() + " --exit > studio.log 2>&1";
   const int status = std::system(command.c_str());
   ASSERT_EQ(status, 0) << "see " << (dir_ / "studio.log");
+  // The whole pipeline ran through the button's code path and wrote a registration.
+  EXPECT_TRUE(fs::exists(dir_ / "small_registration" / "registration.yaml"));
+  EXPECT_TRUE(fs::exists(dir_ / "small_registration" / "cameras.csv"));
 
   const cv::Mat window = cv::imread(shot.string(), cv::IMREAD_COLOR);
   ASSERT_FALSE(window.empty()) << shot;
@@ -75,9 +79,10 @@ TEST_F(StudioScreenshotTest, SimulatesOpensAndShowsEveryView) {
   const cv::Mat fisheye = cv::imread((dir_ / "studio-fisheye.png").string(), cv::IMREAD_COLOR);
   ASSERT_FALSE(fisheye.empty());
   EXPECT_GT(stddev(fisheye), 5.0) << "the fisheye view looks blank";
-  EXPECT_GT(countColour(fisheye, {60, 220, 60}, 30), 10) << "no detected blob drawn";
-  EXPECT_GT(countColour(fisheye, {30, 120, 255}, 30) + countColour(fisheye, {255, 200, 0}, 30), 10)
-      << "no projected camera drawn";
+  // The report's overlay colours (libs/report/include/lookboth/report/draw.h), in RGB.
+  EXPECT_GT(countColour(fisheye, {0, 200, 0}, 30), 10) << "no detected blob drawn";
+  EXPECT_GT(countColour(fisheye, {0, 128, 255}, 30), 10) << "no camera projected after refinement";
+  EXPECT_GT(countColour(fisheye, {255, 0, 0}, 30), 5) << "no camera projected before refinement";
 
   // The camera table: rows of dark text on a light background.
   const cv::Mat table = cv::imread((dir_ / "studio-table.png").string(), cv::IMREAD_GRAYSCALE);

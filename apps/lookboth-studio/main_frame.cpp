@@ -25,15 +25,21 @@
 #include <wx/timer.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "image_view.h"
+#include "lookboth/calib/full_pipeline.h"
+#include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
 #include "lookboth/core/version.h"
 #include "lookboth/dataset/rosbag_import.h"
+#include "lookboth/report/draw.h"
+#include "lookboth/report/snapshot.h"
 #include "lookboth/sim/scenario.h"
 #include "lookboth/sim/simulate.h"
 #include "scene_view.h"
@@ -286,8 +292,9 @@ wxWindow* MainFrame::buildSetupPanel(wxWindow* parent) {
   auto* lgrid = new wxFlexGridSizer(2, 4, 6);
   lgrid->AddGrowableCol(1);
   wxWindow* lb = loss_box->GetStaticBox();
-  lgrid->Add(new wxStaticText(lb, wxID_ANY, "Huber, looking down [m]"), 0, wxALIGN_CENTER_VERTICAL);
-  huber_ = new wxTextCtrl(lb, wxID_ANY, "0.05");
+  lgrid->Add(new wxStaticText(lb, wxID_ANY, "Huber, looking down [sigma]"), 0,
+             wxALIGN_CENTER_VERTICAL);
+  huber_ = new wxTextCtrl(lb, wxID_ANY, "3.0");
   lgrid->Add(huber_, 1, wxEXPAND);
   lgrid->Add(new wxStaticText(lb, wxID_ANY, "Cauchy, looking up [px]"), 0, wxALIGN_CENTER_VERTICAL);
   cauchy_ = new wxTextCtrl(lb, wxID_ANY, "2.0");
@@ -376,9 +383,10 @@ wxWindow* MainFrame::buildBottom(wxWindow* parent) {
                                      wxSP_LIVE_UPDATE | wxSP_3DSASH);
   table_ = new wxListCtrl(split, wxID_ANY, wxDefaultPosition, wxDefaultSize,
                           wxLC_REPORT | wxLC_SINGLE_SEL | wxLC_HRULES);
-  const char* columns[] = {"Camera", "Detections", "Frames", "Status", "Position [m]", "Warnings"};
-  const int widths[] = {90, 90, 70, 110, 220, 300};
-  for (int i = 0; i < 6; ++i) table_->AppendColumn(columns[i], wxLIST_FORMAT_LEFT, widths[i]);
+  const char* columns[] = {"Camera",          "Detections",        "Status",       "Residual [mm]",
+                           "Sigma pos. [mm]", "Reprojection [px]", "Position [m]", "Warnings"};
+  const int widths[] = {80, 90, 100, 95, 110, 130, 190, 320};
+  for (int i = 0; i < 8; ++i) table_->AppendColumn(columns[i], wxLIST_FORMAT_LEFT, widths[i]);
   table_->Bind(wxEVT_LIST_ITEM_SELECTED, [this](wxListEvent& e) {
     const long row = e.GetIndex();
     if (row >= 0 && static_cast<size_t>(row) < table_labels_.size())
@@ -402,7 +410,11 @@ wxWindow* MainFrame::buildBottom(wxWindow* parent) {
   return split;
 }
 
-void MainFrame::log(const wxString& line) { log_->AppendText(line + "\n"); }
+void MainFrame::log(const wxString& line) {
+  log_->AppendText(line + "\n");
+  // Unattended runs (--exit) also print the log, for scripts and tests.
+  if (actions_.exit) std::fprintf(stderr, "%s\n", line.utf8_str().data());
+}
 
 void MainFrame::validateSettings() {
   std::vector<std::string> problems;
@@ -567,8 +579,70 @@ void MainFrame::runAll() {
                  wxOK | wxICON_INFORMATION, this);
     return;
   }
-  log("Run all: the registration pipeline is not available in this build yet.");
-  continueStartup();
+  validateSettings();
+  if (!validation_->GetLabel().empty()) {
+    wxMessageBox("Fix the settings marked in red first:\n" + validation_->GetLabel(),
+                 "lookboth studio", wxOK | wxICON_WARNING, this);
+    continueStartup();
+    return;
+  }
+  FullPipelineOptions options;
+  options.dataset = index_->path();
+  const fs::path dataset(index_->path());
+  options.out = dataset.parent_path() / (dataset.stem().string() + "_registration");
+  options.overwrite = true;
+  options.mode =
+      trajectory_mode_->GetSelection() == 1 ? TrajectoryMode::kMetric : TrajectoryMode::kVisual;
+  if (options.mode == TrajectoryMode::kMetric)
+    options.trajectory_label = trajectory_label_->GetStringSelection().ToStdString();
+  // The settings of the panel, as a configuration file over the defaults.
+  const fs::path config = options.out.parent_path() / (dataset.stem().string() + "_studio.yaml");
+  const std::string yaml =
+      "register:\n  look_down:\n    huber: " + huber_->GetValue().ToStdString() +
+      "\n  look_up:\n    cauchy_px: " + cauchy_->GetValue().ToStdString() +
+      "\n    gate_px: " + gate_->GetValue().ToStdString() + "\n";
+  try {
+    writeFileAtomically(config, yaml);
+  } catch (const Error& e) {
+    wxMessageBox(wxString::FromUTF8(e.what()), "Cannot write the settings", wxOK | wxICON_ERROR,
+                 this);
+    return;
+  }
+  options.config_file = config;
+  log(wxString::FromUTF8("Settings: " + config.string()));
+  startJob(
+      "run all stages",
+      [this, options](const ProgressReporter& progress) {
+        FullPipelineResult result = runFullPipeline(options, progress);
+        auto index = std::make_shared<const studio::DatasetIndex>(
+            studio::DatasetIndex::build(options.dataset, progress));
+        auto registration = std::make_shared<const Registration>(loadRegistration(options.out));
+        CallAfter(
+            [this, index, registration, rays = result.run.rays, steps = result.steps]() mutable {
+              registrationReady(index, registration, std::move(rays), std::move(steps));
+            });
+      },
+      [this] { continueStartup(); });
+}
+
+void MainFrame::registrationReady(std::shared_ptr<const studio::DatasetIndex> index,
+                                  std::shared_ptr<const Registration> registration,
+                                  std::vector<DetectionRay> rays, std::vector<std::string> steps) {
+  for (const auto& step : steps) log("  " + wxString::FromUTF8(step));
+  registration_ = std::move(registration);
+  registration_view_ = std::make_shared<const report::RegistrationView>(
+      report::viewOfRegistration(*registration_, "registration"));
+  rays_ = std::move(rays);
+  for (const auto& w : registration_->warnings) log("  warning: " + wxString::FromUTF8(w));
+  if (!registration_->observability.message.empty())
+    log("  observability: " + wxString::FromUTF8(registration_->observability.message));
+  if (registration_->reprojection)
+    log(wxString::Format("  fisheye reprojection RMS: %.2f px before, %.2f px after looking up",
+                         registration_->reprojection->rms_px_before,
+                         registration_->reprojection->rms_px_after));
+  log(wxString::Format("  %d of %zu cameras registered", registration_->registeredCount(),
+                       registration_->cameras.size()));
+  datasetLoaded(std::move(index));
 }
 
 void MainFrame::cancelJob() {
@@ -579,6 +653,7 @@ void MainFrame::cancelJob() {
 }
 
 void MainFrame::datasetLoaded(std::shared_ptr<const studio::DatasetIndex> index) {
+  const bool new_dataset = !index_ || index_->path() != index->path();
   index_ = std::move(index);
   const Manifest& m = index_->manifest();
   const auto& counts = index_->recordCounts();
@@ -593,13 +668,20 @@ void MainFrame::datasetLoaded(std::shared_ptr<const studio::DatasetIndex> index)
       " marker detections,\n" + std::to_string(count("blobs")) + " blob frames, " +
       std::to_string(index_->trajectories().size()) + " trajectories"));
   dataset_text_->Wrap(270);
-  dictionary_->SetStringSelection(m.marker.dictionary);
-  marker_id_->SetValue(m.marker.id);
-  marker_size_->ChangeValue(formatDouble(m.marker.size_m));
-  trajectory_label_->Clear();
-  for (const auto& info : m.trajectories)
-    if (info.metric && info.label != "ground_truth") trajectory_label_->Append(info.label);
-  if (trajectory_label_->GetCount() > 0) trajectory_label_->SetSelection(0);
+  if (new_dataset) {
+    dictionary_->SetStringSelection(m.marker.dictionary);
+    marker_id_->SetValue(m.marker.id);
+    marker_size_->ChangeValue(formatDouble(m.marker.size_m));
+    trajectory_label_->Clear();
+    for (const auto& info : m.trajectories)
+      if (info.metric && info.label != "ground_truth") trajectory_label_->Append(info.label);
+    if (trajectory_label_->GetCount() > 0) trajectory_label_->SetSelection(0);
+    // Visual odometry needs fisheye frames; a detections-only dataset needs a metric trajectory.
+    int mode = index_->fisheyeFrames().empty() ? 1 : 0;
+    if (actions_.trajectory == "visual") mode = 0;
+    if (actions_.trajectory == "metric") mode = 1;
+    trajectory_mode_->SetSelection(mode);
+  }
   SetTitle(wxString::FromUTF8("lookboth studio - " + m.name));
   SetStatusText(wxString::FromUTF8(index_->path().string()), 0);
   SetStatusText(wxString::Format("%zu input issues", index_->issues().size()), 1);
@@ -639,62 +721,91 @@ void MainFrame::datasetLoaded(std::shared_ptr<const studio::DatasetIndex> index)
   }
 }
 
+namespace {
+
+// One row of the camera table, as text, plus the numbers it sorts by.
+struct TableRow {
+  std::string label;
+  std::string cells[8];
+  double sort_keys[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  bool warn = false;
+};
+
+}  // namespace
+
 void MainFrame::refreshTable() {
   table_->DeleteAllItems();
   table_labels_.clear();
   if (!index_) return;
-  auto rows = index_->cameraSummaries();
-  const auto& truth = index_->manifest().ground_truth.world_from_camera;
-  auto position = [&](const std::string& label) -> std::string {
-    const auto it = truth.find(label);
-    if (it == truth.end()) return "-";
-    const auto& t = it->second.translation;
-    return formatMetres(t.x()) + ", " + formatMetres(t.y()) + ", " + formatMetres(t.z()) +
-           " (truth)";
-  };
-  auto warnings = [](const studio::CameraSummary& r) -> std::string {
-    if (!r.has_calibration) return "no calibration: cannot detect";
-    if (r.detections == 0) return "no marker detection";
-    if (r.detections < 10) return "few detections";
-    return "";
-  };
-  auto status = [](const studio::CameraSummary& r) -> std::string {
-    return r.detections > 0 ? "detected" : "not seen";
-  };
-  std::stable_sort(rows.begin(), rows.end(), [&](const auto& a, const auto& b) {
-    bool less = false;
-    bool greater = false;
-    switch (sort_column_) {
-      case 1:
-        less = a.detections < b.detections;
-        greater = a.detections > b.detections;
-        break;
-      case 2:
-        less = a.frames < b.frames;
-        greater = a.frames > b.frames;
-        break;
-      case 3:
-        less = status(a) < status(b);
-        greater = status(a) > status(b);
-        break;
-      case 5:
-        less = warnings(a) < warnings(b);
-        greater = warnings(a) > warnings(b);
-        break;
-      default:
-        less = a.label < b.label;
-        greater = a.label > b.label;
+  std::vector<TableRow> rows;
+  for (const auto& summary : index_->cameraSummaries()) {
+    TableRow row;
+    row.label = summary.label;
+    row.cells[0] = summary.label;
+    row.cells[1] = std::to_string(summary.detections);
+    row.sort_keys[1] = static_cast<double>(summary.detections);
+    row.cells[2] = summary.detections > 0 ? "detected" : "not seen";
+    for (int c = 3; c < 7; ++c) row.cells[c] = "-";
+    if (!summary.has_calibration)
+      row.cells[7] = "no calibration: cannot detect";
+    else if (summary.detections == 0)
+      row.cells[7] = "no marker detection";
+    const CameraRegistration* reg =
+        registration_ ? registration_->findCamera(summary.label) : nullptr;
+    if (reg) {
+      row.cells[1] =
+          std::to_string(reg->detections.used) + " / " + std::to_string(reg->detections.total);
+      row.sort_keys[1] = reg->detections.used;
+      row.cells[2] = cameraStatusName(reg->status);
+      row.sort_keys[2] = static_cast<double>(reg->status);
+      if (reg->residuals) {
+        row.cells[3] = formatFixed(1000 * reg->residuals->position_rms_m, 1);
+        row.sort_keys[3] = reg->residuals->position_rms_m;
+      }
+      if (reg->covariance) {
+        const double sigma =
+            std::sqrt(std::max(0.0, reg->covariance->topLeftCorner<3, 3>().trace()));
+        row.cells[4] = formatFixed(1000 * sigma, 1);
+        row.sort_keys[4] = sigma;
+      }
+      if (reg->reprojection && reg->reprojection->blobs > 0) {
+        row.cells[5] = formatFixed(reg->reprojection->rms_px_before, 2) + " -> " +
+                       formatFixed(reg->reprojection->rms_px_after, 2);
+        row.sort_keys[5] = reg->reprojection->rms_px_after;
+      }
+      if (reg->status != CameraStatus::kUnregistered) {
+        const auto& t = reg->world_from_camera.translation;
+        row.cells[6] =
+            formatMetres(t.x()) + ", " + formatMetres(t.y()) + ", " + formatMetres(t.z());
+      }
+      std::string notes = reg->reason;
+      for (const auto& w : reg->warnings) notes += (notes.empty() ? "" : "; ") + w;
+      row.cells[7] = notes;
+      row.warn = reg->status != CameraStatus::kRegistered;
+    } else {
+      const auto& truth = index_->manifest().ground_truth.world_from_camera;
+      if (const auto it = truth.find(summary.label); it != truth.end()) {
+        const auto& t = it->second.translation;
+        row.cells[6] = formatMetres(t.x()) + ", " + formatMetres(t.y()) + ", " +
+                       formatMetres(t.z()) + " (truth)";
+      }
+      row.warn = !row.cells[7].empty();
     }
+    rows.push_back(std::move(row));
+  }
+  const int column = std::clamp(sort_column_, 0, 7);
+  std::stable_sort(rows.begin(), rows.end(), [&](const TableRow& a, const TableRow& b) {
+    const bool numeric = column >= 1 && column <= 5;
+    const bool less =
+        numeric ? a.sort_keys[column] < b.sort_keys[column] : a.cells[column] < b.cells[column];
+    const bool greater =
+        numeric ? a.sort_keys[column] > b.sort_keys[column] : a.cells[column] > b.cells[column];
     return sort_ascending_ ? less : greater;
   });
   for (const auto& r : rows) {
-    const long i = table_->InsertItem(table_->GetItemCount(), wxString::FromUTF8(r.label));
-    table_->SetItem(i, 1, wxString::Format("%lld", static_cast<long long>(r.detections)));
-    table_->SetItem(i, 2, wxString::Format("%lld", static_cast<long long>(r.frames)));
-    table_->SetItem(i, 3, wxString::FromUTF8(status(r)));
-    table_->SetItem(i, 4, wxString::FromUTF8(position(r.label)));
-    table_->SetItem(i, 5, wxString::FromUTF8(warnings(r)));
-    if (!warnings(r).empty()) table_->SetItemTextColour(i, wxColour(190, 90, 0));
+    const long i = table_->InsertItem(table_->GetItemCount(), wxString::FromUTF8(r.cells[0]));
+    for (int c = 1; c < 8; ++c) table_->SetItem(i, c, wxString::FromUTF8(r.cells[c]));
+    if (r.warn) table_->SetItemTextColour(i, wxColour(190, 90, 0));
     table_labels_.push_back(r.label);
     if (r.label == selected_) table_->SetItemState(i, wxLIST_STATE_SELECTED, wxLIST_STATE_SELECTED);
   }
@@ -704,27 +815,54 @@ void MainFrame::refreshScene() {
   if (!index_) return;
   SceneContent content;
   const Manifest& m = index_->manifest();
-  const Trajectory* trajectory = index_->trajectory("ground_truth");
-  if (trajectory) {
-    for (const auto& s : trajectory->samples())
+  auto add_trajectory = [&](const std::vector<StampedPose>& samples) {
+    for (const auto& s : samples)
       if (content.trajectory.empty() ||
           (content.trajectory.back() - s.world_from_body.translation).norm() > 0.05)
         content.trajectory.push_back(s.world_from_body.translation);
-  }
-  for (const auto& [label, pose] : m.ground_truth.world_from_camera)
-    content.cameras.push_back(SceneCamera{label, pose, index_->markers(label).empty() ? 2 : 0});
-  // Detection rays: where the marker was when each camera saw it (a sample of them).
-  if (trajectory && m.ground_truth.fisheye_from_marker) {
+  };
+  if (registration_) {
+    add_trajectory(registration_->trajectory);
+    for (const auto& c : registration_->cameras) {
+      const int status = c.status == CameraStatus::kRegistered ? 0
+                         : c.status == CameraStatus::kSuspect  ? 1
+                                                               : 2;
+      if (c.status != CameraStatus::kUnregistered)
+        content.cameras.push_back(SceneCamera{c.label, c.world_from_camera, status});
+    }
+    // At most ~16 rays per camera: enough to see where it saw the marker from.
+    std::map<std::string, int> rays_per_camera;
+    for (const auto& ray : rays_) {
+      // Rays are drawn from the camera nearest to their start.
+      std::string nearest;
+      double best = 0.05;
+      for (const auto& c : content.cameras) {
+        const double d = (c.world_from_camera.translation - ray.from).norm();
+        if (d < best) {
+          best = d;
+          nearest = c.label;
+        }
+      }
+      if (nearest.empty()) continue;
+      const int n = rays_per_camera[nearest]++;
+      if (n % std::max<int>(1, static_cast<int>(rays_.size() / content.cameras.size() / 16)) == 0)
+        content.rays.emplace_back(nearest, ray.to);
+    }
+    content.caption = "registration";
+  } else {
+    const Trajectory* trajectory = index_->trajectory("ground_truth");
+    if (trajectory) add_trajectory(trajectory->samples());
+    for (const auto& [label, pose] : m.ground_truth.world_from_camera)
+      content.cameras.push_back(SceneCamera{label, pose, index_->markers(label).empty() ? 2 : 0});
+    // Detection rays: where the marker was when each camera saw it (a sample of them).
     for (const auto& [label, pose] : m.ground_truth.world_from_camera) {
       const auto& markers = index_->markers(label);
       const size_t step = std::max<size_t>(1, markers.size() / 12);
-      for (size_t i = 0; i < markers.size(); i += step) {
-        const Rigid3d world_from_marker = pose * markers[i].camera_from_marker;
-        content.rays.emplace_back(label, world_from_marker.translation);
-      }
+      for (size_t i = 0; i < markers.size(); i += step)
+        content.rays.emplace_back(label, (pose * markers[i].camera_from_marker).translation);
     }
+    content.caption = "ground truth";
   }
-  content.caption = "ground truth";
   scene_->setContent(content);
   scene_->setSelected(selected_);
 }
@@ -767,6 +905,33 @@ void MainFrame::showFisheyeFrame(int i) {
                  thickness + 1);
       ++blob_count;
     }
+  }
+  const auto* view = static_cast<const report::RegistrationView*>(registration_view_.get());
+  if (view && fisheye && fisheye->camera) {
+    std::vector<Eigen::Vector2d> blob_pixels;
+    if (const BlobObservation* blobs = index_->blobsAt(t))
+      for (const Blob& b : blobs->blobs) blob_pixels.emplace_back(b.u, b.v);
+    report::FisheyeCheck check = report::makeFisheyeCheck(*view, *fisheye->camera, t, blob_pixels);
+    check.frame_index = i;
+    const TimeNs t0 = has_images ? frames.front().t : index_->blobs().front().t;
+    check.seconds = static_cast<double>(t - t0) * 1e-9;
+    std::vector<report::OverlayMark> marks;
+    const cv::Mat base = has_images ? canvas : cv::Mat();
+    cv::Mat drawn = report::drawFisheyeCheck(check, base, canvas.size(), &marks);
+    for (const auto& mark : marks) {
+      if (mark.label == selected_ && mark.kind == "after")
+        cv::circle(drawn, cv::Point(static_cast<int>(mark.at.x), static_cast<int>(mark.at.y)),
+                   14 * thickness, kSelectedColour, thickness + 1);
+    }
+    frame_text_->SetLabel(wxString::Format("frame %d / %zu  t=%s s", i + 1, count,
+                                           wxString::FromUTF8(formatSeconds(t))));
+    fisheye_view_->setImage(
+        toWxImage(drawn),
+        wxString::Format("registration: %d cameras in view, %d associated blobs; amber ring: "
+                         "selected camera",
+                         static_cast<int>(check.cameras.size()), check.associated()));
+    showCameraView();
+    return;
   }
   // Cameras projected into the frame (ground truth until a registration exists).
   int projected = 0;
@@ -841,6 +1006,32 @@ void MainFrame::showCameraView() {
   if (canvas.empty()) {
     camera_view_->setPlaceholder(wxString::FromUTF8(selected_ + ": no frames, no calibration"));
     camera_view_->setImage(wxImage());
+    return;
+  }
+  const auto* view = static_cast<const report::RegistrationView*>(registration_view_.get());
+  if (view && sensor && sensor->camera) {
+    report::EnvCameraView env;
+    env.camera = selected_;
+    env.t = frame_t;
+    env.marker_size_m = index_->manifest().marker.size_m;
+    const MarkerObservation* nearest = nullptr;
+    for (const auto& m : markers)
+      if (std::llabs(m.t - frame_t) < 100'000'000 &&
+          (!nearest || std::llabs(m.t - frame_t) < std::llabs(nearest->t - frame_t)))
+        nearest = &m;
+    if (nearest) env.detected_camera_from_marker = nearest->camera_from_marker;
+    const auto camera_pose = view->world_from_camera.find(selected_);
+    const auto robot = view->trajectory.interpolate(frame_t, 0);
+    if (camera_pose != view->world_from_camera.end() && robot.ok() && view->fisheye_from_marker)
+      env.predicted_camera_from_marker =
+          camera_pose->second.inverse() * robot.world_from_body * *view->fisheye_from_marker;
+    const cv::Mat drawn = report::drawEnvCameraView(
+        env, *sensor->camera, frames.empty() ? cv::Mat() : canvas, canvas.size());
+    camera_view_->setImage(
+        toWxImage(drawn),
+        wxString::FromUTF8(
+            selected_ + "  t=" + formatSeconds(frame_t) +
+            " s   yellow: detected marker, magenta: where the registration puts it"));
     return;
   }
   if (canvas.channels() == 1) cv::cvtColor(canvas, canvas, cv::COLOR_GRAY2BGR);

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "lookboth/calib/pipeline.h"
 #include "lookboth/studio/dataset_index.h"
 #include "lookboth/studio/job_runner.h"
 
@@ -41,6 +42,7 @@ struct StartupActions {
   std::string simulate_out;  ///< Where the simulation goes (default: a temporary folder).
   double duration_s = 0;     ///< Simulate only the first seconds (0 = all).
   bool run_all = false;      ///< Run the whole pipeline once the dataset is open.
+  std::string trajectory;    ///< "visual" or "metric" (default: visual when there are frames).
   std::string select;        ///< Camera to select.
   int frame = -1;            ///< Fisheye frame to show (-1: automatic).
   std::string screenshot;    ///< Save a screenshot of the window here when done.
@@ -82,6 +84,9 @@ class MainFrame : public wxFrame {
 
   // Views.
   void datasetLoaded(std::shared_ptr<const studio::DatasetIndex> index);
+  void registrationReady(std::shared_ptr<const studio::DatasetIndex> index,
+                         std::shared_ptr<const Registration> registration,
+                         std::vector<DetectionRay> rays, std::vector<std::string> steps);
   void refreshTable();
   void refreshScene();
   void showFisheyeFrame(int index);
@@ -97,6 +102,9 @@ class MainFrame : public wxFrame {
 
   studio::JobRunner runner_;
   std::shared_ptr<const studio::DatasetIndex> index_;
+  std::shared_ptr<const Registration> registration_;
+  std::shared_ptr<const void> registration_view_;  ///< report::RegistrationView (opaque here).
+  std::vector<DetectionRay> rays_;
   std::string selected_;
   std::string last_stage_;
   int last_percent_ = -1;

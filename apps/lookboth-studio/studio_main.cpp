@@ -7,6 +7,7 @@
 #include <wx/config.h>
 #include <wx/image.h>
 #include <wx/intl.h>
+#include <wx/log.h>
 
 #include <clocale>
 
@@ -51,6 +52,8 @@ class StudioApp : public wxApp {
     parser.AddOption("", "duration", "with --simulate: only the first SECONDS",
                      wxCMD_LINE_VAL_DOUBLE);
     parser.AddSwitch("", "run-all", "run the whole pipeline once the dataset is open");
+    parser.AddOption("", "trajectory",
+                     "visual (fisheye odometry) or metric (the dataset's odometry)");
     parser.AddOption("", "select", "select this camera");
     parser.AddOption("", "frame", "show this fisheye frame (0-based)", wxCMD_LINE_VAL_NUMBER);
     parser.AddOption("", "screenshot", "save a PNG of the main window when done");
@@ -67,6 +70,13 @@ class StudioApp : public wxApp {
     double duration = 0;
     if (parser.Found("duration", &duration)) actions_.duration_s = duration;
     actions_.run_all = parser.Found("run-all");
+    if (parser.Found("trajectory", &text)) {
+      actions_.trajectory = text.ToStdString();
+      if (actions_.trajectory != "visual" && actions_.trajectory != "metric") {
+        wxLogError("--trajectory: expected 'visual' or 'metric', got '%s'", text);
+        return false;
+      }
+    }
     if (parser.Found("select", &text)) actions_.select = text.ToStdString();
     long frame = -1;
     if (parser.Found("frame", &frame)) actions_.frame = static_cast<int>(frame);

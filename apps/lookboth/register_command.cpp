@@ -1,5 +1,6 @@
 // `lookboth register`: a dataset's detections and trajectory -> the pose of
 // every environment camera (libs/calib does the work; doc/user-guide.md).
+#include <filesystem>
 #include <iostream>
 
 #include "commands.h"
@@ -28,6 +29,9 @@ int runRegister(const RegisterArgs& args) {
   options.trajectory_label = args.trajectory_label;
   options.trajectory_file = args.trajectory_file;
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
+  if (std::filesystem::exists(args.out) && !args.overwrite) {
+    throw Error(ErrorContext{args.out, 0, "", ""}, "already exists (use --overwrite)");
+  }
   // Configuration first: a bad option fails before the dataset is read.
   const RegistrationController controller(loadRegistrationConfig(
       args.config.empty() ? std::nullopt : std::optional<std::filesystem::path>(args.config)));

@@ -148,10 +148,12 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
   // Association: each camera's projection to the nearest blob within the
   // gate, unambiguous (second nearest blob ambiguity_ratio times farther) and
   // not claimed by another camera.
-  auto associate = [&]() {
+  // Rounds associate on every association_frame_step-th frame (consecutive
+  // fisheye frames see nearly the same thing); the final association uses all.
+  auto associate = [&](std::size_t frame_step) {
     for (Candidate& c : cameras) c.matches.clear();
     std::vector<std::pair<std::size_t, Eigen::Vector2d>> projected;  // (camera, pixel)
-    for (std::size_t fi = 0; fi < frames.size(); ++fi) {
+    for (std::size_t fi = 0; fi < frames.size(); fi += frame_step) {
       const Frame& f = frames[fi];
       const std::vector<Blob>& blobs = f.blobs->blobs;
       if (blobs.empty()) continue;
@@ -214,7 +216,7 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
   for (int round = 0; round < options.rounds; ++round) {
     progress.checkStop();
     progress.report("look_up", round, options.rounds);
-    associate();
+    associate(static_cast<std::size_t>(options.association_frame_step));
     for (std::size_t k = 0; k < cameras.size(); ++k) {
       Candidate& c = cameras[k];
       if (static_cast<int>(c.matches.size()) < options.min_blobs) {
@@ -254,7 +256,7 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
       c.gate = std::clamp(4.0 * rms(c, c.position), options.min_gate_px, options.gate_px);
     }
   }
-  associate();  // the final associations, for the statistics
+  associate(1);  // the final associations, for the statistics
 
   int total_blobs = 0;
   double sum_before = 0, sum_after = 0;

@@ -171,11 +171,11 @@ std::string LookDownOptions::check() const {
 }
 
 void LookUpOptions::read(const YamlReader& r, const YAML::Node& node, const std::string& field) {
-  r.rejectUnknownKeys(
-      node,
-      {"gate_px", "min_gate_px", "ambiguity_ratio", "cauchy_px", "rounds", "max_blobs_per_camera",
-       "min_blobs", "max_shift_m", "blob_offset_in_camera_m", "max_gap_s"},
-      field);
+  r.rejectUnknownKeys(node,
+                      {"gate_px", "min_gate_px", "ambiguity_ratio", "cauchy_px", "rounds",
+                       "max_blobs_per_camera", "association_frame_step", "min_blobs", "max_shift_m",
+                       "blob_offset_in_camera_m", "max_gap_s"},
+                      field);
   const Section s{r, node, field};
   s.number("gate_px", gate_px);
   s.number("min_gate_px", min_gate_px);
@@ -183,6 +183,7 @@ void LookUpOptions::read(const YamlReader& r, const YAML::Node& node, const std:
   s.number("cauchy_px", cauchy_px);
   s.integer("rounds", rounds);
   s.integer("max_blobs_per_camera", max_blobs_per_camera);
+  s.integer("association_frame_step", association_frame_step);
   s.integer("min_blobs", min_blobs);
   s.number("max_shift_m", max_shift_m);
   s.vector3("blob_offset_in_camera_m", blob_offset_in_camera_m);
@@ -204,6 +205,7 @@ std::string LookUpOptions::check() const {
   if (rounds < 1) return "'rounds': must be at least 1";
   if (min_blobs < 1) return "'min_blobs': must be at least 1";
   if (max_blobs_per_camera < 0) return "'max_blobs_per_camera': must not be negative";
+  if (association_frame_step < 1) return "'association_frame_step': must be at least 1";
   return "";
 }
 

@@ -162,6 +162,8 @@ SyntheticScene makeSyntheticScene(const SyntheticOptions& o) {
     b.image_height = camera.height();
     const Rigid3d fisheye_from_world = sample.world_from_body.inverse();
     for (const auto& [label, world_from_camera] : scene.world_from_camera) {
+      const Eigen::Vector3d d = world_from_camera.translation - sample.world_from_body.translation;
+      if (std::hypot(d.x(), d.y()) > 25.0) continue;  // (far: at the image border or outside)
       const Eigen::Vector3d p = fisheye_from_world * world_from_camera.translation;
       const auto pixel = camera.project(p);
       if (!pixel || !camera.isInImage(*pixel, 2)) continue;

@@ -302,6 +302,14 @@ std::vector<std::pair<int, std::string>> chooseFrames(
 
 }  // namespace
 
+FisheyeCheck makeFisheyeCheck(const RegistrationView& reg, const Camera& fisheye, TimeNs t,
+                              const std::vector<Eigen::Vector2d>& frame_blobs) {
+  std::multimap<TimeNs, const ReprojectionRow*> rows_by_time;
+  for (const ReprojectionRow& row : reg.blob_associations)
+    if (row.t == t) rows_by_time.emplace(row.t, &row);
+  return makeCheck(reg, fisheye, t, frame_blobs, rows_by_time);
+}
+
 SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& reg,
                               const SnapshotOptions& options, const ProgressReporter& progress) {
   if (const std::string why = options.check(); !why.empty()) throw Error(why);

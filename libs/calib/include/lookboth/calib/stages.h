@@ -95,6 +95,9 @@ struct LookUpOptions {
   /// Blob residuals per camera in the solve, evenly spread in time (0 = all);
   /// the statistics use every associated blob.
   int max_blobs_per_camera = 500;
+  /// The rounds associate blobs of every n-th fisheye frame; the final
+  /// association (statistics, blob_associations.csv) uses every frame.
+  int association_frame_step = 3;
   int min_blobs = 5;  ///< Fewer associated blobs: the camera keeps its look_down position.
   /// Largest move of a camera by this stage [m]; a larger one is refused (warning).
   double max_shift_m = 0.5;

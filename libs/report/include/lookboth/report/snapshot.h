@@ -48,6 +48,11 @@ struct RegistrationView {
 /// The view of a registration loaded with loadRegistration (libs/calib).
 RegistrationView viewOfRegistration(const Registration& registration, const std::string& name);
 
+/// The reprojection check of the fisheye frame at `t` (robot clock) with the
+/// blobs detected in it: the cameras projected before and after the
+/// looking-up refinement, and stage 4's associations at that time.
+FisheyeCheck makeFisheyeCheck(const RegistrationView& reg, const Camera& fisheye, TimeNs t,
+                              const std::vector<Eigen::Vector2d>& frame_blobs);
 /// Which fisheye frames to check.
 struct FrameSelection {
   enum class Mode { kAuto, kIndices, kTimeRange } mode = Mode::kAuto;
