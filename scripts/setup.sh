@@ -13,6 +13,7 @@ PACKAGES=(
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   librosbag-storage-dev libroscpp-core-dev
   libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev libstd-msgs-dev
+  chromium xvfb xauth
 )
 
 missing=()

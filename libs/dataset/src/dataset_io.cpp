@@ -114,5 +114,17 @@ void moveIntoPlace(const fs::path& temporary, const fs::path& destination, bool 
   if (ec) throw Error({destination.string(), 0, "", ""}, "cannot move into place: " + ec.message());
 }
 
+void placeImageFile(const fs::path& source, const fs::path& target, bool link,
+                    const std::string& subject) {
+  std::error_code ec;
+  if (link) {
+    fs::create_hard_link(source, target, ec);
+    if (!ec) return;
+    ec.clear();
+  }
+  fs::copy_file(source, target, ec);
+  if (ec) throw Error({source.string(), 0, "", subject}, "cannot copy image: " + ec.message());
+}
+
 }  // namespace internal
 }  // namespace lookboth

@@ -121,7 +121,10 @@ void writeTextFile(const fs::path& path, const std::string& contents) {
 class FolderWriter final : public DatasetWriter {
  public:
   FolderWriter(fs::path folder, const Manifest& manifest, const DatasetWriteOptions& options)
-      : DatasetWriter(manifest), folder_(std::move(folder)), overwrite_(options.overwrite) {
+      : DatasetWriter(manifest),
+        folder_(std::move(folder)),
+        overwrite_(options.overwrite),
+        link_images_(options.link_images) {
     checkOutputPath(folder_, overwrite_);
     fisheye_label_ = checkManifest(manifest_);
     temporary_ = temporarySibling(folder_);
@@ -303,12 +306,7 @@ class FolderWriter final : public DatasetWriter {
             {folder_.string(), 0, "", sensor.label},
             "frame at " + std::to_string(frame.t) + " ns has neither an image file nor bytes");
       }
-      std::error_code ec;
-      fs::copy_file(frame.image_file, target, ec);
-      if (ec) {
-        throw Error({frame.image_file.string(), 0, "", sensor.label},
-                    "cannot copy image into the dataset folder: " + ec.message());
-      }
+      placeImageFile(frame.image_file, target, link_images_, sensor.label);
     }
     csv.stream() << frame.t << ',' << relative.generic_string() << '\n';
   }
@@ -414,6 +412,7 @@ class FolderWriter final : public DatasetWriter {
   fs::path folder_;
   fs::path temporary_;
   bool overwrite_;
+  bool link_images_;
   bool finished_ = false;
   std::string fisheye_label_;  ///< The fisheye's label in the manifest (written as "fisheye").
   std::map<std::string, OutputFile> frames_;  ///< By camera label.

@@ -32,4 +32,10 @@ void moveIntoPlace(const std::filesystem::path& temporary, const std::filesystem
 /// its parent directory does not exist.
 void checkOutputPath(const std::filesystem::path& destination, bool overwrite);
 
+/// Puts an existing image file at `target`: a hard link when `link` (a copy
+/// when linking fails, e.g. across file systems), else a copy. Throws
+/// lookboth::Error naming the source and `subject` (the camera) on failure.
+void placeImageFile(const std::filesystem::path& source, const std::filesystem::path& target,
+                    bool link, const std::string& subject);
+
 }  // namespace lookboth::internal

@@ -26,6 +26,7 @@ class RawlogWriter : public DatasetWriter {
         images_dir_(imagesDirectoryFor(rawlog)),
         manifest_path_(manifestPathFor(rawlog)),
         overwrite_(options.overwrite),
+        link_images_(options.link_images),
         temporary_rawlog_(temporarySibling(rawlog)),
         temporary_images_(temporarySibling(images_dir_)) {
     checkOutputPath(rawlog_, overwrite_);
@@ -109,11 +110,7 @@ class RawlogWriter : public DatasetWriter {
                 static_cast<std::streamsize>(frame.encoded->size()));
       if (!out) throw Error({target.string(), 0, "", ""}, "cannot write image");
     } else {
-      std::error_code ec;
-      fs::copy_file(frame.image_file, target, ec);
-      if (ec)
-        throw Error({frame.image_file.string(), 0, "", frame.sensor},
-                    "cannot copy image: " + ec.message());
+      placeImageFile(frame.image_file, target, link_images_, frame.sensor);
     }
     mrpt::obs::CObservationImage obs;
     obs.sensorLabel = frame.sensor;
@@ -160,6 +157,7 @@ class RawlogWriter : public DatasetWriter {
 
   fs::path rawlog_, images_dir_, manifest_path_;
   bool overwrite_;
+  bool link_images_;
   fs::path temporary_rawlog_, temporary_images_;
   mrpt::io::CFileGZOutputStream stream_;
   std::unique_ptr<mrpt::serialization::CArchiveStreamBase<mrpt::io::CFileGZOutputStream>> archive_;

@@ -80,6 +80,10 @@ class DatasetReader {
 
 struct DatasetWriteOptions {
   bool overwrite = false;  ///< Replace an existing output; otherwise refuse it.
+  /// Image files (ImageFrame::image_file) are hard-linked into the output
+  /// instead of copied (falls back to a copy across file systems). The
+  /// bytes are then shared: never use it when the output may be edited in place.
+  bool link_images = false;
 };
 
 class DatasetWriter {

@@ -1,0 +1,180 @@
+// `lookboth detect`: the marker in the environment cameras' frames, the
+// housings (blobs) in the fisheye's frames, added to the dataset; optionally
+// scored against a simulated dataset's ground truth.
+#include <cstdio>
+#include <iostream>
+#include <set>
+
+#include "commands.h"
+#include "lookboth/core/error.h"
+#include "lookboth/core/progress.h"
+#include "lookboth/core/text.h"
+#include "lookboth/detect/detect_dataset.h"
+#include "lookboth/detect/evaluate.h"
+#include "signals.h"
+
+namespace lookboth::app {
+namespace {
+
+struct DetectArgs {
+  std::string dataset;
+  std::string out;
+  std::string config;
+  std::vector<std::string> cameras;
+  int threads = 0;
+  bool overwrite = false;
+  bool no_markers = false;
+  bool no_blobs = false;
+  bool evaluate = false;
+  bool dry_run = false;
+};
+
+void printEvaluation(const DetectOptions& options, const DetectSummary& summary,
+                     const std::vector<Record>& records) {
+  const GroundTruthView truth = loadGroundTruth(options.dataset);
+  std::vector<MarkerObservation> markers;
+  std::vector<BlobObservation> blobs;
+  for (const Record& r : records) {
+    if (const auto* m = std::get_if<MarkerObservation>(&r)) markers.push_back(*m);
+    if (const auto* b = std::get_if<BlobObservation>(&r)) blobs.push_back(*b);
+  }
+  if (!summary.searched.empty()) {
+    const MarkerEvaluation e =
+        evaluateMarkers(truth, markers, summary.searched, {0.0, 2.5, 3.0, 3.5, 4.0, 5.0, 100.0});
+    std::printf(
+        "markers vs ground truth: recall %d/%d (%.1f %%), false positives %d, "
+        "mean NEES %.2f (6 expected)\n",
+        e.detected_frames, e.visible_frames, 100 * e.recall(), e.false_positives, e.mean_nees);
+    for (const std::string& note : e.false_positive_notes)
+      std::printf("  false positive: %s\n", note.c_str());
+    std::printf("  %-12s %6s %12s %12s %14s %12s %10s\n", "distance m", "n", "pos med mm",
+                "pos p90 mm", "along med mm", "in-plane deg", "tilt deg");
+    for (size_t b = 0; b < e.bands.size(); ++b) {
+      const MarkerErrorBand& band = e.bands[b];
+      if (band.count == 0) continue;
+      char range[32];
+      if (b + 1 == e.bands.size()) {
+        std::snprintf(range, sizeof range, "all");
+      } else {
+        std::snprintf(range, sizeof range, "%.1f-%.1f", band.min_distance_m, band.max_distance_m);
+      }
+      std::printf("  %-12s %6d %12.2f %12.2f %+14.2f %12.3f %10.3f\n", range, band.count,
+                  band.median_position_mm, band.p90_position_mm, band.median_along_sight_mm,
+                  band.median_in_plane_deg, band.median_tilt_deg);
+    }
+  }
+  if (!blobs.empty()) {
+    const BlobEvaluation e = evaluateBlobs(truth, blobs);
+    std::printf(
+        "blobs vs ground truth: %d frames, recall %d/%d (%.1f %%; hidden housings count "
+        "as missed), false positives %.2f per frame, centre error median %.2f px, "
+        "p90 %.2f px\n",
+        e.frames, e.matched, e.expected, 100 * e.recall(), e.falsePositivesPerFrame(),
+        e.median_error_px, e.p90_error_px);
+  }
+}
+
+int runDetect(const DetectArgs& args) {
+  DetectOptions options;
+  options.dataset = args.dataset;
+  options.out = args.out;
+  options.overwrite = args.overwrite;
+  options.cameras = args.cameras;
+  options.threads = args.threads;
+  options.markers = !args.no_markers;
+  options.blobs = !args.no_blobs;
+  options.config = args.config.empty() ? defaultDetectConfig() : loadDetectConfig(args.config);
+  options.on_issue = [](const DatasetIssue& issue) {
+    std::cerr << "lookboth: warning: " << issue.where << ": " << issue.message << "\n";
+  };
+  if (const std::string why = options.check(); !why.empty()) throw Error(why);
+
+  const ProgressReporter progress(makeConsoleProgress());
+  const StopOnSignal stop_on_signal(progress);
+  try {
+    DetectSummary summary;
+    std::vector<Record> records;
+    if (args.dry_run || args.evaluate) {
+      records = runDetection(options, progress, &summary);
+    }
+    if (!args.dry_run) {
+      if (args.evaluate) {
+        // Write what was evaluated (no second detection run).
+        AugmentOptions augment;
+        augment.input = options.dataset;
+        augment.output = options.out;
+        augment.overwrite = options.overwrite;
+        std::set<std::string> marker_cameras, blob_cameras;
+        for (const CameraDetectSummary& c : summary.cameras)
+          (c.fisheye ? blob_cameras : marker_cameras).insert(c.camera);
+        augment.drop = [&](const Record& record) {
+          if (const auto* m = std::get_if<MarkerObservation>(&record))
+            return marker_cameras.count(m->camera) > 0;
+          if (const auto* b = std::get_if<BlobObservation>(&record))
+            return blob_cameras.count(b->camera) > 0;
+          return false;
+        };
+        summary.written = augmentDataset(augment, records, progress);
+      } else {
+        summary = detectDataset(options, progress);
+      }
+    }
+    std::int64_t frames = 0, markers = 0, blob_records = 0;
+    for (const CameraDetectSummary& c : summary.cameras) {
+      frames += c.frames;
+      (c.fisheye ? blob_records : markers) += c.detections;
+      std::cout << "  " << c.camera << ": " << c.frames << " frames";
+      if (c.fisheye) {
+        std::cout << ", " << c.blobs << " blobs";
+      } else {
+        std::cout << ", " << c.detections << " markers";
+        if (c.ambiguous) {
+          std::cout << " (" << c.ambiguous << " ambiguous from one frame, " << c.unresolved
+                    << " unresolved)";
+        }
+      }
+      if (c.rejected) std::cout << ", " << c.rejected << " rejected (inconsistent with the track)";
+      if (c.skipped) std::cout << ", " << c.skipped << " skipped (undecodable)";
+      std::cout << "\n";
+    }
+    std::cout << (args.dry_run ? "detected (not written): " : "wrote ")
+              << (args.dry_run ? std::string() : summary.written.output.string() + ": ") << markers
+              << " marker observations, " << blob_records << " blob records from " << frames
+              << " frames in " << formatFixed(summary.detect_seconds, 1) << " s\n";
+    if (args.evaluate) printEvaluation(options, summary, records);
+    return 0;
+  } catch (const StopRequested&) {
+    std::cerr << "lookboth: stopped; " << args.dataset << " is unchanged\n";
+    return 130;
+  }
+}
+
+}  // namespace
+
+void registerDetectCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body) {
+  auto args = std::make_shared<DetectArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "detect",
+      "Detect the robot's marker in the environment cameras' frames and the cameras' housings "
+      "(blobs) in the fisheye's frames; add them to the dataset");
+  cmd->add_option("dataset", args->dataset, "The dataset (x.rawlog or a folder)")->required();
+  cmd->add_option("--out", args->out,
+                  "Write the result here instead of replacing the dataset (same layout)");
+  cmd->add_flag("--overwrite", args->overwrite, "Replace an existing --out");
+  cmd->add_option("--cameras", args->cameras,
+                  "Only these cameras (labels, comma-separated; the fisheye's label for blobs)")
+      ->delimiter(',');
+  cmd->add_option("--threads", args->threads, "Worker threads (0 = one per core)")
+      ->check(CLI::Range(0, 256));
+  cmd->add_option("--config", args->config,
+                  "Configuration YAML (its detect: section); default: "
+                  "share/lookboth/config/default.yaml");
+  cmd->add_flag("--no-markers", args->no_markers, "Skip the environment cameras");
+  cmd->add_flag("--no-blobs", args->no_blobs, "Skip the fisheye");
+  cmd->add_flag("--evaluate", args->evaluate,
+                "Score the detections against the dataset's ground truth (simulated datasets)");
+  cmd->add_flag("--dry-run", args->dry_run, "Detect (and evaluate) without writing anything");
+  cmd->callback([args, set_body] { set_body([args] { return runDetect(*args); }); });
+}
+
+}  // namespace lookboth::app

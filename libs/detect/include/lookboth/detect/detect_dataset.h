@@ -1,0 +1,85 @@
+// `lookboth detect`: marker observations from the environment cameras' frames
+// and blob observations from the fisheye's, added to the dataset
+// (augmentDataset: a new dataset swapped in when complete).
+//
+// Reading is sequential; decoding and detection run on a pool of worker
+// threads, one job per environment camera (its frames in time order: a
+// camera's track predicts where to look next and resolves the pose
+// ambiguity) and one job per chunk of fisheye frames. The output does not
+// depend on the number of threads.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "lookboth/core/progress.h"
+#include "lookboth/dataset/augment.h"
+#include "lookboth/detect/blob_detector.h"
+#include "lookboth/detect/marker_detector.h"
+
+namespace lookboth {
+
+/// The `detect:` section of a lookboth configuration file (doc/formats.md).
+struct DetectConfig {
+  MarkerDetectorOptions markers;
+  BlobDetectorOptions blobs;
+  std::string check() const;
+};
+
+/// Reads the `detect:` section (`markers:`, `blobs:`) of a YAML configuration;
+/// other top-level sections are left to their owners; unknown keys inside
+/// `detect:` are errors naming the file, line and field.
+DetectConfig loadDetectConfig(const std::filesystem::path& yaml);
+/// share/lookboth/config/default.yaml's section.
+DetectConfig defaultDetectConfig();
+
+struct DetectOptions {
+  std::filesystem::path dataset;  ///< Input dataset (.rawlog or folder).
+  std::filesystem::path out;      ///< Output; empty = replace the input.
+  bool overwrite = false;         ///< Replace an existing `out`.
+  /// Cameras to process (labels); empty = every environment camera with a
+  /// calibration, and the fisheye.
+  std::vector<std::string> cameras;
+  int threads = 0;  ///< Worker threads; 0 = one per hardware thread.
+  bool markers = true;
+  bool blobs = true;
+  DetectConfig config;
+  std::function<void(const DatasetIssue&)> on_issue;  ///< Warnings (skipped frames...).
+  std::string check() const;
+};
+
+struct CameraDetectSummary {
+  std::string camera;
+  bool fisheye = false;
+  std::int64_t frames = 0;      ///< Frames read.
+  std::int64_t skipped = 0;     ///< Frames that could not be decoded.
+  std::int64_t detections = 0;  ///< Marker observations, or blob records.
+  std::int64_t blobs = 0;       ///< Blobs in all (fisheye).
+  std::int64_t ambiguous = 0;   ///< Markers ambiguous from their frame alone.
+  std::int64_t unresolved = 0;  ///< ... and not resolved by the track (best-fitting pose kept).
+  std::int64_t rejected = 0;    ///< Markers inconsistent with the camera's track (false positives).
+};
+
+struct DetectSummary {
+  std::vector<CameraDetectSummary> cameras;
+  AugmentSummary written;
+  std::vector<DatasetIssue> issues;
+  /// Every environment-camera frame searched for the marker (camera, stamp).
+  std::vector<std::pair<std::string, TimeNs>> searched;
+  double detect_seconds = 0;  ///< Wall time of decoding + detection.
+};
+
+/// Runs detection and writes the result. Throws lookboth::Error on bad
+/// input (naming the file and camera), StopRequested when stopped (nothing
+/// written, the input untouched).
+DetectSummary detectDataset(const DetectOptions& options, const ProgressReporter& progress);
+
+/// Detection without writing: the records `detectDataset` would add (markers
+/// in time order per camera, then blobs), for evaluation and benchmarks.
+std::vector<Record> runDetection(const DetectOptions& options, const ProgressReporter& progress,
+                                 DetectSummary* summary);
+
+}  // namespace lookboth

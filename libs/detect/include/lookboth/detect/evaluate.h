@@ -1,0 +1,92 @@
+// Detections against a simulated dataset's ground truth (the manifest's
+// `ground_truth` and the "ground_truth" trajectory: world_from_fisheye at the
+// fisheye's frame times, robot clock).
+//
+// For an environment camera's frame stamped t in its own clock:
+//   t_robot = t - clock_offset[camera]            (offset = node clock - robot clock)
+//   camera_from_marker_true = world_from_camera^-1 * world_from_fisheye(t_robot)
+//                             * fisheye_from_marker
+// For a fisheye frame: each housing centre (the camera's optical centre,
+// world_from_camera.translation) projected through the fisheye at
+// world_from_fisheye(t).
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "lookboth/dataset/manifest.h"
+#include "lookboth/dataset/records.h"
+#include "lookboth/geometry/trajectory.h"
+
+namespace lookboth {
+
+/// The ground truth a dataset carries, ready for queries.
+struct GroundTruthView {
+  Manifest manifest;
+  Trajectory world_from_fisheye;  ///< The "ground_truth" trajectory.
+  /// True pose of the marker in `camera` at that camera's stamp t; nullopt
+  /// when the trajectory does not cover it or the ground truth lacks the camera.
+  std::optional<Rigid3d> cameraFromMarker(const std::string& camera, TimeNs t) const;
+};
+
+struct MarkerErrorBand {
+  double min_distance_m = 0, max_distance_m = 0;
+  int count = 0;
+  double median_position_mm = 0, p90_position_mm = 0;
+  double median_in_plane_deg = 0, median_tilt_deg = 0;
+  double median_along_sight_mm = 0;  ///< Signed, + = too far.
+};
+
+struct MarkerEvaluation {
+  std::vector<MarkerErrorBand> bands;  ///< Plus one "all" band at the end.
+  int visible_frames = 0;   ///< Frames whose true marker is in view (see evaluateMarkers).
+  int detected_frames = 0;  ///< Of those, frames with a correct detection.
+  int false_positives =
+      0;  ///< Detections further than 0.1 m from the truth, or in frames without the marker.
+  int detections = 0;
+  /// "cam03 @ 1700000012.300000000 s: 1.234 m off" for each false positive.
+  std::vector<std::string> false_positive_notes;
+  double mean_nees = 0;  ///< Mean of e^T I e over correct detections (6 degrees of freedom).
+  double recall() const { return visible_frames ? double(detected_frames) / visible_frames : 0.0; }
+};
+
+/// Scores marker observations. `frames` lists every environment-camera
+/// frame (label, stamp) that was searched; a frame counts as visible when the
+/// true marker's 4 corners project at least 2 px inside the image, it faces
+/// the camera within 60 deg and its shortest projected side is >= min_side_px
+/// (occlusion by other objects is not modelled). Bands are by true distance
+/// [m], `band_edges` ascending.
+MarkerEvaluation evaluateMarkers(const GroundTruthView& truth,
+                                 const std::vector<MarkerObservation>& detections,
+                                 const std::vector<std::pair<std::string, TimeNs>>& frames,
+                                 const std::vector<double>& band_edges, double min_side_px = 12);
+
+struct BlobEvaluation {
+  int frames = 0;
+  int expected = 0;         ///< Housing centres projected inside the image (2 px margin), in front.
+  int matched = 0;          ///< Expected ones with a blob within `match_px`.
+  int false_positives = 0;  ///< Blobs matched to no housing.
+  double median_error_px = 0, p90_error_px = 0;
+  double recall() const { return expected ? double(matched) / expected : 0.0; }
+  double falsePositivesPerFrame() const { return frames ? double(false_positives) / frames : 0.0; }
+};
+
+/// Scores blob observations of the fisheye (housings hidden behind other
+/// objects are counted as expected: recall is a lower bound).
+BlobEvaluation evaluateBlobs(const GroundTruthView& truth,
+                             const std::vector<BlobObservation>& observations,
+                             double match_px = 6.0);
+
+/// Reads the manifest and the "ground_truth" trajectory of a dataset;
+/// throws lookboth::Error naming the dataset when it has no ground truth.
+GroundTruthView loadGroundTruth(const std::filesystem::path& dataset);
+
+/// Median of a list (0 when empty).
+double medianOf(std::vector<double> values);
+/// The q-quantile (0..1), nearest rank (0 when empty).
+double quantileOf(std::vector<double> values, double q);
+
+}  // namespace lookboth

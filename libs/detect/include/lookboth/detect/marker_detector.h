@@ -1,0 +1,149 @@
+// Looking down: the robot's marker in an environment camera's frame.
+//
+// Pipeline per frame (doc/architecture.md, module `detect`):
+//  1. candidates: OpenCV's ArUco detector (the contrib module's old API,
+//     cv::aruco::detectMarkers) on a region of interest predicted from the
+//     camera's previous detection, else on the whole frame reduced by
+//     `detect_scale`; only the manifest's id of the manifest's dictionary is kept;
+//  2. corners at full resolution by fitting the square's four edges through
+//     the camera's own model: edge points located across each edge (the
+//     blurred step's area integral), unprojected to bearings, a plane through
+//     the optical centre fitted to each edge's bearings (a straight 3D edge
+//     is a great circle of bearings whatever the lens), corners where
+//     adjacent planes meet;
+//  3. pose: IPPE for a square (both hypotheses) on the corners' normalised
+//     coordinates, each refined by Gauss-Newton on the pixel reprojection
+//     error through the camera model; covariance J^T J / sigma^2 of that
+//     reprojection (sigma = corner_sigma_px);
+//  4. the two-fold ambiguity: both hypotheses are kept; `resolveAmbiguity`
+//     chooses, over one camera's track, the one whose marker normal agrees
+//     with the track's (the robot drives on a floor, so the marker's normal
+//     in a fixed camera's frame is nearly constant).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "lookboth/cameras/camera.h"
+#include "lookboth/dataset/manifest.h"
+#include "lookboth/dataset/records.h"
+#include "lookboth/geometry/rigid3.h"
+
+namespace lookboth {
+
+struct MarkerDetectorOptions {
+  /// Reduction of the frame for the whole-frame candidate search (1 = full
+  /// resolution; 2 = a quarter of the pixels). Corners are always refined at
+  /// full resolution.
+  int detect_scale = 2;
+  /// Search first around the previous detection of the same camera (a box
+  /// `roi_margin` times the marker's size around it); the whole frame when
+  /// that fails.
+  bool track_roi = true;
+  double roi_margin = 1.0;  ///< Extra size on each side of the last marker box, in marker sides.
+  /// Fit the square's edges through the camera model (else OpenCV's corners are used as they are).
+  bool refine_edges = true;
+  /// Corner noise assumed for the covariance [px] (measured on the
+  /// simulator's renders; doc/benchmarks.md).
+  double corner_sigma_px = 0.1;
+  double min_side_px = 10;           ///< Shortest side of an accepted marker [px].
+  double max_reprojection_px = 1.5;  ///< RMS corner reprojection error of an accepted pose [px].
+  /// Hypotheses whose reprojection errors differ by less than this ratio are
+  /// "ambiguous" (both plausible from this frame alone).
+  double ambiguity_ratio = 2.0;
+  /// Track consistency: a detection that no other detection of the same
+  /// camera within `track_window_s` agrees with (positions within
+  /// max_speed_mps * dt + 5 cm) is a false positive (e.g. a look-alike
+  /// marker elsewhere); 0 = keep everything.
+  double max_speed_mps = 2.0;   ///< [m/s]
+  double track_window_s = 1.0;  ///< [s]
+  std::string check() const;
+};
+
+/// One pose hypothesis of a detected square.
+struct MarkerPoseHypothesis {
+  Rigid3d camera_from_marker;
+  double reprojection_rms_px = 0;  ///< Over the 4 corners.
+  /// Information over [dt (m); dtheta (rad)] as in MarkerObservation.
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+};
+
+struct MarkerDetection {
+  int marker_id = 0;
+  /// Refined corners [px], OpenCV ArUco order: the marker's (-s/2, s/2),
+  /// (s/2, s/2), (s/2, -s/2), (-s/2, -s/2) in its frame (x right, y up).
+  std::array<Eigen::Vector2d, 4> corners_px;
+  /// Best first (lowest reprojection error); one or two hypotheses.
+  std::vector<MarkerPoseHypothesis> hypotheses;
+  /// Index of the chosen hypothesis (set by resolveAmbiguity; 0 before).
+  int chosen = 0;
+  /// True when the frame alone cannot tell the hypotheses apart
+  /// (error ratio below MarkerDetectorOptions::ambiguity_ratio).
+  bool ambiguous = false;
+  /// True when resolveAmbiguity could not decide (no consistent track).
+  bool unresolved = false;
+  const MarkerPoseHypothesis& pose() const { return hypotheses.at(static_cast<size_t>(chosen)); }
+};
+
+/// Detects the manifest's marker in one camera's frames. Not thread-safe:
+/// one detector per camera (it remembers where the marker was last seen).
+class MarkerDetector {
+ public:
+  /// Throws lookboth::Error when the marker spec or the options are invalid.
+  MarkerDetector(const MarkerSpec& marker, const Camera& camera,
+                 const MarkerDetectorOptions& options = {});
+  ~MarkerDetector();
+  MarkerDetector(MarkerDetector&&) noexcept;
+
+  /// Detections of the marker (at most one per distinct square; usually 0 or 1)
+  /// in a greyscale (CV_8UC1) frame of this camera's size.
+  std::vector<MarkerDetection> detect(const cv::Mat& grey);
+  /// Forgets the previous detection (the next frame is searched whole).
+  void resetTrack();
+
+  /// Step 2 alone: corners refined by edge fitting from approximate ones
+  /// (within ~1 px); nullopt when an edge cannot be located.
+  std::optional<std::array<Eigen::Vector2d, 4>> refineCorners(
+      const cv::Mat& grey, const std::array<Eigen::Vector2d, 4>& corners_px) const;
+  /// Step 3 alone: both pose hypotheses from 4 corners (ArUco order), best
+  /// first; empty when degenerate.
+  std::vector<MarkerPoseHypothesis> solvePose(
+      const std::array<Eigen::Vector2d, 4>& corners_px) const;
+
+  const MarkerDetectorOptions& options() const { return options_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  MarkerDetectorOptions options_;
+};
+
+/// Chooses among the hypotheses of one camera's detections (in time order),
+/// by agreement of the marker's normal (its z axis in the camera frame) with
+/// the track's: the normal of the unambiguous detections (their median
+/// direction), else the direction that most hypotheses agree with within
+/// `agreement_deg`. A detection whose chosen normal is further than
+/// `agreement_deg` from it keeps its best-reprojecting hypothesis and is
+/// marked `unresolved` when ambiguous. Returns the number of unresolved detections.
+int resolveAmbiguity(std::vector<MarkerDetection*>& track, double agreement_deg = 10.0);
+
+/// Removes the detections of one camera's track (in time order) that no
+/// neighbour within `window` agrees with (see MarkerDetectorOptions::
+/// max_speed_mps); a detection without neighbours is kept. Returns the number removed.
+int rejectTrackOutliers(std::vector<std::pair<TimeNs, MarkerDetection>>& track,
+                        double max_speed_mps, TimeNs window);
+
+/// OpenCV's cv::aruco::PREDEFINED_DICTIONARY_NAME value of a dictionary
+/// name ("DICT_4X4_50"); throws lookboth::Error for an unknown name.
+int arucoDictionaryIdOf(const std::string& name);
+
+/// The MarkerObservation of a detection's chosen hypothesis.
+MarkerObservation toMarkerObservation(const MarkerDetection& detection, TimeNs t,
+                                      const std::string& camera);
+
+}  // namespace lookboth

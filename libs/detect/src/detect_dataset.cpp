@@ -1,0 +1,396 @@
+#include "lookboth/detect/detect_dataset.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <fstream>
+#include <mutex>
+#include <opencv2/imgcodecs.hpp>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "lookboth/core/error.h"
+#include "lookboth/core/paths.h"
+#include "lookboth/core/yaml_reader.h"
+
+namespace lookboth {
+
+namespace fs = std::filesystem;
+
+std::string DetectConfig::check() const {
+  if (std::string why = markers.check(); !why.empty()) return "markers." + why;
+  if (std::string why = blobs.check(); !why.empty()) return "blobs." + why;
+  return "";
+}
+
+namespace {
+
+void readMarkerOptions(const YamlReader& r, const YAML::Node& node, MarkerDetectorOptions& o) {
+  r.rejectUnknownKeys(node,
+                      {"detect_scale", "track_roi", "roi_margin", "refine_edges", "corner_sigma_px",
+                       "min_side_px", "max_reprojection_px", "ambiguity_ratio"},
+                      "detect.markers");
+  const std::string f = "detect.markers.";
+  if (node["detect_scale"])
+    o.detect_scale = static_cast<int>(r.integer(node["detect_scale"], f + "detect_scale"));
+  if (node["track_roi"]) o.track_roi = r.boolean(node["track_roi"], f + "track_roi");
+  if (node["roi_margin"]) o.roi_margin = r.number(node["roi_margin"], f + "roi_margin");
+  if (node["refine_edges"]) o.refine_edges = r.boolean(node["refine_edges"], f + "refine_edges");
+  if (node["corner_sigma_px"])
+    o.corner_sigma_px = r.number(node["corner_sigma_px"], f + "corner_sigma_px");
+  if (node["min_side_px"]) o.min_side_px = r.number(node["min_side_px"], f + "min_side_px");
+  if (node["max_reprojection_px"])
+    o.max_reprojection_px = r.number(node["max_reprojection_px"], f + "max_reprojection_px");
+  if (node["max_speed_mps"]) o.max_speed_mps = r.number(node["max_speed_mps"], f + "max_speed_mps");
+  if (node["track_window_s"])
+    o.track_window_s = r.number(node["track_window_s"], f + "track_window_s");
+  if (node["ambiguity_ratio"])
+    o.ambiguity_ratio = r.number(node["ambiguity_ratio"], f + "ambiguity_ratio");
+  if (const std::string why = o.check(); !why.empty())
+    throw Error(r.at(node, "detect.markers"), why);
+}
+
+void readBlobOptions(const YamlReader& r, const YAML::Node& node, BlobDetectorOptions& o) {
+  r.rejectUnknownKeys(node,
+                      {"min_threshold", "max_threshold", "threshold_step", "min_repeatability",
+                       "min_dist_between_blobs_px", "dark", "min_area_px", "max_area_px",
+                       "min_circularity", "min_convexity", "min_inertia_ratio", "min_contrast"},
+                      "detect.blobs");
+  const std::string f = "detect.blobs.";
+  auto number = [&](const char* key, double& value) {
+    if (node[key]) value = r.number(node[key], f + key);
+  };
+  number("min_threshold", o.min_threshold);
+  number("max_threshold", o.max_threshold);
+  number("threshold_step", o.threshold_step);
+  if (node["min_repeatability"])
+    o.min_repeatability =
+        static_cast<int>(r.integer(node["min_repeatability"], f + "min_repeatability"));
+  number("min_dist_between_blobs_px", o.min_dist_between_blobs_px);
+  if (node["dark"]) o.dark = r.boolean(node["dark"], f + "dark");
+  number("min_area_px", o.min_area_px);
+  number("max_area_px", o.max_area_px);
+  number("min_circularity", o.min_circularity);
+  number("min_convexity", o.min_convexity);
+  number("min_inertia_ratio", o.min_inertia_ratio);
+  number("min_contrast", o.min_contrast);
+  if (const std::string why = o.check(); !why.empty()) throw Error(r.at(node, "detect.blobs"), why);
+}
+
+}  // namespace
+
+DetectConfig loadDetectConfig(const fs::path& yaml) {
+  std::ifstream in(yaml);
+  if (!in) throw Error({yaml.string(), 0, "", ""}, "cannot open the configuration file");
+  std::stringstream text;
+  text << in.rdbuf();
+  const YamlReader reader(yaml.string());
+  const YAML::Node root = reader.parse(text.str());
+  DetectConfig config;
+  if (!root.IsMap()) return config;
+  const YAML::Node detect = root["detect"];
+  if (!detect || detect.IsNull()) return config;
+  reader.rejectUnknownKeys(detect, {"markers", "blobs"}, "detect");
+  if (detect["markers"] && !detect["markers"].IsNull())
+    readMarkerOptions(reader, detect["markers"], config.markers);
+  if (detect["blobs"] && !detect["blobs"].IsNull())
+    readBlobOptions(reader, detect["blobs"], config.blobs);
+  return config;
+}
+
+DetectConfig defaultDetectConfig() {
+  const fs::path file = shareDirectory() / "config" / "default.yaml";
+  if (!fs::exists(file)) return DetectConfig{};
+  return loadDetectConfig(file);
+}
+
+std::string DetectOptions::check() const {
+  if (dataset.empty()) return "'dataset': none given";
+  if (threads < 0) return "'threads': must be >= 0";
+  if (!markers && !blobs) return "nothing to detect (markers and blobs both off)";
+  return config.check();
+}
+
+namespace {
+
+struct FrameRef {
+  TimeNs t = 0;
+  std::filesystem::path file;
+  std::shared_ptr<const std::vector<std::uint8_t>> encoded;
+};
+
+struct CameraWork {
+  const CameraSensor* sensor = nullptr;
+  bool fisheye = false;
+  std::vector<FrameRef> frames;
+};
+
+/// One job: a camera's frames [begin, end).
+struct Job {
+  size_t camera = 0;
+  size_t begin = 0, end = 0;
+};
+
+struct JobResult {
+  std::vector<Record> records;
+  std::int64_t skipped = 0, blobs = 0, ambiguous = 0, unresolved = 0, rejected = 0;
+  std::vector<DatasetIssue> issues;
+};
+
+cv::Mat decode(const FrameRef& frame) {
+  if (frame.encoded) {
+    const cv::Mat bytes(1, static_cast<int>(frame.encoded->size()), CV_8UC1,
+                        const_cast<std::uint8_t*>(frame.encoded->data()));
+    return cv::imdecode(bytes, cv::IMREAD_GRAYSCALE);
+  }
+  return cv::imread(frame.file.string(), cv::IMREAD_GRAYSCALE);
+}
+
+std::string frameName(const FrameRef& frame) {
+  return frame.encoded ? "frame at " + std::to_string(frame.t) + " ns (embedded)"
+                       : "'" + frame.file.string() + "'";
+}
+
+JobResult runJob(const CameraWork& work, const Job& job, const DetectConfig& config,
+                 const MarkerSpec& marker, std::atomic<std::int64_t>& done,
+                 const std::atomic<bool>& stop) {
+  JobResult result;
+  const std::string& label = work.sensor->label;
+  std::optional<MarkerDetector> marker_detector;
+  std::optional<BlobDetector> blob_detector;
+  if (work.fisheye) {
+    blob_detector.emplace(config.blobs);
+  } else {
+    marker_detector.emplace(marker, *work.sensor->camera, config.markers);
+  }
+  std::vector<std::pair<TimeNs, MarkerDetection>> detections;
+  for (size_t i = job.begin; i < job.end && !stop.load(); ++i) {
+    const FrameRef& frame = work.frames[i];
+    const cv::Mat grey = decode(frame);
+    ++done;
+    if (grey.empty()) {
+      ++result.skipped;
+      result.issues.push_back(
+          {label, "cannot decode image " + frameName(frame) + " (corrupt?); frame skipped"});
+      if (marker_detector) marker_detector->resetTrack();
+      continue;
+    }
+    if (work.fisheye) {
+      BlobObservation obs;
+      obs.t = frame.t;
+      obs.camera = label;
+      obs.image_width = grey.cols;
+      obs.image_height = grey.rows;
+      obs.blobs = blob_detector->detect(grey);
+      result.blobs += static_cast<std::int64_t>(obs.blobs.size());
+      result.records.push_back(std::move(obs));
+      continue;
+    }
+    const Camera& camera = *work.sensor->camera;
+    if (grey.cols != camera.width() || grey.rows != camera.height()) {
+      ++result.skipped;
+      result.issues.push_back({label, "image " + frameName(frame) + " is " +
+                                          std::to_string(grey.cols) + "x" +
+                                          std::to_string(grey.rows) + ", the calibration " +
+                                          std::to_string(camera.width()) + "x" +
+                                          std::to_string(camera.height()) + "; frame skipped"});
+      continue;
+    }
+    for (MarkerDetection& d : marker_detector->detect(grey)) {
+      detections.emplace_back(frame.t, std::move(d));
+    }
+  }
+  if (!work.fisheye) {
+    result.rejected =
+        rejectTrackOutliers(detections, config.markers.max_speed_mps,
+                            static_cast<TimeNs>(std::llround(config.markers.track_window_s * 1e9)));
+    std::vector<MarkerDetection*> track;
+    for (auto& [t, d] : detections) track.push_back(&d);
+    result.unresolved = resolveAmbiguity(track);
+    for (const auto& [t, d] : detections) {
+      result.ambiguous += d.ambiguous ? 1 : 0;
+      result.records.push_back(toMarkerObservation(d, t, label));
+    }
+  }
+  return result;
+}
+
+}  // namespace
+
+std::vector<Record> runDetection(const DetectOptions& options, const ProgressReporter& progress,
+                                 DetectSummary* summary) {
+  if (const std::string why = options.check(); !why.empty()) throw Error(why);
+  DatasetReadOptions read_options;
+  read_options.on_issue = options.on_issue;
+  std::unique_ptr<DatasetReader> reader = DatasetReader::open(options.dataset, read_options);
+  const Manifest& manifest = reader->manifest();
+  const std::string source = options.dataset.string();
+
+  // Which cameras.
+  std::vector<CameraWork> work;
+  std::map<std::string, size_t> index;
+  std::set<std::string> wanted(options.cameras.begin(), options.cameras.end());
+  for (const std::string& label : wanted) {
+    if (!manifest.findCamera(label)) {
+      throw Error({source, 0, "--cameras", label}, "the dataset has no camera with this label");
+    }
+  }
+  for (const CameraSensor& sensor : manifest.cameras) {
+    if (!wanted.empty() && !wanted.count(sensor.label)) continue;
+    const bool fisheye = sensor.role == SensorRole::kFisheye;
+    if (fisheye ? !options.blobs : !options.markers) continue;
+    if (!fisheye && !sensor.camera) {
+      const DatasetIssue issue{sensor.label, "no calibration in the manifest; camera skipped"};
+      if (!wanted.empty()) throw Error({source, 0, "cameras", sensor.label}, issue.message);
+      if (options.on_issue) options.on_issue(issue);
+      if (summary) summary->issues.push_back(issue);
+      continue;
+    }
+    index[sensor.label] = work.size();
+    work.push_back({&sensor, fisheye, {}});
+  }
+
+  // Read sequentially: the frames of the chosen cameras.
+  std::int64_t read = 0;
+  const std::int64_t expected = reader->expectedCount();
+  while (std::optional<Record> record = reader->next()) {
+    if (++read % 256 == 0) {
+      progress.checkStop();
+      progress.report("detect: read", read, std::max<std::int64_t>(0, expected));
+    }
+    const auto* frame = std::get_if<ImageFrame>(&*record);
+    if (!frame) continue;
+    const auto it = index.find(frame->sensor);
+    if (it == index.end()) continue;
+    work[it->second].frames.push_back({frame->t, frame->image_file, frame->encoded});
+  }
+  if (summary) {
+    summary->issues.insert(summary->issues.end(), reader->issues().begin(), reader->issues().end());
+  }
+  // Jobs: one per environment camera, chunks of the fisheye's frames.
+  std::vector<Job> jobs;
+  std::int64_t total = 0;
+  for (size_t c = 0; c < work.size(); ++c) {
+    std::stable_sort(work[c].frames.begin(), work[c].frames.end(),
+                     [](const FrameRef& a, const FrameRef& b) { return a.t < b.t; });
+    total += static_cast<std::int64_t>(work[c].frames.size());
+    const size_t n = work[c].frames.size();
+    const size_t chunk = work[c].fisheye ? 64 : std::max<size_t>(n, 1);
+    for (size_t begin = 0; begin < n; begin += chunk) {
+      jobs.push_back({c, begin, std::min(n, begin + chunk)});
+    }
+  }
+  // The longest jobs first (better balance); results are kept per job.
+  std::vector<size_t> order(jobs.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return jobs[a].end - jobs[a].begin > jobs[b].end - jobs[b].begin;
+  });
+  std::vector<JobResult> results(jobs.size());
+  std::atomic<size_t> next{0};
+  std::atomic<std::int64_t> done{0};
+  std::atomic<bool> stop{false};
+  std::mutex error_mutex;
+  std::exception_ptr error;
+  const int threads = std::max(
+      1, std::min<int>(options.threads > 0
+                           ? options.threads
+                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
+                       static_cast<int>(std::max<size_t>(1, jobs.size()))));
+  auto worker = [&] {
+    for (;;) {
+      const size_t k = next++;
+      if (k >= order.size() || stop.load()) return;
+      const Job& job = jobs[order[k]];
+      try {
+        results[order[k]] =
+            runJob(work[job.camera], job, options.config, manifest.marker, done, stop);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (!error) error = std::current_exception();
+        stop = true;
+      }
+    }
+  };
+  const auto started = std::chrono::steady_clock::now();
+  std::vector<std::thread> pool;
+  for (int i = 0; i < threads; ++i) pool.emplace_back(worker);
+  bool stopped = false;
+  while (true) {
+    bool finished = next.load() >= order.size();
+    if (finished) {
+      for (auto& t : pool) t.join();
+      pool.clear();
+      break;
+    }
+    progress.report("detect", done.load(), total);
+    if (progress.stopRequested()) {
+      stop = true;
+      stopped = true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  if (error) std::rethrow_exception(error);
+  if (stopped || progress.stopRequested()) throw StopRequested();
+  progress.report("detect", total, total);
+
+  // Assemble in job order (deterministic), per camera.
+  std::vector<Record> records;
+  if (summary) summary->cameras.clear();
+  std::vector<CameraDetectSummary> per_camera(work.size());
+  for (size_t c = 0; c < work.size(); ++c) {
+    per_camera[c].camera = work[c].sensor->label;
+    per_camera[c].fisheye = work[c].fisheye;
+    per_camera[c].frames = static_cast<std::int64_t>(work[c].frames.size());
+  }
+  for (size_t j = 0; j < jobs.size(); ++j) {
+    JobResult& r = results[j];
+    CameraDetectSummary& s = per_camera[jobs[j].camera];
+    s.skipped += r.skipped;
+    s.blobs += r.blobs;
+    s.ambiguous += r.ambiguous;
+    s.unresolved += r.unresolved;
+    s.rejected += r.rejected;
+    s.detections += static_cast<std::int64_t>(r.records.size());
+    for (DatasetIssue& issue : r.issues) {
+      if (options.on_issue) options.on_issue(issue);
+      if (summary) summary->issues.push_back(issue);
+    }
+    for (Record& record : r.records) records.push_back(std::move(record));
+  }
+  if (summary) {
+    summary->cameras = per_camera;
+    for (const CameraWork& w : work) {
+      if (w.fisheye) continue;
+      for (const FrameRef& f : w.frames) summary->searched.emplace_back(w.sensor->label, f.t);
+    }
+    summary->detect_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  }
+  return records;
+}
+
+DetectSummary detectDataset(const DetectOptions& options, const ProgressReporter& progress) {
+  DetectSummary summary;
+  std::vector<Record> records = runDetection(options, progress, &summary);
+  std::set<std::string> marker_cameras, blob_cameras;
+  for (const CameraDetectSummary& c : summary.cameras) {
+    (c.fisheye ? blob_cameras : marker_cameras).insert(c.camera);
+  }
+  AugmentOptions augment;
+  augment.input = options.dataset;
+  augment.output = options.out;
+  augment.overwrite = options.overwrite;
+  augment.drop = [&](const Record& record) {
+    if (const auto* m = std::get_if<MarkerObservation>(&record))
+      return marker_cameras.count(m->camera) > 0;
+    if (const auto* b = std::get_if<BlobObservation>(&record))
+      return blob_cameras.count(b->camera) > 0;
+    return false;
+  };
+  summary.written = augmentDataset(augment, std::move(records), progress);
+  return summary;
+}
+
+}  // namespace lookboth

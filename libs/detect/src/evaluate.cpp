@@ -1,0 +1,204 @@
+#include "lookboth/detect/evaluate.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "lookboth/core/error.h"
+#include "lookboth/core/text.h"
+#include "lookboth/dataset/dataset_io.h"
+#include "lookboth/geometry/lie.h"
+
+namespace lookboth {
+
+namespace {
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+}
+
+double medianOf(std::vector<double> values) { return quantileOf(std::move(values), 0.5); }
+
+double quantileOf(std::vector<double> values, double q) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const auto i =
+      static_cast<size_t>(std::clamp(std::ceil(q * static_cast<double>(values.size())) - 1, 0.0,
+                                     static_cast<double>(values.size() - 1)));
+  return values[i];
+}
+
+std::optional<Rigid3d> GroundTruthView::cameraFromMarker(const std::string& camera,
+                                                         TimeNs t) const {
+  if (!manifest.ground_truth.fisheye_from_marker) return std::nullopt;
+  const auto pose = manifest.ground_truth.world_from_camera.find(camera);
+  if (pose == manifest.ground_truth.world_from_camera.end()) return std::nullopt;
+  TimeNs offset = 0;
+  if (const auto o = manifest.ground_truth.clock_offset.find(camera);
+      o != manifest.ground_truth.clock_offset.end()) {
+    offset = o->second;
+  }
+  const InterpolationResult at = world_from_fisheye.interpolate(t - offset, 0);
+  if (!at.ok()) return std::nullopt;
+  return pose->second.inverse() * at.world_from_body * *manifest.ground_truth.fisheye_from_marker;
+}
+
+MarkerEvaluation evaluateMarkers(const GroundTruthView& truth,
+                                 const std::vector<MarkerObservation>& detections,
+                                 const std::vector<std::pair<std::string, TimeNs>>& frames,
+                                 const std::vector<double>& band_edges, double min_side_px) {
+  MarkerEvaluation out;
+  const double side = truth.manifest.marker.size_m;
+  std::map<std::pair<std::string, TimeNs>, bool> visible;
+  for (const auto& [camera, t] : frames) {
+    const CameraSensor* sensor = truth.manifest.findCamera(camera);
+    const auto pose = truth.cameraFromMarker(camera, t);
+    bool in_view = sensor && sensor->camera && pose;
+    if (in_view) {
+      const Eigen::Vector3d normal = pose->rotation * Eigen::Vector3d::UnitZ();
+      in_view = normal.dot(-pose->translation.normalized()) > std::cos(60 * kDeg);
+      const double h = side / 2;
+      const Eigen::Vector3d corners[4] = {{-h, h, 0}, {h, h, 0}, {h, -h, 0}, {-h, -h, 0}};
+      Eigen::Vector2d px[4];
+      for (int k = 0; k < 4 && in_view; ++k) {
+        const auto p = sensor->camera->project(*pose * corners[k]);
+        in_view = p && sensor->camera->isInImage(*p, 2.0);
+        if (p) px[k] = *p;
+      }
+      for (int k = 0; k < 4 && in_view; ++k) {
+        in_view = (px[(k + 1) % 4] - px[k]).norm() >= min_side_px;
+      }
+    }
+    visible[{camera, t}] = in_view;
+    out.visible_frames += in_view ? 1 : 0;
+  }
+  const size_t bands = band_edges.size() > 1 ? band_edges.size() - 1 : 0;
+  std::vector<std::vector<double>> position(bands + 1), in_plane(bands + 1), tilt(bands + 1),
+      along(bands + 1);
+  std::map<std::pair<std::string, TimeNs>, bool> found;
+  double nees_sum = 0;
+  int nees_count = 0;
+  for (const MarkerObservation& d : detections) {
+    ++out.detections;
+    const auto pose = truth.cameraFromMarker(d.camera, d.t);
+    if (!pose) continue;
+    const Eigen::Vector3d dt = pose->translation - d.camera_from_marker.translation;
+    if (dt.norm() > 0.1) {
+      ++out.false_positives;
+      out.false_positive_notes.push_back(d.camera + " @ " + formatSeconds(d.t) +
+                                         " s: " + formatFixed(dt.norm(), 3) + " m off");
+      continue;
+    }
+    const auto key = std::make_pair(d.camera, d.t);
+    if (visible.count(key) && visible[key] && !found[key]) {
+      found[key] = true;
+      ++out.detected_frames;
+    }
+    // Error in the estimate's frame: R_true = R * Exp(dtheta).
+    const Eigen::Vector3d dtheta =
+        so3Log(Eigen::Quaterniond(d.camera_from_marker.rotation.conjugate() * pose->rotation));
+    Eigen::Matrix<double, 6, 1> e;
+    e << dt, dtheta;
+    if (!d.information.isZero()) {
+      nees_sum += e.dot(d.information * e);
+      ++nees_count;
+    }
+    const double distance = pose->translation.norm();
+    const Eigen::Matrix3d relative =
+        pose->rotation.toRotationMatrix().transpose() * d.camera_from_marker.rotation;
+    const double in_plane_deg = std::abs(std::atan2(relative(1, 0), relative(0, 0))) / kDeg;
+    const double tilt_deg = std::acos(std::clamp(relative(2, 2), -1.0, 1.0)) / kDeg;
+    const double along_mm = -1000 * dt.dot(pose->translation.normalized());
+    for (size_t b = 0; b <= bands; ++b) {
+      const bool all = b == bands;
+      if (!all && !(distance >= band_edges[b] && distance < band_edges[b + 1])) continue;
+      position[b].push_back(1000 * dt.norm());
+      in_plane[b].push_back(in_plane_deg);
+      tilt[b].push_back(tilt_deg);
+      along[b].push_back(along_mm);
+    }
+  }
+  for (size_t b = 0; b <= bands; ++b) {
+    MarkerErrorBand band;
+    band.min_distance_m =
+        b == bands ? (band_edges.empty() ? 0 : band_edges.front()) : band_edges[b];
+    band.max_distance_m =
+        b == bands ? (band_edges.empty() ? 0 : band_edges.back()) : band_edges[b + 1];
+    band.count = static_cast<int>(position[b].size());
+    band.median_position_mm = medianOf(position[b]);
+    band.p90_position_mm = quantileOf(position[b], 0.9);
+    band.median_in_plane_deg = medianOf(in_plane[b]);
+    band.median_tilt_deg = medianOf(tilt[b]);
+    band.median_along_sight_mm = medianOf(along[b]);
+    out.bands.push_back(band);
+  }
+  out.mean_nees = nees_count ? nees_sum / nees_count : 0.0;
+  return out;
+}
+
+GroundTruthView loadGroundTruth(const std::filesystem::path& dataset) {
+  auto reader = DatasetReader::open(dataset);
+  GroundTruthView view;
+  view.manifest = reader->manifest();
+  if (view.manifest.ground_truth.world_from_camera.empty() ||
+      !view.manifest.ground_truth.fisheye_from_marker) {
+    throw Error({dataset.string(), 0, "ground_truth", ""},
+                "the manifest has no ground truth (world_from_camera, fisheye_from_marker): "
+                "only simulated datasets can be evaluated");
+  }
+  std::vector<StampedPose> samples;
+  while (auto record = reader->next()) {
+    if (const auto* pose = std::get_if<PoseSample>(&*record);
+        pose && pose->label == "ground_truth") {
+      if (samples.empty() || pose->t > samples.back().t)
+        samples.push_back({pose->t, pose->world_from_body});
+    }
+  }
+  if (samples.empty()) {
+    throw Error({dataset.string(), 0, "", "ground_truth"}, "no ground_truth trajectory");
+  }
+  view.world_from_fisheye = Trajectory(std::move(samples));
+  return view;
+}
+
+BlobEvaluation evaluateBlobs(const GroundTruthView& truth,
+                             const std::vector<BlobObservation>& observations, double match_px) {
+  BlobEvaluation out;
+  std::vector<double> errors;
+  for (const BlobObservation& obs : observations) {
+    const CameraSensor* sensor = truth.manifest.findCamera(obs.camera);
+    if (!sensor || !sensor->camera) continue;
+    TimeNs offset = 0;
+    if (const auto o = truth.manifest.ground_truth.clock_offset.find(obs.camera);
+        o != truth.manifest.ground_truth.clock_offset.end()) {
+      offset = o->second;
+    }
+    const InterpolationResult at = truth.world_from_fisheye.interpolate(obs.t - offset, 0);
+    if (!at.ok()) continue;
+    ++out.frames;
+    const Rigid3d fisheye_from_world = at.world_from_body.inverse();
+    std::vector<bool> used(obs.blobs.size(), false);
+    for (const auto& [label, world_from_camera] : truth.manifest.ground_truth.world_from_camera) {
+      const auto p = sensor->camera->project(fisheye_from_world * world_from_camera.translation);
+      if (!p || !sensor->camera->isInImage(*p, 2.0)) continue;
+      ++out.expected;
+      int best = -1;
+      double best_distance = match_px;
+      for (size_t i = 0; i < obs.blobs.size(); ++i) {
+        const double distance = (Eigen::Vector2d(obs.blobs[i].u, obs.blobs[i].v) - *p).norm();
+        if (!used[i] && distance < best_distance) {
+          best_distance = distance;
+          best = static_cast<int>(i);
+        }
+      }
+      if (best >= 0) {
+        used[static_cast<size_t>(best)] = true;
+        ++out.matched;
+        errors.push_back(best_distance);
+      }
+    }
+    for (const bool u : used) out.false_positives += u ? 0 : 1;
+  }
+  out.median_error_px = medianOf(errors);
+  out.p90_error_px = quantileOf(errors, 0.9);
+  return out;
+}
+
+}  // namespace lookboth

@@ -1,0 +1,577 @@
+#include "lookboth/detect/marker_detector.h"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <opencv2/aruco.hpp>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "lookboth/core/error.h"
+#include "lookboth/geometry/lie.h"
+
+namespace lookboth {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// Bilinear sample (pixel (0,0) is the centre of the top-left pixel); NaN outside.
+double sampleBilinear(const cv::Mat& grey, double x, double y) {
+  const double fx = std::floor(x), fy = std::floor(y);
+  const int x0 = static_cast<int>(fx), y0 = static_cast<int>(fy);
+  if (x0 < 0 || y0 < 0 || x0 + 1 >= grey.cols || y0 + 1 >= grey.rows) return std::nan("");
+  const double ax = x - fx, ay = y - fy;
+  const std::uint8_t* r0 = grey.ptr<std::uint8_t>(y0) + x0;
+  const std::uint8_t* r1 = grey.ptr<std::uint8_t>(y0 + 1) + x0;
+  return (1 - ay) * ((1 - ax) * r0[0] + ax * r0[1]) + ay * ((1 - ax) * r1[0] + ax * r1[1]);
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+/// Unit normal of the plane through the origin that best fits the bearings
+/// (least squares on n.b); nullopt with fewer than 3 bearings.
+std::optional<Eigen::Vector3d> fitPlane(const std::vector<Eigen::Vector3d>& bearings) {
+  if (bearings.size() < 3) return std::nullopt;
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& b : bearings) scatter += b * b.transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(scatter);
+  return solver.eigenvectors().col(0).normalized();
+}
+
+/// Object points of the square (ArUco order) [m].
+std::array<Eigen::Vector3d, 4> squareCorners(double side) {
+  const double h = side / 2;
+  return {Eigen::Vector3d(-h, h, 0), Eigen::Vector3d(h, h, 0), Eigen::Vector3d(h, -h, 0),
+          Eigen::Vector3d(-h, -h, 0)};
+}
+
+Rigid3d perturbed(const Rigid3d& pose, const Eigen::Matrix<double, 6, 1>& delta) {
+  const Eigen::Vector3d dtheta = delta.tail<3>();
+  return Rigid3d((pose.rotation * so3Exp(dtheta)).normalized(), pose.translation + delta.head<3>());
+}
+
+/// Pixel residuals of the 4 corners; nullopt when a corner does not project.
+std::optional<Eigen::Matrix<double, 8, 1>> residuals(const Camera& camera, const Rigid3d& pose,
+                                                     const std::array<Eigen::Vector3d, 4>& object,
+                                                     const std::array<Eigen::Vector2d, 4>& px) {
+  Eigen::Matrix<double, 8, 1> r;
+  for (int k = 0; k < 4; ++k) {
+    const auto p = camera.project(pose * object[static_cast<size_t>(k)]);
+    if (!p) return std::nullopt;
+    r.segment<2>(2 * k) = *p - px[static_cast<size_t>(k)];
+  }
+  return r;
+}
+
+/// d residuals / d [dt; dtheta], central differences.
+std::optional<Eigen::Matrix<double, 8, 6>> jacobian(const Camera& camera, const Rigid3d& pose,
+                                                    const std::array<Eigen::Vector3d, 4>& object,
+                                                    const std::array<Eigen::Vector2d, 4>& px) {
+  Eigen::Matrix<double, 8, 6> jac;
+  for (int j = 0; j < 6; ++j) {
+    const double h = j < 3 ? 1e-6 : 1e-7;
+    Eigen::Matrix<double, 6, 1> delta = Eigen::Matrix<double, 6, 1>::Zero();
+    delta(j) = h;
+    const auto plus = residuals(camera, perturbed(pose, delta), object, px);
+    const auto minus = residuals(camera, perturbed(pose, -delta), object, px);
+    if (!plus || !minus) return std::nullopt;
+    jac.col(j) = (*plus - *minus) / (2 * h);
+  }
+  return jac;
+}
+
+const std::map<std::string, int>& dictionaryIds() {
+  static const std::map<std::string, int> ids = {
+      {"DICT_4X4_50", cv::aruco::DICT_4X4_50},
+      {"DICT_4X4_100", cv::aruco::DICT_4X4_100},
+      {"DICT_4X4_250", cv::aruco::DICT_4X4_250},
+      {"DICT_4X4_1000", cv::aruco::DICT_4X4_1000},
+      {"DICT_5X5_50", cv::aruco::DICT_5X5_50},
+      {"DICT_5X5_100", cv::aruco::DICT_5X5_100},
+      {"DICT_5X5_250", cv::aruco::DICT_5X5_250},
+      {"DICT_5X5_1000", cv::aruco::DICT_5X5_1000},
+      {"DICT_6X6_50", cv::aruco::DICT_6X6_50},
+      {"DICT_6X6_100", cv::aruco::DICT_6X6_100},
+      {"DICT_6X6_250", cv::aruco::DICT_6X6_250},
+      {"DICT_6X6_1000", cv::aruco::DICT_6X6_1000},
+      {"DICT_7X7_50", cv::aruco::DICT_7X7_50},
+      {"DICT_7X7_100", cv::aruco::DICT_7X7_100},
+      {"DICT_7X7_250", cv::aruco::DICT_7X7_250},
+      {"DICT_7X7_1000", cv::aruco::DICT_7X7_1000},
+      {"DICT_ARUCO_ORIGINAL", cv::aruco::DICT_ARUCO_ORIGINAL},
+      {"DICT_APRILTAG_16h5", cv::aruco::DICT_APRILTAG_16h5},
+      {"DICT_APRILTAG_25h9", cv::aruco::DICT_APRILTAG_25h9},
+      {"DICT_APRILTAG_36h10", cv::aruco::DICT_APRILTAG_36h10},
+      {"DICT_APRILTAG_36h11", cv::aruco::DICT_APRILTAG_36h11},
+  };
+  return ids;
+}
+
+}  // namespace
+
+int arucoDictionaryIdOf(const std::string& name) {
+  const auto it = dictionaryIds().find(name);
+  if (it == dictionaryIds().end()) {
+    throw Error({"", 0, "marker.dictionary", name}, "unknown ArUco dictionary");
+  }
+  return it->second;
+}
+
+std::string MarkerDetectorOptions::check() const {
+  if (detect_scale < 0 || detect_scale > 8)
+    return "'detect_scale': must be in [0, 8] (0 = automatic), got " + std::to_string(detect_scale);
+  if (!(roi_margin > 0)) return "'roi_margin': must be positive";
+  if (!(corner_sigma_px > 0)) return "'corner_sigma_px': must be positive";
+  if (!(min_side_px >= 4)) return "'min_side_px': must be at least 4";
+  if (!(max_reprojection_px > 0)) return "'max_reprojection_px': must be positive";
+  if (!(ambiguity_ratio >= 1)) return "'ambiguity_ratio': must be at least 1";
+  if (!(max_speed_mps >= 0)) return "'max_speed_mps': must be >= 0";
+  if (!(track_window_s > 0)) return "'track_window_s': must be positive";
+  return "";
+}
+
+struct MarkerDetector::Impl {
+  MarkerSpec marker;
+  Camera camera;
+  cv::Ptr<cv::aruco::Dictionary> dictionary;
+  cv::Ptr<cv::aruco::DetectorParameters> parameters;
+  int cells = 6;  ///< Marker side in cells, including the black border.
+  std::array<Eigen::Vector3d, 4> object;
+  std::optional<cv::Rect> last_box;  ///< Bounding box of the last detection [px].
+  int scale = 1;
+};
+
+MarkerDetector::MarkerDetector(const MarkerSpec& marker, const Camera& camera,
+                               const MarkerDetectorOptions& options)
+    : impl_(new Impl{marker, camera, {}, {}, 6, {}, std::nullopt, 1}), options_(options) {
+  if (const std::string why = marker.check(); !why.empty()) throw Error("marker: " + why);
+  if (const std::string why = options.check(); !why.empty()) throw Error("detect.markers: " + why);
+  impl_->dictionary = cv::aruco::getPredefinedDictionary(arucoDictionaryIdOf(marker.dictionary));
+  impl_->cells = impl_->dictionary->markerSize + 2;
+  impl_->parameters = cv::aruco::DetectorParameters::create();
+  impl_->parameters->cornerRefinementMethod = cv::aruco::CORNER_REFINE_NONE;
+  impl_->object = squareCorners(marker.size_m);
+  impl_->scale = options.detect_scale > 0 ? options.detect_scale : (camera.width() > 1280 ? 2 : 1);
+}
+
+MarkerDetector::~MarkerDetector() = default;
+MarkerDetector::MarkerDetector(MarkerDetector&&) noexcept = default;
+
+void MarkerDetector::resetTrack() { impl_->last_box.reset(); }
+
+std::optional<std::array<Eigen::Vector2d, 4>> MarkerDetector::refineCorners(
+    const cv::Mat& grey, const std::array<Eigen::Vector2d, 4>& initial) const {
+  const Camera& camera = impl_->camera;
+  std::array<Eigen::Vector2d, 4> corners = initial;
+  for (int iteration = 0; iteration < 2; ++iteration) {
+    std::array<Eigen::Vector3d, 4> corner_bearings;
+    for (size_t k = 0; k < 4; ++k) {
+      const auto b = camera.unproject(corners[k]);
+      if (!b) return std::nullopt;
+      corner_bearings[k] = *b;
+    }
+    const Eigen::Vector2d centre = 0.25 * (corners[0] + corners[1] + corners[2] + corners[3]);
+    std::array<Eigen::Vector3d, 4> planes;
+    for (size_t k = 0; k < 4; ++k) {
+      const size_t k1 = (k + 1) % 4;
+      const double length = (corners[k1] - corners[k]).norm();
+      const double cell = length / impl_->cells;
+      const double half_width = std::clamp(0.7 * cell, 1.5, 8.0);
+      const double step = 0.5;
+      const int samples = std::max(6, static_cast<int>(length / 1.5));
+      struct Profile {
+        Eigen::Vector2d at, normal;
+        std::vector<double> values;
+      };
+      std::vector<Profile> profiles;
+      std::vector<double> blacks, whites;
+      const int steps = static_cast<int>(std::round(2 * half_width / step));
+      for (int i = 0; i < samples; ++i) {
+        const double s = 0.15 + 0.7 * (i + 0.5) / samples;
+        const Eigen::Vector3d b0 = ((1 - s) * corner_bearings[k] + s * corner_bearings[k1]);
+        const double ds = 1e-3;
+        const Eigen::Vector3d b1 =
+            ((1 - s - ds) * corner_bearings[k] + (s + ds) * corner_bearings[k1]);
+        const auto p0 = camera.project(b0), p1 = camera.project(b1);
+        if (!p0 || !p1) continue;
+        const Eigen::Vector2d tangent = (*p1 - *p0).normalized();
+        Eigen::Vector2d normal(-tangent.y(), tangent.x());
+        if (normal.dot(*p0 - centre) < 0) normal = -normal;  // outward: black -> white
+        Profile profile{*p0, normal, {}};
+        bool inside = true;
+        for (int j = 0; j <= steps && inside; ++j) {
+          const Eigen::Vector2d q = *p0 + (-half_width + j * step) * normal;
+          const double value = sampleBilinear(grey, q.x(), q.y());
+          inside = !std::isnan(value);
+          profile.values.push_back(value);
+        }
+        if (!inside) continue;
+        blacks.push_back(0.5 * (profile.values[0] + profile.values[1]));
+        whites.push_back(0.5 * (profile.values[profile.values.size() - 1] +
+                                profile.values[profile.values.size() - 2]));
+        profiles.push_back(std::move(profile));
+      }
+      if (profiles.size() < 3) return std::nullopt;
+      const double black = median(blacks), white = median(whites);
+      if (white - black < 20) return std::nullopt;  // no edge there
+      std::vector<Eigen::Vector3d> edge_bearings;
+      for (const Profile& profile : profiles) {
+        // Area of the "black fraction" across the window = distance of the
+        // edge from the window's start (a blurred step integrates to it).
+        double area = 0;
+        for (const double value : profile.values) {
+          area += std::clamp((white - value) / (white - black), -0.5, 1.5) * step;
+        }
+        const double offset = area - half_width - step / 2;
+        if (std::abs(offset) > half_width - 0.5) continue;
+        const auto b = camera.unproject(profile.at + offset * profile.normal);
+        if (b) edge_bearings.push_back(*b);
+      }
+      auto plane = fitPlane(edge_bearings);
+      if (!plane) return std::nullopt;
+      // One pass of outlier rejection (e.g. a sample that met a bit cell).
+      std::vector<double> distances;
+      for (const Eigen::Vector3d& b : edge_bearings) distances.push_back(std::abs(plane->dot(b)));
+      const double limit = 3.0 * std::max(median(distances), 1e-9);
+      std::vector<Eigen::Vector3d> kept;
+      for (const Eigen::Vector3d& b : edge_bearings)
+        if (std::abs(plane->dot(b)) <= limit) kept.push_back(b);
+      if (kept.size() >= 3 && kept.size() < edge_bearings.size()) plane = fitPlane(kept);
+      planes[k] = *plane;
+    }
+    for (size_t k = 0; k < 4; ++k) {
+      // Corner k joins edge k-1 (corner k-1 -> k) and edge k (corner k -> k+1).
+      Eigen::Vector3d direction = planes[(k + 3) % 4].cross(planes[k]);
+      if (direction.norm() < 1e-12) return std::nullopt;
+      direction.normalize();
+      if (direction.dot(corner_bearings[k]) < 0) direction = -direction;
+      const auto p = camera.project(direction);
+      if (!p || (*p - initial[k]).norm() > 4.0) return std::nullopt;
+      corners[k] = *p;
+    }
+  }
+  return corners;
+}
+
+std::vector<MarkerPoseHypothesis> MarkerDetector::solvePose(
+    const std::array<Eigen::Vector2d, 4>& corners_px) const {
+  const Camera& camera = impl_->camera;
+  std::vector<cv::Point2d> normalised;
+  for (const Eigen::Vector2d& px : corners_px) {
+    const auto b = camera.unproject(px);
+    if (!b || b->z() < 1e-3) return {};
+    normalised.emplace_back(b->x() / b->z(), b->y() / b->z());
+  }
+  std::vector<cv::Point3d> object;
+  for (const Eigen::Vector3d& o : impl_->object) object.emplace_back(o.x(), o.y(), o.z());
+  std::vector<cv::Mat> rvecs, tvecs;
+  try {
+    cv::solvePnPGeneric(object, normalised, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvecs, tvecs,
+                        false, cv::SOLVEPNP_IPPE_SQUARE);
+  } catch (const cv::Exception&) {
+    return {};
+  }
+  std::vector<MarkerPoseHypothesis> hypotheses;
+  for (size_t i = 0; i < rvecs.size(); ++i) {
+    cv::Mat rotation_cv;
+    cv::Rodrigues(rvecs[i], rotation_cv);
+    Eigen::Matrix3d rotation;
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) rotation(a, b) = rotation_cv.at<double>(a, b);
+    Rigid3d pose(
+        Eigen::Quaterniond(rotation).normalized(),
+        Eigen::Vector3d(tvecs[i].at<double>(0), tvecs[i].at<double>(1), tvecs[i].at<double>(2)));
+    if (pose.translation.z() <= 0) continue;
+    // Gauss-Newton on the pixel reprojection error through the camera model.
+    bool ok = true;
+    for (int iteration = 0; iteration < 10; ++iteration) {
+      const auto r0 = residuals(camera, pose, impl_->object, corners_px);
+      const auto jac = jacobian(camera, pose, impl_->object, corners_px);
+      if (!r0 || !jac) {
+        ok = false;
+        break;
+      }
+      const Eigen::Matrix<double, 6, 6> normal = jac->transpose() * *jac;
+      const Eigen::Matrix<double, 6, 1> delta = -normal.ldlt().solve(jac->transpose() * *r0);
+      if (!delta.allFinite()) {
+        ok = false;
+        break;
+      }
+      pose = perturbed(pose, delta);
+      if (delta.norm() < 1e-12) break;
+    }
+    if (!ok) continue;
+    const auto r = residuals(camera, pose, impl_->object, corners_px);
+    const auto jac = jacobian(camera, pose, impl_->object, corners_px);
+    if (!r || !jac || pose.translation.z() <= 0) continue;
+    MarkerPoseHypothesis h;
+    h.camera_from_marker = pose;
+    h.reprojection_rms_px = std::sqrt(r->squaredNorm() / 4);
+    const double sigma = options_.corner_sigma_px;
+    h.information = jac->transpose() * *jac / (sigma * sigma);
+    // The marker must face the camera: its z axis towards the optical centre.
+    const Eigen::Vector3d normal = pose.rotation * Eigen::Vector3d::UnitZ();
+    if (normal.dot(-pose.translation) <= 0) continue;
+    // Two IPPE solutions can refine into the same pose.
+    bool duplicate = false;
+    for (const MarkerPoseHypothesis& other : hypotheses) {
+      duplicate = duplicate ||
+                  rotationAngleBetween(other.camera_from_marker.rotation, pose.rotation) < 1e-6;
+    }
+    if (!duplicate) hypotheses.push_back(h);
+  }
+  std::sort(hypotheses.begin(), hypotheses.end(),
+            [](const MarkerPoseHypothesis& a, const MarkerPoseHypothesis& b) {
+              return a.reprojection_rms_px < b.reprojection_rms_px;
+            });
+  return hypotheses;
+}
+
+std::vector<MarkerDetection> MarkerDetector::detect(const cv::Mat& grey) {
+  if (grey.type() != CV_8UC1 || grey.cols != impl_->camera.width() ||
+      grey.rows != impl_->camera.height()) {
+    throw Error("marker detection: expected a " + std::to_string(impl_->camera.width()) + "x" +
+                std::to_string(impl_->camera.height()) + " greyscale frame, got " +
+                std::to_string(grey.cols) + "x" + std::to_string(grey.rows) + " with " +
+                std::to_string(grey.channels()) + " channel(s)");
+  }
+  // 1. Candidates of the right id, in full-resolution pixels.
+  std::vector<std::array<Eigen::Vector2d, 4>> candidates;
+  auto search = [&](const cv::Mat& image, double scale, const cv::Point& origin) {
+    std::vector<std::vector<cv::Point2f>> corners, rejected;
+    std::vector<int> ids;
+    cv::aruco::detectMarkers(image, impl_->dictionary, corners, ids, impl_->parameters, rejected);
+    for (size_t i = 0; i < ids.size(); ++i) {
+      if (ids[i] != impl_->marker.id) continue;
+      std::array<Eigen::Vector2d, 4> c;
+      for (size_t k = 0; k < 4; ++k) {
+        // Pixel centres: full = scale * (reduced + 0.5) - 0.5.
+        c[k] = Eigen::Vector2d(scale * (corners[i][k].x + 0.5) - 0.5 + origin.x,
+                               scale * (corners[i][k].y + 0.5) - 0.5 + origin.y);
+      }
+      candidates.push_back(c);
+    }
+  };
+  const cv::Rect frame(0, 0, grey.cols, grey.rows);
+  if (options_.track_roi && impl_->last_box) {
+    const cv::Rect& box = *impl_->last_box;
+    const int margin =
+        static_cast<int>(std::ceil(options_.roi_margin * std::max(box.width, box.height)));
+    const cv::Rect roi =
+        cv::Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin) &
+        frame;
+    if (roi.area() > 0) {
+      const cv::Mat crop = grey(roi);
+      // A large marker is searched at reduced resolution too.
+      const int scale = std::max(1, std::min(impl_->scale, std::min(box.width, box.height) / 40));
+      if (scale > 1) {
+        cv::Mat reduced;
+        cv::resize(crop, reduced, cv::Size(), 1.0 / scale, 1.0 / scale, cv::INTER_AREA);
+        search(reduced, scale, roi.tl());
+      } else {
+        search(crop, 1.0, roi.tl());
+      }
+    }
+  }
+  if (candidates.empty()) {
+    if (impl_->scale > 1) {
+      cv::Mat reduced;
+      cv::resize(grey, reduced, cv::Size(grey.cols / impl_->scale, grey.rows / impl_->scale), 0, 0,
+                 cv::INTER_AREA);
+      search(reduced, impl_->scale, cv::Point(0, 0));
+    } else {
+      search(grey, 1.0, cv::Point(0, 0));
+    }
+  }
+  // 2-3. Corners, pose hypotheses, checks.
+  std::vector<MarkerDetection> detections;
+  impl_->last_box.reset();
+  for (const auto& candidate : candidates) {
+    std::array<Eigen::Vector2d, 4> corners = candidate;
+    if (options_.refine_edges) {
+      const auto refined = refineCorners(grey, candidate);
+      if (!refined) continue;
+      corners = *refined;
+    }
+    double shortest = 1e300;
+    for (size_t k = 0; k < 4; ++k) {
+      shortest = std::min(shortest, (corners[(k + 1) % 4] - corners[k]).norm());
+    }
+    if (shortest < options_.min_side_px) continue;
+    // Convex and consistently oriented.
+    int sign = 0;
+    bool convex = true;
+    for (size_t k = 0; k < 4; ++k) {
+      const Eigen::Vector2d a = corners[(k + 1) % 4] - corners[k];
+      const Eigen::Vector2d b = corners[(k + 2) % 4] - corners[(k + 1) % 4];
+      const double cross = a.x() * b.y() - a.y() * b.x();
+      const int s = cross > 0 ? 1 : -1;
+      convex = convex && std::abs(cross) > 1e-6 && (sign == 0 || s == sign);
+      sign = s;
+    }
+    if (!convex) continue;
+    MarkerDetection detection;
+    detection.marker_id = impl_->marker.id;
+    detection.corners_px = corners;
+    detection.hypotheses = solvePose(corners);
+    if (detection.hypotheses.empty() ||
+        detection.hypotheses.front().reprojection_rms_px > options_.max_reprojection_px) {
+      continue;
+    }
+    detection.ambiguous =
+        detection.hypotheses.size() > 1 &&
+        detection.hypotheses[1].reprojection_rms_px <
+            options_.ambiguity_ratio * std::max(detection.hypotheses[0].reprojection_rms_px, 1e-3);
+    std::vector<cv::Point2f> points;
+    for (const Eigen::Vector2d& c : corners)
+      points.emplace_back(static_cast<float>(c.x()), static_cast<float>(c.y()));
+    const cv::Rect box = cv::boundingRect(points) & frame;
+    impl_->last_box = impl_->last_box ? (*impl_->last_box | box) : box;
+    detections.push_back(std::move(detection));
+  }
+  return detections;
+}
+
+int resolveAmbiguity(std::vector<MarkerDetection*>& track, double agreement_deg) {
+  const double cos_agreement = std::cos(agreement_deg * kPi / 180.0);
+  auto normalOf = [](const MarkerPoseHypothesis& h) -> Eigen::Vector3d {
+    return h.camera_from_marker.rotation * Eigen::Vector3d::UnitZ();
+  };
+  // Reference normal: the mean of the unambiguous detections' normals, else
+  // the hypothesis normal with the most support among all hypotheses.
+  Eigen::Vector3d reference = Eigen::Vector3d::Zero();
+  int clear = 0;
+  for (const MarkerDetection* d : track) {
+    if (!d->ambiguous && !d->hypotheses.empty()) {
+      reference += normalOf(d->hypotheses.front());
+      ++clear;
+    }
+  }
+  if (clear >= 1) {
+    // Refine: the mean of those within the agreement of the first mean.
+    Eigen::Vector3d mean = reference.normalized(), sum = Eigen::Vector3d::Zero();
+    for (const MarkerDetection* d : track) {
+      if (d->ambiguous || d->hypotheses.empty()) continue;
+      const Eigen::Vector3d n = normalOf(d->hypotheses.front());
+      if (n.dot(mean) >= cos_agreement) sum += n;
+    }
+    reference = sum.norm() > 0 ? sum.normalized() : mean;
+  } else {
+    int best_support = 0;
+    for (const MarkerDetection* d : track) {
+      for (const MarkerPoseHypothesis& h : d->hypotheses) {
+        const Eigen::Vector3d n = normalOf(h);
+        int support = 0;
+        for (const MarkerDetection* e : track) {
+          for (const MarkerPoseHypothesis& g : e->hypotheses) {
+            if (normalOf(g).dot(n) >= cos_agreement) {
+              ++support;
+              break;
+            }
+          }
+        }
+        if (support > best_support) {
+          best_support = support;
+          reference = n;
+        }
+      }
+    }
+    // One detection, or no agreement: nothing to decide with.
+    if (best_support < 2) reference.setZero();
+  }
+  int unresolved = 0;
+  for (MarkerDetection* d : track) {
+    d->chosen = 0;
+    d->unresolved = false;
+    if (d->hypotheses.size() < 2 || !d->ambiguous) continue;
+    if (reference.isZero()) {
+      d->unresolved = true;
+      ++unresolved;
+      continue;
+    }
+    int best = -1;
+    double best_dot = cos_agreement;
+    for (size_t i = 0; i < d->hypotheses.size(); ++i) {
+      const double dot = normalOf(d->hypotheses[i]).dot(reference);
+      if (dot >= best_dot) {
+        best_dot = dot;
+        best = static_cast<int>(i);
+      }
+    }
+    if (best < 0) {
+      d->unresolved = true;
+      ++unresolved;
+    } else {
+      d->chosen = best;
+    }
+  }
+  return unresolved;
+}
+
+int rejectTrackOutliers(std::vector<std::pair<TimeNs, MarkerDetection>>& track,
+                        double max_speed_mps, TimeNs window) {
+  if (max_speed_mps <= 0) return 0;
+  // Agreement with the nearest detection before and the nearest after
+  // (others at the same time count as both).
+  std::vector<bool> keep(track.size(), true);
+  for (size_t i = 0; i < track.size(); ++i) {
+    const Eigen::Vector3d& p = track[i].second.pose().camera_from_marker.translation;
+    auto agreesWith = [&](size_t j) {
+      const double seconds = std::abs(static_cast<double>(track[j].first - track[i].first)) * 1e-9;
+      const Eigen::Vector3d& q = track[j].second.pose().camera_from_marker.translation;
+      return (p - q).norm() <= max_speed_mps * seconds + 0.05;
+    };
+    bool has_neighbour = false, agrees = false;
+    std::optional<size_t> before, after;
+    for (size_t j = 0; j < track.size(); ++j) {
+      if (j == i) continue;
+      const TimeNs dt = track[j].first - track[i].first;
+      if (dt == 0) {
+        has_neighbour = true;
+        agrees = agrees || agreesWith(j);
+      } else if (dt < 0 && dt >= -window) {
+        if (!before || track[j].first >= track[*before].first) before = j;
+      } else if (dt > 0 && dt <= window) {
+        if (!after || track[j].first < track[*after].first) after = j;
+      }
+    }
+    for (const auto& j : {before, after}) {
+      if (!j) continue;
+      has_neighbour = true;
+      agrees = agrees || agreesWith(*j);
+    }
+    keep[i] = !has_neighbour || agrees;
+  }
+  int removed = 0;
+  std::vector<std::pair<TimeNs, MarkerDetection>> kept;
+  for (size_t i = 0; i < track.size(); ++i) {
+    if (keep[i]) {
+      kept.push_back(std::move(track[i]));
+    } else {
+      ++removed;
+    }
+  }
+  track = std::move(kept);
+  return removed;
+}
+
+MarkerObservation toMarkerObservation(const MarkerDetection& detection, TimeNs t,
+                                      const std::string& camera) {
+  MarkerObservation obs;
+  obs.t = t;
+  obs.camera = camera;
+  obs.marker_id = detection.marker_id;
+  obs.camera_from_marker = detection.pose().camera_from_marker;
+  obs.information = detection.pose().information;
+  return obs;
+}
+
+}  // namespace lookboth
