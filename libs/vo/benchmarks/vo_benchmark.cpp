@@ -31,7 +31,9 @@ struct Sequence {
 const Sequence& sequence() {
   static const Sequence s = [] {
     Sequence seq{loadCamera(std::string(LOOKBOTH_SHARE_DIR) + "/cameras/fisheye_calib_results.txt"),
-                 {}, {}, {}};
+                 {},
+                 {},
+                 {}};
     const sim::World world(sim::WorldSpec{}, 2024);
     sim::RenderOptions options;
     options.supersampling = 1;
@@ -39,8 +41,9 @@ const Sequence& sequence() {
     const int factor = VisualOdometry::downscaleFactor(seq.camera.width(), OdometryOptions());
     for (int i = 0; i < kFrames; ++i) {
       const double x = 10.0 + std::min(1.0, i / 15.0) * i / 30.0;  // accelerate to 1 m/s
-      const Rigid3d pose(Eigen::Quaterniond(Eigen::AngleAxisd(0.3 + 0.002 * i, Eigen::Vector3d::UnitZ())),
-                         Eigen::Vector3d(x, 9.5, 0.3));
+      const Rigid3d pose(
+          Eigen::Quaterniond(Eigen::AngleAxisd(0.3 + 0.002 * i, Eigen::Vector3d::UnitZ())),
+          Eigen::Vector3d(x, 9.5, 0.3));
       const cv::Mat frame = sim::renderFisheye(world, seq.camera, pose, options, rng);
       std::vector<std::uint8_t> bytes;
       cv::imencode(".png", frame, bytes);
