@@ -161,5 +161,21 @@ TEST_F(OdometrySmallTest, BlankFramesLoseTrackingWhichIsRecovered) {
   EXPECT_TRUE(reported);
 }
 
+// A stop request (Ctrl-C) leaves no output and the dataset as it was.
+TEST_F(OdometrySmallTest, StopLeavesNothingWritten) {
+  OdometryRunOptions options;
+  options.dataset = *dataset_;
+  options.out = *dir_ / "stopped.rawlog";
+  options.tum_out = *dir_ / "stopped.tum";
+  const ProgressReporter progress;
+  progress.requestStop();
+  EXPECT_THROW(runOdometry(options, progress), StopRequested);
+  EXPECT_FALSE(fs::exists(options.out));
+  EXPECT_FALSE(fs::exists(options.tum_out));
+  for (const auto& entry : fs::directory_iterator(*dir_)) {
+    EXPECT_EQ(entry.path().filename().string().find("stopped"), std::string::npos) << entry.path();
+  }
+}
+
 }  // namespace
 }  // namespace lookboth::vo
