@@ -31,6 +31,9 @@ echo
 echo "== 4. MRPT's rawlog-edit reads the dataset through lookboth's plugin"
 (cd "$OUT" && rawlog-edit -p "$PLUGIN" -i small.rawlog --info 2>&1 | grep -E "objects|labels|Sensor")
 echo
+echo "== 5. Fisheye visual odometry with loop closure, scored against the ground truth"
+"$LOOKBOTH" odometry "$OUT/small.rawlog" --tum "$OUT/vo.tum" --overwrite 2>/dev/null
+echo
 echo "Outputs in $OUT (frames in $OUT/small_Images)"
 
 # Checking the registration (libs/report). Runs once a registration exists in

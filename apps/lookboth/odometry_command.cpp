@@ -23,6 +23,9 @@ struct OdometryArgs {
   long long seed = -1;
   double duration = 0;
   bool no_loop_closure = false;
+  std::string out;
+  bool overwrite = false;
+  bool dry_run = false;
 };
 
 void printAte(const char* what, const std::optional<vo::AteResult>& ate) {
@@ -45,6 +48,9 @@ int runOdometryCommand(const OdometryArgs& args) {
   if (args.seed >= 0) options.odometry.seed = static_cast<std::uint32_t>(args.seed);
   if (args.no_loop_closure) options.odometry.loop_closure = false;
   options.tum_out = args.tum;
+  options.out = args.out;
+  options.overwrite = args.overwrite;
+  options.write_dataset = !args.dry_run;
   options.camera = args.camera;
   options.max_duration_s = args.duration;
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
@@ -78,10 +84,13 @@ int runOdometryCommand(const OdometryArgs& args) {
     std::cout << " (CPU per frame)\n";
     printAte("ATE frames:  ", s.ate);
     printAte("ATE keyfr.:  ", s.ate_keyframes);
+    if (!s.dataset_written.empty())
+      std::cout << "wrote " << s.records_written << " poses (trajectory 'vo', up to scale) to "
+                << s.dataset_written.string() << "\n";
     if (!args.tum.empty()) std::cout << "wrote " << args.tum << "\n";
     return 0;
   } catch (const StopRequested&) {
-    std::cerr << "lookboth: stopped; nothing was written\n";
+    std::cerr << "lookboth: stopped; the dataset is unchanged and nothing was written\n";
     return 130;
   }
 }
@@ -91,12 +100,18 @@ int runOdometryCommand(const OdometryArgs& args) {
 void registerOdometryCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body) {
   auto args = std::make_shared<OdometryArgs>();
   CLI::App* cmd = app.add_subcommand(
-      "odometry", "Fisheye visual odometry with loop closure: keyframe poses up to scale");
+      "odometry",
+      "Fisheye visual odometry with loop closure: adds the trajectory 'vo' (up to scale) to the "
+      "dataset");
   cmd->add_option("dataset", args->dataset, "Dataset (x.rawlog, its manifest, or a folder)")
       ->required();
   cmd->add_option("--config", args->config,
                   "YAML configuration (section 'odometry:'; default: the shipped default.yaml)");
-  cmd->add_option("--tum", args->tum, "Write the trajectory (world_from_fisheye) as TUM");
+  cmd->add_option("--out", args->out,
+                  "Write the dataset with the trajectory here instead of replacing the input");
+  cmd->add_flag("--overwrite", args->overwrite, "Replace an existing --out or --tum");
+  cmd->add_flag("--dry-run", args->dry_run, "Leave the dataset as it is (statistics, --tum only)");
+  cmd->add_option("--tum", args->tum, "Also write the trajectory (world_from_fisheye) as TUM");
   cmd->add_option("--camera", args->camera,
                   "The fisheye's label (default: the manifest's fisheye)");
   cmd->add_option("--threads", args->threads, "Solver threads")

@@ -87,10 +87,6 @@ struct Sim3EdgeResidual {
 
 }  // namespace
 
-double tangentError(const Eigen::Vector3d& bearing, const Eigen::Vector3d& p_in_camera) {
-  return angularError(bearing, p_in_camera);
-}
-
 int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& fixed,
                  const AdjustmentOptions& options) {
   // Parameter blocks: per keyframe [qx qy qz qw] and camera centre; per landmark its point.

@@ -79,10 +79,6 @@ struct AdjustmentOptions {
 int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& fixed,
                  const AdjustmentOptions& options);
 
-/// Residual of the adjustments: tangent-plane (gnomonic) projection of the
-/// predicted direction around the measured bearing [rad].
-double tangentError(const Eigen::Vector3d& bearing, const Eigen::Vector3d& p_in_camera);
-
 struct PoseGraphEdge {
   int from = -1, to = -1;
   Sim3d from_from_to;  ///< Measured relative similarity.

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <numeric>
 #include <opencv2/features2d.hpp>
@@ -240,13 +242,17 @@ struct VisualOdometry::Impl {
       moves.push_back(std::sqrt(d.dot(d)));
     }
     if (static_cast<int>(idx.size()) < options.init_min_inliers ||
-        static_cast<int>(idx.size()) < reference_count / 3) {
+        static_cast<int>(idx.size()) < reference_count / 5) {
       startInitialisation(t, image);  // Too much lost: a fresh reference.
       return false;
     }
     // Not worth trying before the image has moved enough for the parallax wanted.
     if (median(moves) < 0.5 * options.init_min_parallax_deg * kDeg * focal_px) return false;
     const auto rel = estimateRelativePose(b_ref, b_cur, ransac());
+    if (std::getenv("LOOKBOTH_VO_DEBUG"))
+      std::fprintf(stderr, "init t=%lld: %zu tracks (ref %d), median move %.1f px, inliers %d\n",
+                   static_cast<long long>(t), idx.size(), reference_count, median(moves),
+                   rel ? rel->num_inliers : -1);
     if (!rel || rel->num_inliers < options.init_min_inliers) return false;
     const Rigid3d ref_from_cur = rel->cam1_from_cam2;
     std::vector<std::optional<Eigen::Vector3d>> points(idx.size());
@@ -267,6 +273,9 @@ struct VisualOdometry::Impl {
       points[j] = p;
       depths.push_back(p->norm());
     }
+    if (std::getenv("LOOKBOTH_VO_DEBUG"))
+      std::fprintf(stderr, "  median parallax %.2f deg, %zu triangulated\n", median(angles) / kDeg,
+                   depths.size());
     if (median(angles) < options.init_min_parallax_deg * kDeg ||
         static_cast<int>(depths.size()) < options.init_min_inliers)
       return false;  // Pure rotation or too little parallax yet: wait.

@@ -1,5 +1,6 @@
 #include "lookboth/vo/run.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -11,6 +12,7 @@
 #include <thread>
 
 #include "lookboth/core/error.h"
+#include "lookboth/dataset/augment.h"
 #include "lookboth/dataset/dataset_io.h"
 #include "lookboth/geometry/time.h"
 #include "lookboth/geometry/tum.h"
@@ -100,7 +102,10 @@ OdometryRunSummary runOdometry(const OdometryRunOptions& options,
   if (const std::string why = options.check(); !why.empty()) throw Error("odometry: " + why);
   const Clock::time_point start = Clock::now();
   if (!options.tum_out.empty() && !options.overwrite && std::filesystem::exists(options.tum_out))
-    throw Error(options.tum_out.string() + ": already exists");
+    throw Error(options.tum_out.string() + ": already exists (use --overwrite)");
+  if (options.write_dataset && !options.out.empty() && !options.overwrite &&
+      std::filesystem::exists(options.out))
+    throw Error(options.out.string() + ": already exists (use --overwrite)");
 
   auto reader = DatasetReader::open(options.dataset);
   const Manifest manifest = reader->manifest();
@@ -186,6 +191,7 @@ OdometryRunSummary runOdometry(const OdometryRunOptions& options,
   }
   producer.join();
   if (std::exception_ptr error = queue.error()) std::rethrow_exception(error);
+  reader.reset();  // The dataset may be replaced below.
   progress.checkStop();
   summary.decode_seconds = decode_seconds;
 
@@ -209,6 +215,31 @@ OdometryRunSummary runOdometry(const OdometryRunOptions& options,
     }
     summary.ate = absoluteTrajectoryError(summary.result.trajectory, truth);
     summary.ate_keyframes = absoluteTrajectoryError(summary.result.keyframes, truth);
+  }
+  progress.checkStop();
+  if (options.write_dataset) {
+    AugmentOptions augment;
+    augment.input = options.dataset;
+    augment.output = options.out;
+    augment.overwrite = options.overwrite;
+    augment.drop = [](const Record& record) {
+      const auto* pose = std::get_if<PoseSample>(&record);
+      return pose && pose->label == kVoTrajectoryLabel;
+    };
+    Manifest updated = manifest;
+    auto& list = updated.trajectories;
+    list.erase(
+        std::remove_if(list.begin(), list.end(),
+                       [](const TrajectoryInfo& t) { return t.label == kVoTrajectoryLabel; }),
+        list.end());
+    list.push_back(TrajectoryInfo{kVoTrajectoryLabel, false, kVoTrajectoryDescription});
+    augment.manifest = updated;
+    std::vector<Record> added;
+    for (const StampedPose& p : summary.result.trajectory.samples())
+      added.emplace_back(PoseSample{p.t, kVoTrajectoryLabel, p.world_from_body});
+    const AugmentSummary written = augmentDataset(augment, std::move(added), progress);
+    summary.records_written = written.added;
+    summary.dataset_written = written.output;
   }
   if (!options.tum_out.empty()) writeTumFile(options.tum_out, summary.result.trajectory);
   summary.wall_seconds = seconds(Clock::now() - start);

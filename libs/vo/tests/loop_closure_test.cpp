@@ -83,6 +83,7 @@ TEST(OdometryTest, LoopClosedWhenRevisitedInTheOppositeDirection) {
   const Trajectory truth = groundTruth(dataset);
   OdometryRunOptions options;
   options.dataset = dataset;
+  options.write_dataset = false;
   const OdometryRunSummary with_loops = runOdometry(options, ProgressReporter());
   const OdometryStatistics& s = with_loops.result.statistics;
   ASSERT_GE(s.loop_closures, 1);

@@ -98,7 +98,24 @@ TEST_F(OdometrySmallTest, AteBoundAndDeterministic) {
       << "ATE " << a.ate->rmse << " m over " << a.ate->path_length << " m";
   EXPECT_TRUE(fs::exists(options.tum_out));
 
-  // Same input, same seed, one thread: the same trajectory.
+  // The dataset now holds the trajectory: records "vo" at the frames' times
+  // and a non-metric TrajectoryInfo in the manifest.
+  {
+    auto reader = DatasetReader::open(*dataset_);
+    const TrajectoryInfo* info = reader->manifest().findTrajectory("vo");
+    ASSERT_NE(info, nullptr);
+    EXPECT_FALSE(info->metric);
+    EXPECT_EQ(info->description, "lookboth odometry");
+    size_t vo = 0;
+    while (auto record = reader->next()) {
+      if (const auto* p = std::get_if<PoseSample>(&*record)) vo += p->label == "vo" ? 1 : 0;
+    }
+    EXPECT_EQ(vo, a.result.trajectory.size());
+    EXPECT_EQ(a.records_written, static_cast<std::int64_t>(vo));
+  }
+
+  // Same input, same seed, one thread: the same trajectory (and a second
+  // run replaces the "vo" records instead of adding more).
   options.tum_out.clear();
   const OdometryRunSummary b = runOdometry(options, ProgressReporter());
   ASSERT_EQ(a.result.trajectory.size(), b.result.trajectory.size());
@@ -106,6 +123,7 @@ TEST_F(OdometrySmallTest, AteBoundAndDeterministic) {
     EXPECT_EQ(a.result.trajectory.samples()[i].world_from_body.translation,
               b.result.trajectory.samples()[i].world_from_body.translation);
   }
+  EXPECT_EQ(b.records_written, a.records_written);
 }
 
 // Featureless frames (a lens cap, a blank burst) in the middle of the run:
@@ -141,6 +159,22 @@ TEST_F(OdometrySmallTest, BlankFramesLoseTrackingWhichIsRecovered) {
   bool reported = false;
   for (const std::string& e : s.events) reported = reported || e.find("tracking lost") == 0;
   EXPECT_TRUE(reported);
+}
+
+// A stop request (Ctrl-C) leaves no output and the dataset as it was.
+TEST_F(OdometrySmallTest, StopLeavesNothingWritten) {
+  OdometryRunOptions options;
+  options.dataset = *dataset_;
+  options.out = *dir_ / "stopped.rawlog";
+  options.tum_out = *dir_ / "stopped.tum";
+  const ProgressReporter progress;
+  progress.requestStop();
+  EXPECT_THROW(runOdometry(options, progress), StopRequested);
+  EXPECT_FALSE(fs::exists(options.out));
+  EXPECT_FALSE(fs::exists(options.tum_out));
+  for (const auto& entry : fs::directory_iterator(*dir_)) {
+    EXPECT_EQ(entry.path().filename().string().find("stopped"), std::string::npos) << entry.path();
+  }
 }
 
 }  // namespace

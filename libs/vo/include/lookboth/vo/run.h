@@ -18,12 +18,22 @@ namespace lookboth::vo {
 struct OdometryRunOptions {
   std::filesystem::path dataset;  ///< A rawlog dataset or a folder.
   OdometryOptions odometry;
+  /// Add the trajectory to the dataset: PoseSample records labelled "vo"
+  /// (replacing earlier ones) and TrajectoryInfo{"vo", metric false} in the
+  /// manifest, through augmentDataset (crash-safe).
+  bool write_dataset = true;
+  /// Where the augmented dataset goes; empty = replace the input.
+  std::filesystem::path out;
   std::filesystem::path tum_out;  ///< Trajectory in TUM format; empty = none.
-  bool overwrite = true;          ///< Replace an existing TUM file.
+  bool overwrite = false;         ///< Replace an existing `out` or `tum_out`.
   std::string camera;             ///< The fisheye's label; empty = the manifest's fisheye.
   double max_duration_s = 0;      ///< Only the first seconds of frames [s]; 0 = all.
   std::string check() const;
 };
+
+/// Label and description of the trajectory written to datasets.
+inline constexpr const char* kVoTrajectoryLabel = "vo";
+inline constexpr const char* kVoTrajectoryDescription = "lookboth odometry";
 
 struct OdometryRunSummary {
   OdometryResult result;
@@ -35,6 +45,8 @@ struct OdometryRunSummary {
   double wall_seconds = 0;
   std::optional<AteResult> ate;  ///< Against the dataset's "ground_truth" trajectory, if any.
   std::optional<AteResult> ate_keyframes;
+  std::int64_t records_written = 0;       ///< PoseSample records added to the dataset.
+  std::filesystem::path dataset_written;  ///< Empty when the dataset was not written.
 };
 
 OdometryRunSummary runOdometry(const OdometryRunOptions& options, const ProgressReporter& progress);
