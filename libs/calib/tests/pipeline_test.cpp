@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <mrpt/opengl/COpenGLScene.h>
+
 #include <filesystem>
 
 #include "lookboth/calib/pipeline.h"
@@ -150,6 +152,12 @@ TEST_F(PipelineTest, WritesTheOutputDirectoryAtomically) {
                            "blob_associations.csv"}) {
     EXPECT_TRUE(fs::exists(out / file)) << file;
   }
+  // The scene reads back in MRPT: trajectory, rays and one object per camera.
+  mrpt::opengl::COpenGLScene scene;
+  ASSERT_TRUE(scene.loadFromFile((out / "scene.3Dscene").string()));
+  EXPECT_TRUE(scene.getByName("trajectory"));
+  EXPECT_TRUE(scene.getByName("detection rays"));
+  EXPECT_TRUE(scene.getByName("cam03"));
   const Registration back = loadRegistration(out);
   EXPECT_EQ(back.cameras.size(), run.registration.cameras.size());
   EXPECT_EQ(back.blob_associations.size(), run.registration.blob_associations.size());
