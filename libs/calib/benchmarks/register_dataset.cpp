@@ -119,7 +119,12 @@ int main(int argc_in, char** argv_in) {
     if (input.manifest.ground_truth.fisheye_from_marker) {
       const Rigid3d& gx = *input.manifest.ground_truth.fisheye_from_marker;
       std::cout << "fisheye_from_marker translation error: "
-                << formatFixed((x.translation - gx.translation).norm() * 1000, 2) << " mm\n";
+                << formatFixed((x.translation - gx.translation).norm() * 1000, 2)
+                << " mm, rotation error "
+                << formatFixed(
+                       Eigen::AngleAxisd(gx.rotation.conjugate() * x.rotation).angle() * 180 / M_PI,
+                       3)
+                << " deg\n";
     }
     if (r.reprojection) {
       std::cout << "reprojection: " << r.reprojection->blobs << " blobs, RMS "

@@ -49,6 +49,7 @@ struct MotionPair {
   Rigid3d mi;          ///< M_i (its rotation maps the detections' noise into B).
   Matrix6d covariance_i, covariance_j;
   std::size_t i = 0, j = 0;  ///< Association indices.
+  std::size_t camera = 0;    ///< Index of the camera that saw both.
 };
 
 Matrix6d detectionCovariance(const MarkerObservation& m, double default_t, double default_r) {
@@ -259,7 +260,9 @@ void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationO
     covariances[a] =
         detectionCovariance(problem.marker(problem.associations[a]), default_t, default_r);
   }
+  std::vector<std::vector<std::size_t>> detections_of_camera;
   for (const auto& [label, indices] : problem.associations_by_camera) {
+    detections_of_camera.push_back(indices);
     std::size_t j = 0;
     for (std::size_t i = 0; i < indices.size(); ++i) {
       const Association& ai = problem.associations[indices[i]];
@@ -277,6 +280,7 @@ void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationO
       const Rigid3d& mi = problem.marker(ai).camera_from_marker;
       p.b = mi.inverse() * problem.marker(aj).camera_from_marker;
       p.mi = mi;
+      p.camera = detections_of_camera.size() - 1;
       p.covariance_i = covariances[p.i];
       p.covariance_j = covariances[p.j];
       pairs.push_back(p);
@@ -308,10 +312,46 @@ void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationO
   // Builds and solves the problem with weights from the current X; returns
   // the information matrix J^T J over the tangent space.
   auto solve = [&](bool with_priors) {
+    const bool camera_orientation = options.translation_from_camera_orientation;
     poseToParams(X, x);
     ceres::Problem ceres_problem;
     const Eigen::Matrix3d Rx = X.rotation.toRotationMatrix();
-    for (const MotionPair& p : pairs) {
+    // Each camera's orientation world_from_camera, averaged over its detections.
+    std::vector<Eigen::Quaterniond> camera_rotation;
+    if (camera_orientation) {
+      for (const std::vector<std::size_t>& indices : detections_of_camera) {
+        std::vector<Eigen::Quaterniond> rotations;
+        for (std::size_t a : indices) {
+          const Association& as = problem.associations[a];
+          rotations.push_back(as.world_from_fisheye.rotation * X.rotation *
+                              problem.marker(as).camera_from_marker.rotation.conjugate());
+        }
+        camera_rotation.push_back(calib_detail::meanRotation(rotations));
+      }
+    }
+    for (const MotionPair& measured : pairs) {
+      MotionPair p = measured;
+      Matrix6d b_covariance_override = Matrix6d::Zero();
+      if (camera_orientation) {
+        // t_B from the marker's displacement in the camera frame, mapped by the
+        // marker's orientation PREDICTED from the camera's averaged orientation
+        // (the single detection's orientation carries its tilt noise into t_B).
+        const Association& ai = problem.associations[p.i];
+        const Eigen::Quaterniond camera_from_marker_rotation =
+            camera_rotation[p.camera].conjugate() * ai.world_from_fisheye.rotation * X.rotation;
+        const Eigen::Vector3d displacement =
+            problem.marker(problem.associations[p.j]).camera_from_marker.translation -
+            p.mi.translation;
+        p.b.translation = camera_from_marker_rotation.conjugate() * displacement;
+        const Eigen::Matrix3d R = camera_from_marker_rotation.toRotationMatrix();
+        b_covariance_override.topLeftCorner<3, 3>() =
+            R.transpose() *
+            (p.covariance_i.topLeftCorner<3, 3>() + p.covariance_j.topLeftCorner<3, 3>()) * R;
+        const Eigen::Matrix3d Rb_t = p.b.rotation.toRotationMatrix().transpose();
+        b_covariance_override.bottomRightCorner<3, 3>() =
+            p.covariance_j.bottomRightCorner<3, 3>() +
+            Rb_t * p.covariance_i.bottomRightCorner<3, 3>() * Rb_t.transpose();
+      }
       Matrix6d J = Matrix6d::Zero();
       J.topLeftCorner<3, 3>() = -Rx;
       J.bottomRightCorner<3, 3>() = -Eigen::Matrix3d::Identity();
@@ -320,8 +360,11 @@ void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationO
       // (a bias of the scale).
       const Rigid3d a_scaled(p.a_unscaled.rotation, scale * p.a_unscaled.translation);
       const Rigid3d b_predicted = X.inverse() * a_scaled * X;
-      Matrix6d cov =
-          J * relativeCovariance(p.mi, b_predicted, p.covariance_i, p.covariance_j) * J.transpose();
+      Matrix6d cov = J *
+                     (camera_orientation
+                          ? b_covariance_override
+                          : relativeCovariance(p.mi, b_predicted, p.covariance_i, p.covariance_j)) *
+                     J.transpose();
       cov.topLeftCorner<3, 3>().diagonal().array() += sigma_t * sigma_t;
       cov.bottomRightCorner<3, 3>().diagonal().array() += sigma_r * sigma_r;
       const Matrix6d sqrt_info = sqrtInformation(cov.inverse());

@@ -90,7 +90,7 @@ void MotionCalibrationOptions::read(const YamlReader& r, const YAML::Node& node,
       {"min_pair_interval_s", "max_pair_interval_s", "sigma_translation_m", "sigma_rotation_deg",
        "huber", "min_rotation_for_axis_deg", "max_translation_sigma_m", "max_rotation_sigma_deg",
        "prior_translation_m", "prior_translation_sigma_m", "prior_rotation_xyzw",
-       "prior_rotation_sigma_deg", "max_iterations"},
+       "prior_rotation_sigma_deg", "max_iterations", "translation_from_camera_orientation"},
       field);
   const Section s{r, node, field};
   s.number("min_pair_interval_s", min_pair_interval_s);
@@ -106,6 +106,10 @@ void MotionCalibrationOptions::read(const YamlReader& r, const YAML::Node& node,
   s.optionalQuaternion("prior_rotation_xyzw", prior_rotation);
   s.number("prior_rotation_sigma_deg", prior_rotation_sigma_deg);
   s.integer("max_iterations", max_iterations);
+  if (node["translation_from_camera_orientation"]) {
+    translation_from_camera_orientation = r.boolean(node["translation_from_camera_orientation"],
+                                                    field + ".translation_from_camera_orientation");
+  }
 }
 
 std::string MotionCalibrationOptions::check() const {

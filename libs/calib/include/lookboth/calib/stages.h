@@ -53,6 +53,12 @@ struct MotionCalibrationOptions {
   std::optional<Eigen::Quaterniond> prior_rotation;
   double prior_rotation_sigma_deg = 2.0;
   int max_iterations = 100;  ///< Ceres iterations.
+  /// true: the translation of B is the marker's displacement in the camera
+  /// frame mapped by the marker orientation predicted from the camera's
+  /// orientation averaged over all its detections (beyond the paper: removes
+  /// the bias that one detection's tilt noise puts on the scale); false: the
+  /// paper's B = M_i^-1 M_j.
+  bool translation_from_camera_orientation = true;
   void read(const YamlReader& reader, const YAML::Node& node, const std::string& field);
   std::string check() const;
 };
