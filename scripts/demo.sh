@@ -1,13 +1,18 @@
 #!/usr/bin/env bash
 # Sets up, builds (Release) and runs lookboth's main job on the embedded
-# default: the simulator's `small` scenario. Today the pipeline that exists is
-# simulate -> dataset; the demo (1) simulates `small` (rendered fisheye and
-# environment-camera frames, ground truth) into an MRPT rawlog dataset,
-# (2) self-checks every shipped camera calibration over its whole field of
-# view, (3) converts the dataset to the plain folder layout and exports the
-# ground-truth trajectory as TUM, and (4) has MRPT's rawlog-edit read the
-# dataset through lookboth's observation plugin. Later stages grow this
-# script into simulate -> detect -> odometry -> register -> report.
+# default, the simulator's `small` scenario, end to end:
+#   1. simulate `small` (rendered fisheye and environment-camera frames, ground truth)
+#      into an MRPT rawlog dataset;
+#   2. self-check every shipped camera calibration;
+#   3. convert the dataset to the plain folder layout and the ground truth to TUM,
+#      and let MRPT's rawlog-edit read it through lookboth's plugin;
+#   4. detect the marker in the environment cameras and the cameras in the fisheye
+#      (and score the detections against the ground truth);
+#   5. run the fisheye visual odometry;
+#   6. register the cameras (the paper's stages), with the visual trajectory and
+#      with the robot's wheel odometry;
+#   7. evaluate against the ground truth, compare the two runs, draw the pictures
+#      and write the HTML report.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
@@ -24,32 +29,31 @@ echo
 echo "== 2. Camera models: project/unproject round trips over each model's whole field of view"
 "$LOOKBOTH" camera check --samples 2000
 echo
-echo "== 3. The dataset in the plain folder layout, and the ground-truth trajectory as TUM"
+echo "== 3. The dataset in the plain folder layout, the ground-truth trajectory as TUM, MRPT reads it"
 "$LOOKBOTH" convert --from "$OUT/small.rawlog" --to "$OUT/small_folder" --overwrite
 "$LOOKBOTH" convert --from "$OUT/small.rawlog" --to "$OUT/ground_truth.tum" --label ground_truth --overwrite
-echo
-echo "== 4. MRPT's rawlog-edit reads the dataset through lookboth's plugin"
 (cd "$OUT" && rawlog-edit -p "$PLUGIN" -i small.rawlog --info 2>&1 | grep -E "objects|labels|Sensor")
 echo
-echo "== 5. Fisheye visual odometry with loop closure, scored against the ground truth"
-"$LOOKBOTH" odometry "$OUT/small.rawlog" --tum "$OUT/vo.tum" --overwrite 2>/dev/null
+echo "== 4. Detect: the marker in every environment camera, the cameras (blobs) in the fisheye"
+"$LOOKBOTH" detect "$OUT/small.rawlog" --evaluate
 echo
-echo "Outputs in $OUT (frames in $OUT/small_Images)"
-
-# Checking the registration (libs/report). Runs once a registration exists in
-# $OUT/registration (written by the register step: `lookboth register ... --out "$OUT/registration"`).
-if [[ -f "$OUT/registration/registration.yaml" ]]; then
-  echo
-  echo "== Evaluate the registration against the simulator's ground truth (paper's Tables I and II)"
-  "$LOOKBOTH" evaluate "$OUT/registration" --ground-truth "$OUT/small.rawlog"
-  echo
-  echo "== Pictures without a display: reprojection checks, camera views, 3-D overview, comparison"
-  "$LOOKBOTH" snapshot "$OUT/small.rawlog" "$OUT/registration" --out "$OUT/pictures" \
-    --ground-truth "$OUT/small.rawlog"
-  echo
-  echo "== The report: one self-contained HTML file"
-  "$LOOKBOTH" report "$OUT/small.rawlog" "$OUT/registration" --out "$OUT/report.html" \
-    --ground-truth "$OUT/small.rawlog"
-  echo
-  echo "Open the report in a browser: file://$(cd "$OUT" && pwd)/report.html"
-fi
+echo "== 5. Visual odometry on the fisheye (trajectory 'vo', up to scale, added to the dataset)"
+"$LOOKBOTH" odometry "$OUT/small.rawlog"
+echo
+echo "== 6. Register the cameras: visual trajectory (the paper), then the wheel odometry (metric)"
+"$LOOKBOTH" register "$OUT/small.rawlog" --out "$OUT/registration" --overwrite
+"$LOOKBOTH" register "$OUT/small.rawlog" --trajectory metric --out "$OUT/registration_metric" --overwrite
+echo
+echo "== 7. Evaluate against the simulator's ground truth, and the two runs against each other"
+"$LOOKBOTH" evaluate "$OUT/registration" --ground-truth "$OUT/small.rawlog"
+"$LOOKBOTH" evaluate "$OUT/registration" --against "$OUT/registration_metric"
+echo
+echo "== Pictures without a display: reprojection checks, camera views, 3-D overview, comparison"
+"$LOOKBOTH" snapshot "$OUT/small.rawlog" "$OUT/registration" --out "$OUT/pictures" \
+  --ground-truth "$OUT/small.rawlog"
+echo
+echo "== The report: one self-contained HTML file"
+"$LOOKBOTH" report "$OUT/small.rawlog" "$OUT/registration" --out "$OUT/report.html" \
+  --ground-truth "$OUT/small.rawlog" --against "$OUT/registration_metric"
+echo
+echo "Outputs in $OUT. Open the report in a browser: file://$(cd "$OUT" && pwd)/report.html"

@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "commands.h"
+#include "lookboth/calib/full_pipeline.h"
 #include "lookboth/calib/pipeline.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/progress.h"
@@ -20,6 +21,9 @@ struct RegisterArgs {
   std::string trajectory_file;
   std::string config;
   bool overwrite = false;
+  bool no_detect = false;
+  bool no_odometry = false;
+  int threads = 0;
 };
 
 int runRegister(const RegisterArgs& args) {
@@ -32,16 +36,26 @@ int runRegister(const RegisterArgs& args) {
   if (std::filesystem::exists(args.out) && !args.overwrite) {
     throw Error(ErrorContext{args.out, 0, "", ""}, "already exists (use --overwrite)");
   }
-  // Configuration first: a bad option fails before the dataset is read.
-  const RegistrationController controller(loadRegistrationConfig(
-      args.config.empty() ? std::nullopt : std::optional<std::filesystem::path>(args.config)));
 
   const ProgressReporter progress(makeConsoleProgress());
   const StopOnSignal stop_on_signal(progress);
   try {
-    RegistrationInput input = loadRegistrationInput(options, progress);
-    const RegistrationRun run = controller.run(std::move(input), progress);
-    writeRegistrationOutput(run, args.out, args.overwrite);
+    // Detection and odometry first when the dataset lacks their outputs
+    // (runFullPipeline says what it ran and why), then the stages, then the output.
+    FullPipelineOptions full;
+    full.dataset = options.dataset;
+    full.out = args.out;
+    full.overwrite = args.overwrite;
+    full.mode = options.mode;
+    full.trajectory_label = options.trajectory_label;
+    full.trajectory_file = options.trajectory_file;
+    if (!args.config.empty()) full.config_file = std::filesystem::path(args.config);
+    full.auto_detect = !args.no_detect;
+    full.auto_odometry = !args.no_odometry;
+    full.threads = args.threads;
+    const FullPipelineResult result = runFullPipeline(full, progress);
+    for (const auto& step : result.steps) std::cout << step << "\n";
+    const RegistrationRun& run = result.run;
     std::cout << registrationSummary(run.registration);
     std::cout << "wrote " << args.out << "\n";
     if (run.registration.registeredCount() == 0) {
@@ -78,6 +92,12 @@ void registerRegisterCommand(CLI::App& app, const std::function<void(CommandBody
                   "A YAML file whose 'register:' keys override share/lookboth/config/default.yaml")
       ->check(CLI::ExistingFile);
   cmd->add_flag("--overwrite", args->overwrite, "Replace an existing output directory");
+  cmd->add_flag("--no-detect", args->no_detect,
+                "Do not run the detection when the dataset has frames but no detections");
+  cmd->add_flag("--no-odometry", args->no_odometry,
+                "Do not run the visual odometry when the dataset has no 'vo' trajectory");
+  cmd->add_option("--threads", args->threads, "Detection threads (0 = one per core)")
+      ->check(CLI::NonNegativeNumber);
   cmd->callback([args, set_body] { set_body([args] { return runRegister(*args); }); });
 }
 

@@ -102,11 +102,12 @@ FullPipelineResult runFullPipeline(const FullPipelineOptions& options,
   if (options.mode == TrajectoryMode::kVisual && options.trajectory_file.empty() &&
       !contents.hasTrajectory(vo_label)) {
     if (!options.auto_odometry)
-      throw Error(options.dataset.string() + ": no trajectory '" + vo_label +
+      throw Error(options.dataset.string() + ": no visual odometry trajectory '" + vo_label +
                   "': run `lookboth odometry` first");
     if (contents.fisheye_frames == 0)
-      throw Error(options.dataset.string() + ": no trajectory '" + vo_label +
-                  "' and no fisheye frames to run the visual odometry on; use --trajectory metric");
+      throw Error(options.dataset.string() + ": no visual odometry trajectory '" + vo_label +
+                  "' and no fisheye frames to run `lookboth odometry` on; use a metric "
+                  "trajectory (--trajectory metric)");
     vo::OdometryRunOptions odometry;
     odometry.dataset = options.dataset;
     odometry.odometry = vo::loadOdometryOptions(defaultConfigFile());
