@@ -29,7 +29,8 @@ namespace {
 void readMarkerOptions(const YamlReader& r, const YAML::Node& node, MarkerDetectorOptions& o) {
   r.rejectUnknownKeys(node,
                       {"detect_scale", "track_roi", "roi_margin", "refine_edges", "corner_sigma_px",
-                       "min_side_px", "max_reprojection_px", "ambiguity_ratio"},
+                       "min_corner_sigma_px", "min_side_px", "max_reprojection_px",
+                       "ambiguity_ratio", "max_speed_mps", "track_window_s"},
                       "detect.markers");
   const std::string f = "detect.markers.";
   if (node["detect_scale"])
