@@ -31,4 +31,7 @@ echo
 echo "== 4. MRPT's rawlog-edit reads the dataset through lookboth's plugin"
 (cd "$OUT" && rawlog-edit -p "$PLUGIN" -i small.rawlog --info 2>&1 | grep -E "objects|labels|Sensor")
 echo
+echo "== 5. Detect the marker in the ceiling cameras' frames and the housings in the fisheye's, scored against the ground truth"
+"$LOOKBOTH" detect "$OUT/small.rawlog" --evaluate
+echo
 echo "Outputs in $OUT (frames in $OUT/small_Images)"
