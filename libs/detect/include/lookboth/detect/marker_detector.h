@@ -38,9 +38,9 @@ namespace lookboth {
 
 struct MarkerDetectorOptions {
   /// Reduction of the frame for the whole-frame candidate search (1 = full
-  /// resolution; 2 = a quarter of the pixels). Corners are always refined at
-  /// full resolution.
-  int detect_scale = 2;
+  /// resolution; 2 = a quarter of the pixels; 0 = automatic: 2 for frames
+  /// wider than 1280 px, else 1). Corners are always refined at full resolution.
+  int detect_scale = 0;
   /// Search first around the previous detection of the same camera (a box
   /// `roi_margin` times the marker's size around it); the whole frame when
   /// that fails.
