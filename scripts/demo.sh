@@ -35,3 +35,21 @@ echo "== 5. Detect the marker in the ceiling cameras' frames and the housings in
 "$LOOKBOTH" detect "$OUT/small.rawlog" --evaluate
 echo
 echo "Outputs in $OUT (frames in $OUT/small_Images)"
+
+# Checking the registration (libs/report). Runs once a registration exists in
+# $OUT/registration (written by the register step: `lookboth register ... --out "$OUT/registration"`).
+if [[ -f "$OUT/registration/registration.yaml" ]]; then
+  echo
+  echo "== Evaluate the registration against the simulator's ground truth (paper's Tables I and II)"
+  "$LOOKBOTH" evaluate "$OUT/registration" --ground-truth "$OUT/small.rawlog"
+  echo
+  echo "== Pictures without a display: reprojection checks, camera views, 3-D overview, comparison"
+  "$LOOKBOTH" snapshot "$OUT/small.rawlog" "$OUT/registration" --out "$OUT/pictures" \
+    --ground-truth "$OUT/small.rawlog"
+  echo
+  echo "== The report: one self-contained HTML file"
+  "$LOOKBOTH" report "$OUT/small.rawlog" "$OUT/registration" --out "$OUT/report.html" \
+    --ground-truth "$OUT/small.rawlog"
+  echo
+  echo "Open the report in a browser: file://$(cd "$OUT" && pwd)/report.html"
+fi

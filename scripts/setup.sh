@@ -5,7 +5,7 @@ set -euo pipefail
 
 PACKAGES=(
   build-essential cmake ninja-build pkg-config clang-format time
-  libeigen3-dev libceres-dev
+  libeigen3-dev libceres-dev libopengv-dev
   libmrpt-dev mrpt-apps
   libopencv-dev libopencv-contrib-dev
   opencv-doc  # real ArUco photographs for the detect tests
@@ -14,6 +14,7 @@ PACKAGES=(
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   librosbag-storage-dev libroscpp-core-dev
   libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev libstd-msgs-dev
+  chromium xvfb xauth
 )
 
 missing=()

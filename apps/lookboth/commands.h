@@ -19,5 +19,10 @@ void registerCameraCommands(CLI::App& app, const std::function<void(CommandBody)
 void registerConvertCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerSimulateCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerDetectCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
+void registerRegisterCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
+void registerOdometryCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
+void registerEvaluateCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
+void registerSnapshotCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
+void registerReportCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 
 }  // namespace lookboth::app

@@ -25,6 +25,11 @@ int main(int argc, char** argv) {
   lookboth::app::registerConvertCommand(app, set_body);
   lookboth::app::registerSimulateCommand(app, set_body);
   lookboth::app::registerDetectCommand(app, set_body);
+  lookboth::app::registerRegisterCommand(app, set_body);
+  lookboth::app::registerOdometryCommand(app, set_body);
+  lookboth::app::registerEvaluateCommand(app, set_body);
+  lookboth::app::registerSnapshotCommand(app, set_body);
+  lookboth::app::registerReportCommand(app, set_body);
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,145 @@
+// The main window of lookboth-studio. It owns the views and forwards every
+// action to the libraries (dataset indexing, simulation, the pipeline) run
+// by a JobRunner on a worker thread; it holds no estimation logic.
+#pragma once
+
+#include <wx/filehistory.h>
+#include <wx/frame.h>
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "lookboth/calib/pipeline.h"
+#include "lookboth/studio/dataset_index.h"
+#include "lookboth/studio/job_runner.h"
+
+class wxChoice;
+class wxGauge;
+class wxListCtrl;
+class wxListEvent;
+class wxRadioBox;
+class wxSlider;
+class wxSplitterWindow;
+class wxSpinCtrl;
+class wxStaticText;
+class wxTextCtrl;
+class wxButton;
+class wxNotebook;
+
+namespace lookboth::studio_app {
+
+class ImageView;
+class SceneView;
+
+/// What the command line asks the app to do without a person (for tests and demos).
+struct StartupActions {
+  std::string open;      ///< Dataset to open.
+  std::string simulate;  ///< Built-in scenario to simulate (then open).
+  bool detections_only = false;
+  std::string simulate_out;  ///< Where the simulation goes (default: a temporary folder).
+  double duration_s = 0;     ///< Simulate only the first seconds (0 = all).
+  bool run_all = false;      ///< Run the whole pipeline once the dataset is open.
+  std::string trajectory;    ///< "visual" or "metric" (default: visual when there are frames).
+  std::string select;        ///< Camera to select.
+  int frame = -1;            ///< Fisheye frame to show (-1: automatic).
+  std::string screenshot;    ///< Save a screenshot of the window here when done.
+  bool exit = false;         ///< Quit when done (exit status 1 if a job failed).
+  /// Receives the exit status (0, or 1 when a job failed) when the window closes.
+  std::function<void(int)> on_close;
+};
+
+class MainFrame : public wxFrame {
+ public:
+  explicit MainFrame(const StartupActions& actions);
+  ~MainFrame() override;
+  /// Exit status for --exit: 0, or 1 when a job failed.
+  int exitStatus() const { return exit_status_; }
+
+ private:
+  // Building the window.
+  void buildMenus();
+  wxWindow* buildSetupPanel(wxWindow* parent);
+  wxWindow* buildViews(wxWindow* parent);
+  wxWindow* buildBottom(wxWindow* parent);
+
+  // Actions.
+  void openDataset(const std::string& path);
+  void simulateScenario(const std::string& scenario, bool detections_only, std::string out,
+                        double duration_s);
+  void importBag();
+  void runAll();
+  void cancelJob();
+  void saveScreenshot(const std::string& path);
+  void chooseAndSaveScreenshot();
+  void showAbout();
+
+  // Jobs.
+  using Then = std::function<void()>;
+  bool startJob(const std::string& name, studio::JobRunner::Job job, Then then);
+  void onJobProgress(const ProgressEvent& event);
+  void onJobDone(const studio::JobResult& result, const Then& then);
+
+  // Views.
+  void datasetLoaded(std::shared_ptr<const studio::DatasetIndex> index);
+  void registrationReady(std::shared_ptr<const studio::DatasetIndex> index,
+                         std::shared_ptr<const Registration> registration,
+                         std::vector<DetectionRay> rays, std::vector<std::string> steps);
+  void refreshTable();
+  void refreshScene();
+  void showFisheyeFrame(int index);
+  void showCameraView();
+  void selectCamera(const std::string& label);
+  void validateSettings();
+  void log(const wxString& line);
+  void continueStartup();
+
+  StartupActions actions_;
+  int startup_step_ = 0;
+  int exit_status_ = 0;
+
+  studio::JobRunner runner_;
+  std::shared_ptr<const studio::DatasetIndex> index_;
+  std::shared_ptr<const Registration> registration_;
+  std::shared_ptr<const void> registration_view_;  ///< report::RegistrationView (opaque here).
+  std::vector<DetectionRay> rays_;
+  std::string selected_;
+  std::string last_stage_;
+  int last_percent_ = -1;
+
+  wxFileHistory history_;
+  // Setup panel.
+  wxWindow* setup_panel_ = nullptr;
+  wxSplitterWindow* views_split_ = nullptr;
+  wxSplitterWindow* bottom_split_ = nullptr;
+  wxStaticText* dataset_text_ = nullptr;
+  wxChoice* dictionary_ = nullptr;
+  wxSpinCtrl* marker_id_ = nullptr;
+  wxTextCtrl* marker_size_ = nullptr;
+  wxRadioBox* trajectory_mode_ = nullptr;
+  wxChoice* trajectory_label_ = nullptr;
+  wxTextCtrl* huber_ = nullptr;
+  wxTextCtrl* cauchy_ = nullptr;
+  wxTextCtrl* gate_ = nullptr;
+  wxStaticText* validation_ = nullptr;
+  wxButton* run_all_ = nullptr;
+  wxButton* cancel_ = nullptr;
+  wxGauge* gauge_ = nullptr;
+  wxStaticText* stage_text_ = nullptr;
+  // Views.
+  SceneView* scene_ = nullptr;
+  wxNotebook* image_tabs_ = nullptr;
+  ImageView* fisheye_view_ = nullptr;
+  ImageView* camera_view_ = nullptr;
+  wxSlider* frame_slider_ = nullptr;
+  wxStaticText* frame_text_ = nullptr;
+  wxListCtrl* table_ = nullptr;
+  wxTextCtrl* log_ = nullptr;
+  std::vector<std::string> table_labels_;
+  int sort_column_ = 0;
+  bool sort_ascending_ = true;
+};
+
+}  // namespace lookboth::studio_app

@@ -1,0 +1,84 @@
+// `lookboth register`: a dataset's detections and trajectory -> the pose of
+// every environment camera (libs/calib does the work; doc/user-guide.md).
+#include <filesystem>
+#include <iostream>
+
+#include "commands.h"
+#include "lookboth/calib/pipeline.h"
+#include "lookboth/core/error.h"
+#include "lookboth/core/progress.h"
+#include "signals.h"
+
+namespace lookboth::app {
+namespace {
+
+struct RegisterArgs {
+  std::string dataset;
+  std::string out;
+  std::string trajectory = "visual";
+  std::string trajectory_label;
+  std::string trajectory_file;
+  std::string config;
+  bool overwrite = false;
+};
+
+int runRegister(const RegisterArgs& args) {
+  RegisterOptions options;
+  options.dataset = args.dataset;
+  options.mode = *parseTrajectoryMode(args.trajectory);
+  options.trajectory_label = args.trajectory_label;
+  options.trajectory_file = args.trajectory_file;
+  if (const std::string why = options.check(); !why.empty()) throw Error(why);
+  if (std::filesystem::exists(args.out) && !args.overwrite) {
+    throw Error(ErrorContext{args.out, 0, "", ""}, "already exists (use --overwrite)");
+  }
+  // Configuration first: a bad option fails before the dataset is read.
+  const RegistrationController controller(loadRegistrationConfig(
+      args.config.empty() ? std::nullopt : std::optional<std::filesystem::path>(args.config)));
+
+  const ProgressReporter progress(makeConsoleProgress());
+  const StopOnSignal stop_on_signal(progress);
+  try {
+    RegistrationInput input = loadRegistrationInput(options, progress);
+    const RegistrationRun run = controller.run(std::move(input), progress);
+    writeRegistrationOutput(run, args.out, args.overwrite);
+    std::cout << registrationSummary(run.registration);
+    std::cout << "wrote " << args.out << "\n";
+    if (run.registration.registeredCount() == 0) {
+      std::cerr << "lookboth: no camera could be registered\n";
+      return 1;
+    }
+    return 0;
+  } catch (const StopRequested&) {
+    std::cerr << "lookboth: stopped; " << args.out << " was not written\n";
+    return 130;
+  }
+}
+
+}  // namespace
+
+void registerRegisterCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body) {
+  auto args = std::make_shared<RegisterArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "register", "Register the environment cameras of a dataset (the paper's method)");
+  cmd->add_option("dataset", args->dataset, "The dataset (x.rawlog or a folder)")->required();
+  cmd->add_option("--out", args->out, "Output directory (cameras.csv, registration.yaml, ...)")
+      ->required();
+  cmd->add_option("--trajectory", args->trajectory,
+                  "visual: the dataset's visual odometry (up to scale, label 'vo'); metric: a "
+                  "metric trajectory (label 'odometry'), scale fixed to 1")
+      ->check(CLI::IsMember({"visual", "metric"}))
+      ->capture_default_str();
+  cmd->add_option("--trajectory-label", args->trajectory_label,
+                  "The dataset trajectory to use instead of the mode's default");
+  cmd->add_option("--trajectory-file", args->trajectory_file,
+                  "A TUM file (world_from_fisheye, robot clock) instead of a dataset trajectory")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--config", args->config,
+                  "A YAML file whose 'register:' keys override share/lookboth/config/default.yaml")
+      ->check(CLI::ExistingFile);
+  cmd->add_flag("--overwrite", args->overwrite, "Replace an existing output directory");
+  cmd->callback([args, set_body] { set_body([args] { return runRegister(*args); }); });
+}
+
+}  // namespace lookboth::app

@@ -1,0 +1,59 @@
+// Registration alone (detections and trajectory in memory) on synthetic
+// facilities of N cameras along a loop of 3.5 N metres, paper-like noise:
+// time of RegistrationController::run and peak memory (run one size per
+// process to read its peak: --benchmark_filter=/100$ etc.). doc/benchmarks.md.
+#include <benchmark/benchmark.h>
+#include <sys/resource.h>
+
+#include "../tests/synthetic.h"
+#include "lookboth/calib/pipeline.h"
+
+namespace {
+
+using namespace lookboth;
+
+testing::SyntheticScene facility(int cameras) {
+  testing::SyntheticOptions o;
+  o.cameras = cameras;
+  o.loop_length_m = 3.5 * cameras;
+  o.speed_mps = 1.0;
+  o.fisheye_rate_hz = 10;
+  o.camera_rate_hz = 10;
+  o.marker_translation_sigma_m = 0.003;
+  o.marker_rotation_sigma_deg = 1.0;
+  o.blob_sigma_px = 0.7;
+  o.seed = 11;
+  return testing::makeSyntheticScene(o);
+}
+
+void BM_RegisterFacility(benchmark::State& state) {
+  const int cameras = static_cast<int>(state.range(0));
+  const testing::SyntheticScene scene = facility(cameras);
+  const RegistrationController controller(loadRegistrationConfig(std::nullopt));
+  int registered = 0;
+  double position_rmse = 0;
+  for (auto _ : state) {
+    const RegistrationRun run = controller.run(scene.input, ProgressReporter());
+    registered = run.registration.registeredCount();
+    position_rmse =
+        testing::accuracyAgainst(run.registration, scene.world_from_camera).position_rmse_m;
+  }
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  state.counters["cameras"] = cameras;
+  state.counters["registered"] = registered;
+  state.counters["markers"] = static_cast<double>(scene.input.markers.size());
+  state.counters["blob_frames"] = static_cast<double>(scene.input.blobs.size());
+  state.counters["position_rmse_mm"] = position_rmse * 1000;
+  state.counters["peak_rss_MiB"] = static_cast<double>(usage.ru_maxrss) / 1024.0;
+}
+BENCHMARK(BM_RegisterFacility)
+    ->Arg(100)
+    ->Arg(300)
+    ->Arg(1000)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,60 @@
+// The whole job from a recording to a registration, for the command line
+// (`lookboth register`) and the desktop app alike:
+//   1. detect   - when the dataset has frames but not their detections
+//                 (markers in environment cameras, blobs in the fisheye);
+//   2. odometry - in visual mode, when the dataset has no VO trajectory
+//                 (the result is added to the dataset as trajectory "vo");
+//   3. register - the configured stages (RegistrationController);
+//   4. output   - the registration directory, written atomically.
+// Steps 1-2 rewrite the dataset through augmentDataset (a complete new
+// dataset swapped in; never a half-written one).
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "lookboth/calib/pipeline.h"
+#include "lookboth/core/progress.h"
+
+namespace lookboth {
+
+struct FullPipelineOptions {
+  std::filesystem::path dataset;
+  std::filesystem::path out;  ///< The registration directory.
+  bool overwrite = false;     ///< Replace an existing `out`.
+  TrajectoryMode mode = TrajectoryMode::kVisual;
+  std::string trajectory_label;           ///< "" = "vo" (visual) or "odometry" (metric).
+  std::filesystem::path trajectory_file;  ///< A TUM file instead of a dataset trajectory.
+  std::optional<std::filesystem::path> config_file;  ///< Over share/lookboth/config/default.yaml.
+  bool auto_detect = true;                           ///< Run detection when detections are missing.
+  bool auto_odometry = true;  ///< Run odometry when the visual trajectory is missing.
+  int threads = 0;            ///< Detection threads (0 = one per core).
+  std::string check() const;
+};
+
+/// What the dataset holds, for deciding which steps are needed.
+struct DatasetContents {
+  std::int64_t fisheye_frames = 0;
+  std::int64_t camera_frames = 0;  ///< Environment cameras' frames.
+  std::int64_t markers = 0;
+  std::int64_t blob_records = 0;
+  std::vector<std::string> trajectories;  ///< Labels in the manifest.
+  bool hasTrajectory(const std::string& label) const;
+};
+DatasetContents inspectDataset(const std::filesystem::path& dataset,
+                               const ProgressReporter& progress);
+
+struct FullPipelineResult {
+  std::vector<std::string> steps;  ///< One line per step run or skipped, and why.
+  RegistrationRun run;
+};
+
+/// Runs the steps above. Throws lookboth::Error on bad input (naming the
+/// file or camera), StopRequested when stopped (the dataset stays complete:
+/// either as it was or with the finished steps' additions).
+FullPipelineResult runFullPipeline(const FullPipelineOptions& options,
+                                   const ProgressReporter& progress);
+
+}  // namespace lookboth

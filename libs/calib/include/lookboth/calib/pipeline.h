@@ -1,0 +1,93 @@
+// The registration controller: one class for the command line and the
+// desktop app. It loads the configuration (share/lookboth/config/default.yaml,
+// then the user's file over it), reads the dataset's detections and
+// trajectory, runs the configured stages in order with progress callbacks
+// and a stop flag, and writes the output directory atomically.
+#pragma once
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "lookboth/calib/registration.h"
+#include "lookboth/calib/stage.h"
+#include "lookboth/core/progress.h"
+
+namespace lookboth {
+
+/// The `register:` section of the configuration files, defaults first.
+struct RegistrationConfig {
+  std::vector<std::string> pipeline;                 ///< Stage names, in order.
+  std::vector<std::string> files;                    ///< The files read, defaults first.
+  std::vector<StageConfig::Layer> layers;            ///< The `register` node of each file.
+  std::vector<std::shared_ptr<YamlReader>> readers;  ///< Owns the layers' readers.
+  /// The options section of a stage ("register.<name>") in every layer.
+  StageConfig stageConfig(const std::string& name) const;
+  /// The `register` sections merged (the user's keys over the defaults), as YAML text.
+  std::string mergedYaml() const;
+};
+
+/// Reads share/lookboth/config/default.yaml, then `user_file` (when given) over it.
+RegistrationConfig loadRegistrationConfig(const std::optional<std::filesystem::path>& user_file);
+/// The same from texts (source names for errors), defaults first.
+RegistrationConfig registrationConfigFromYaml(
+    const std::vector<std::pair<std::string, std::string>>& text_and_source);
+
+struct RegisterOptions {
+  std::filesystem::path dataset;
+  TrajectoryMode mode = TrajectoryMode::kVisual;
+  /// Dataset trajectory to use; "" = "vo" in visual mode, "odometry" in metric mode.
+  std::string trajectory_label;
+  /// A TUM file instead of a dataset trajectory (world_from_fisheye, robot clock).
+  std::filesystem::path trajectory_file;
+  std::string check() const;
+};
+
+/// Reads the markers, blobs and the chosen trajectory of a dataset. Throws
+/// lookboth::Error naming the dataset when the trajectory is absent (in
+/// visual mode: telling to run `lookboth odometry`).
+RegistrationInput loadRegistrationInput(const RegisterOptions& options,
+                                        const ProgressReporter& progress);
+
+/// A line from a camera to a marker it detected (the paper's figure 1) [m, world].
+struct DetectionRay {
+  Eigen::Vector3d from;
+  Eigen::Vector3d to;
+};
+
+struct RegistrationRun {
+  Registration registration;
+  std::vector<DetectionRay> rays;  ///< For the scene (inliers of look_down).
+};
+
+class RegistrationController {
+ public:
+  explicit RegistrationController(RegistrationConfig config,
+                                  StageRegistry& registry = StageRegistry::global());
+  /// Checks every stage's options now (an error names the section).
+  const RegistrationConfig& config() const { return config_; }
+  /// Runs the pipeline. Throws StopRequested when stopped, lookboth::Error on
+  /// input no stage can work with.
+  RegistrationRun run(RegistrationInput input, const ProgressReporter& progress) const;
+
+ private:
+  RegistrationConfig config_;
+  std::vector<std::unique_ptr<RegistrationStage>> stages_;
+};
+
+/// Writes the output directory (cameras.csv, registration.yaml,
+/// trajectory.tum, blob_associations.csv, scene.3Dscene) under a temporary
+/// name beside `dir` and renames it into place. An existing `dir` is an error
+/// unless `overwrite`.
+void writeRegistrationOutput(const RegistrationRun& run, const std::filesystem::path& dir,
+                             bool overwrite);
+
+/// The MRPT scene (SceneViewer3D): cameras as frustums and axes with labels,
+/// the trajectory, detection rays.
+void writeRegistrationScene(const RegistrationRun& run, const std::filesystem::path& file);
+
+/// A human-readable summary (for stdout).
+std::string registrationSummary(const Registration& registration);
+
+}  // namespace lookboth

@@ -1,0 +1,152 @@
+// The result of `lookboth register`: the pose of every environment camera in
+// the robot's world, the trajectory's metric scale, the robot's
+// fisheye_from_marker, and what a technician needs to trust them
+// (per-camera status and reason, covariances, residuals, statistics).
+//
+// On disk it is a directory (doc/formats.md, "Registration output"):
+//   cameras.csv              label,tx,ty,tz,qx,qy,qz,qw   world_from_camera [m]
+//   registration.yaml        everything below ("format: lookboth-registration 1")
+//   trajectory.tum           the metric world_from_fisheye trajectory (after scaling)
+//   blob_associations.csv    t_ns,camera,u,v,u_before,v_before,u_after,v_after
+//   scene.3Dscene            written by the pipeline's output step, not by saveRegistration
+//
+// Covariances are over the perturbation [dt (m); dtheta (rad)] with
+// t_true = t + dt and R_true = R * Exp(dtheta) (the dataset's MarkerObservation convention).
+#pragma once
+#include <Eigen/Core>
+#include <array>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "lookboth/geometry/rigid3.h"
+#include "lookboth/geometry/time.h"
+#include "lookboth/geometry/trajectory.h"
+
+namespace lookboth {
+
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
+enum class CameraStatus {
+  kRegistered,    ///< Pose estimated from consistent detections.
+  kSuspect,       ///< Pose estimated, but the detections disagree or are few (see reason).
+  kUnregistered,  ///< No pose (see reason).
+};
+/// "registered", "suspect", "unregistered".
+const char* cameraStatusName(CameraStatus status);
+/// Inverse of cameraStatusName; nullopt for anything else.
+std::optional<CameraStatus> parseCameraStatus(const std::string& name);
+
+/// How many marker detections a camera had and what became of them.
+struct DetectionCounts {
+  int total = 0;               ///< Detections of the robot's marker by this camera.
+  int used = 0;                ///< Used in the final estimate.
+  int rejected = 0;            ///< Associated but rejected as outliers.
+  int outside_trajectory = 0;  ///< Dropped by the association (outside the trajectory or a gap).
+};
+
+/// RMS of the residuals of the looking-down estimate (inliers only).
+struct ResidualStats {
+  double position_rms_m = 0;
+  double rotation_rms_deg = 0;
+};
+
+/// Fisheye reprojection of camera positions (stage 4, eq. 4-5) [px].
+struct ReprojectionStats {
+  int blobs = 0;             ///< Associated blob detections.
+  double rms_px_before = 0;  ///< RMS before the looking-up refinement.
+  double rms_px_after = 0;   ///< RMS after it.
+};
+
+struct CameraRegistration {
+  std::string label;
+  CameraStatus status = CameraStatus::kUnregistered;
+  std::string reason;         ///< Why suspect/unregistered, in plain words; "" when registered.
+  Rigid3d world_from_camera;  ///< Final pose; meaningless when unregistered.
+  /// The pose after each stage that produced one, by stage name ("look_down", "look_up").
+  std::map<std::string, Rigid3d> stage_poses;
+  std::optional<Matrix6d> covariance;  ///< Of world_from_camera; absent when not computed.
+  DetectionCounts detections;
+  std::optional<ResidualStats> residuals;         ///< Absent when unregistered.
+  std::optional<ReprojectionStats> reprojection;  ///< Absent when stage 4 did not run for it.
+  std::vector<std::string> warnings;
+};
+
+enum class TrajectoryMode {
+  kVisual,  ///< Visual odometry up to scale (the paper): the scale is estimated.
+  kMetric,  ///< A metric trajectory (LiDAR odometry, wheel+IMU, motion capture): scale 1.
+};
+/// "visual", "metric".
+const char* trajectoryModeName(TrajectoryMode mode);
+std::optional<TrajectoryMode> parseTrajectoryMode(const std::string& name);
+
+/// One blob associated with a camera (stage 4): observed pixel and the
+/// camera position projected into that fisheye frame before and after stage 4 [px].
+struct BlobAssociation {
+  TimeNs t = 0;  ///< Fisheye frame time (robot clock).
+  std::string camera;
+  double u = 0, v = 0;
+  double u_before = 0, v_before = 0;
+  double u_after = 0, v_after = 0;
+};
+
+struct Observability {
+  std::string message;              ///< Plain words: what the motion determines and what not.
+  std::vector<double> eigenvalues;  ///< Of the motion calibration's information matrix, ascending.
+};
+
+struct RegistrationStatistics {
+  std::int64_t detections_total = 0;
+  std::int64_t detections_associated = 0;
+  std::int64_t dropped_outside_trajectory = 0;  ///< Before the first / after the last sample.
+  std::int64_t dropped_gap = 0;                 ///< Inside a gap longer than the allowed maximum.
+  std::map<std::string, double> seconds_per_stage;  ///< Wall time [s] by stage name.
+};
+
+struct Registration {
+  std::string dataset;                          ///< Absolute path of the dataset registered.
+  std::string created;                          ///< UTC, ISO 8601 ("2026-11-22T12:00:00Z").
+  std::map<std::string, std::string> versions;  ///< lookboth, mrpt, opencv, ceres.
+  std::vector<std::string> pipeline;            ///< Stage names run, in order.
+
+  TrajectoryMode trajectory_mode = TrajectoryMode::kVisual;
+  std::string trajectory_label;  ///< The dataset trajectory used ("vo", "odometry", a file...).
+  double scale = 1;              ///< Metric scale s of the trajectory (1 in metric mode).
+  double scale_sigma = 0;        ///< Its standard deviation (0 when fixed).
+
+  Rigid3d fisheye_from_marker;
+  Matrix6d fisheye_from_marker_covariance = Matrix6d::Zero();
+  /// Per component of [t; theta]: false when fixed by a prior rather than by the data.
+  std::array<bool, 6> fisheye_from_marker_determined = {true, true, true, true, true, true};
+  std::string fisheye_from_marker_prior;  ///< Which prior fixed what; "" when none.
+
+  std::vector<CameraRegistration> cameras;
+  std::optional<ReprojectionStats> reprojection;  ///< Totals over all cameras (stage 4).
+  Observability observability;
+  std::vector<std::string> warnings;
+  RegistrationStatistics statistics;
+  std::string config_yaml;  ///< The configuration used (YAML text of a map).
+
+  std::vector<StampedPose> trajectory;  ///< Metric world_from_fisheye, after scaling.
+  std::vector<BlobAssociation> blob_associations;
+
+  const CameraRegistration* findCamera(const std::string& label) const;
+  /// Cameras with status registered or suspect.
+  int registeredCount() const;
+};
+
+/// Writes cameras.csv, registration.yaml, trajectory.tum and
+/// blob_associations.csv into `dir` (created if absent), each atomically.
+/// Other files in `dir` (scene.3Dscene) are left alone.
+void saveRegistration(const Registration& registration, const std::filesystem::path& dir);
+
+/// Reads a directory written by saveRegistration. Errors (lookboth::Error)
+/// name the file, line and field.
+Registration loadRegistration(const std::filesystem::path& dir);
+
+/// The YAML text of registration.yaml.
+std::string registrationToYaml(const Registration& registration);
+
+}  // namespace lookboth

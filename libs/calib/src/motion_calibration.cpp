@@ -1,0 +1,504 @@
+// Stage `motion_calibration` (paper eq. 1-2, after Zach & Taylor): the
+// trajectory's metric scale s and fisheye_from_marker X from pairs of
+// detections of the same camera. For detections i, j of one camera,
+//   A = F_i^-1 F_j   (relative fisheye motion; translation scaled by s)
+//   B = M_i^-1 M_j   (relative marker motion, M = camera_from_marker)
+// satisfy A X = X B. Residual (in the fisheye frame F_i):
+//   r = [t(A X) - t(X B); log(R(X B)^T R(A X))],
+// whitened by the covariance of B propagated from the two detections'
+// information matrices (plus the configured relative-motion noise of the
+// trajectory), Huber loss; Ceres.
+//
+// Initialisation (linear, no hand-tuned start): the rotation axes of A and
+// B give R0 with a = R0 b (Kabsch); the rotation about the mean axis n is
+// left free: R_X = R_n(gamma) R0, and the translation equation
+//   (R_A - I) t_X + s t_A - R_n(gamma) R0 t_B = 0
+// is linear in (t_X, s) for a given gamma; gamma is found by a scan of the
+// reduced 2x2 quadratic form.
+//
+// Observability: with planar robot motion all rotations of A are about the
+// vertical, and the translation of X along that axis does not enter the
+// equations. The information matrix J^T J over [dt (3); dtheta (3); ds]
+// says which directions are determined; each undetermined one is fixed by a
+// configured prior (prior_translation_m / prior_rotation_xyzw) and reported.
+#include <Eigen/SVD>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "lookboth/calib/stages.h"
+#include "lookboth/core/error.h"
+#include "lookboth/core/text.h"
+#include "pose_costs.h"
+
+namespace lookboth {
+namespace {
+
+using calib_detail::angleOf;
+using calib_detail::newPoseManifold;
+using calib_detail::paramsToPose;
+using calib_detail::poseFromParams;
+using calib_detail::poseToParams;
+using calib_detail::sqrtInformation;
+
+constexpr double kDeg = M_PI / 180.0;
+
+struct MotionPair {
+  Rigid3d a_unscaled;  ///< F_i^-1 F_j, trajectory units.
+  Rigid3d b;           ///< M_i^-1 M_j.
+  Rigid3d mi;          ///< M_i (its rotation maps the detections' noise into B).
+  Matrix6d covariance_i, covariance_j;
+  std::size_t i = 0, j = 0;  ///< Association indices.
+};
+
+Matrix6d detectionCovariance(const MarkerObservation& m, double default_t, double default_r) {
+  Matrix6d cov = Matrix6d::Zero();
+  if (m.information.isZero(0)) {
+    cov.topLeftCorner<3, 3>().diagonal().setConstant(default_t * default_t);
+    cov.bottomRightCorner<3, 3>().diagonal().setConstant(default_r * default_r);
+    return cov;
+  }
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(0.5 *
+                                                    (m.information + m.information.transpose()));
+  Eigen::Matrix<double, 6, 1> inv = eig.eigenvalues();
+  for (int k = 0; k < 6; ++k) inv[k] = inv[k] > 1e-12 ? 1.0 / inv[k] : 1e12;
+  return eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
+}
+
+// Covariance of B = M_i^-1 M_j (right perturbation) from those of M_i, M_j.
+Matrix6d relativeCovariance(const Rigid3d& mi, const Rigid3d& b, const Matrix6d& cov_i,
+                            const Matrix6d& cov_j) {
+  Eigen::Matrix<double, 6, 12> J = Eigen::Matrix<double, 6, 12>::Zero();
+  const Eigen::Matrix3d Ri_t = mi.rotation.toRotationMatrix().transpose();
+  const Eigen::Matrix3d Rb_t = b.rotation.toRotationMatrix().transpose();
+  J.block<3, 3>(0, 0) = -Ri_t;
+  J.block<3, 3>(0, 3) = skew(Eigen::Vector3d(b.translation));
+  J.block<3, 3>(0, 6) = Ri_t;
+  J.block<3, 3>(3, 3) = -Rb_t;
+  J.block<3, 3>(3, 9) = Eigen::Matrix3d::Identity();
+  Eigen::Matrix<double, 12, 12> C = Eigen::Matrix<double, 12, 12>::Zero();
+  C.topLeftCorner<6, 6>() = cov_i;
+  C.bottomRightCorner<6, 6>() = cov_j;
+  return J * C * J.transpose();
+}
+
+struct MotionPairCost {
+  MotionPairCost(const MotionPair& pair, const Matrix6d& sqrt_info)
+      : a(pair.a_unscaled), b(pair.b), sqrt_info(sqrt_info) {}
+  template <typename T>
+  bool operator()(const T* x, const T* s, T* residual) const {
+    const Rigid3<T> X = poseFromParams(x);
+    const Rigid3<T> A(a.rotation.cast<T>(), a.translation.cast<T>() * s[0]);
+    const Rigid3<T> AX = A * X;
+    const Rigid3<T> XB = X * b.cast<T>();
+    Eigen::Matrix<T, 6, 1> e;
+    e.template head<3>() = AX.translation - XB.translation;
+    e.template tail<3>() = so3Log(Eigen::Quaternion<T>(XB.rotation.conjugate() * AX.rotation));
+    Eigen::Map<Eigen::Matrix<T, 6, 1>> r(residual);
+    r = sqrt_info.cast<T>() * e;
+    return true;
+  }
+  Rigid3d a, b;
+  Matrix6d sqrt_info;
+};
+
+// Prior along one direction v of the tangent space [dt; dtheta] of X.
+struct DirectionPriorCost {
+  template <typename T>
+  bool operator()(const T* x, T* residual) const {
+    const Rigid3<T> X = poseFromParams(x);
+    T value = T(0);
+    if (translation) {
+      const Eigen::Matrix<T, 3, 1> d = X.translation - prior.translation.cast<T>();
+      value = direction.cast<T>().dot(d);
+    } else {
+      const Eigen::Matrix<T, 3, 1> d =
+          so3Log(Eigen::Quaternion<T>(prior.rotation.cast<T>().conjugate() * X.rotation));
+      value = direction.cast<T>().dot(d);
+    }
+    residual[0] = value / T(sigma);
+    return true;
+  }
+  Rigid3d prior;
+  Eigen::Vector3d direction;
+  bool translation = true;
+  double sigma = 1;
+};
+
+Eigen::Matrix3d rotationAbout(const Eigen::Vector3d& n, double gamma) {
+  return Eigen::AngleAxisd(gamma, n).toRotationMatrix();
+}
+
+// Linear initialisation; throws when the motion cannot determine the rotation.
+Rigid3d linearInitialisation(const std::vector<MotionPair>& pairs, bool scale_free,
+                             double min_rotation, double* scale) {
+  Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();  // sum w a b^T
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  int axis_pairs = 0;
+  for (const MotionPair& p : pairs) {
+    const Eigen::Vector3d wa = so3Log(p.a_unscaled.rotation.normalized());
+    const Eigen::Vector3d wb = so3Log(p.b.rotation.normalized());
+    if (wa.norm() < min_rotation || wb.norm() < min_rotation) continue;
+    const double w = std::min(wa.norm(), wb.norm());
+    const Eigen::Vector3d a = wa.normalized(), b = wb.normalized();
+    cross += w * a * b.transpose();
+    scatter += w * a * a.transpose();
+    ++axis_pairs;
+  }
+  if (axis_pairs == 0) {
+    throw Error(
+        "motion_calibration: the robot never turned by more than min_rotation_for_axis_deg while "
+        "a camera saw its marker: the rotation between fisheye and marker is not determined");
+  }
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
+  d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1 : 1;
+  const Eigen::Matrix3d R0 = svd.matrixU() * d * svd.matrixV().transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> axes(scatter);
+  const Eigen::Vector3d n = axes.eigenvectors().col(2);
+
+  // Rows: (R_A - I) t_X [+ s t_A] - c v_perp - sn (n x v) = (n.v) n [- t_A in metric mode].
+  const int ny = scale_free ? 4 : 3;
+  const Eigen::Index rows = 3 * static_cast<Eigen::Index>(pairs.size());
+  Eigen::MatrixXd My(rows, ny), Mw(rows, 2);
+  Eigen::VectorXd rhs(rows);
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    const MotionPair& p = pairs[k];
+    const Eigen::Index r = 3 * static_cast<Eigen::Index>(k);
+    const Eigen::Vector3d v = R0 * p.b.translation;
+    const Eigen::Vector3d v_perp = v - n.dot(v) * n;
+    My.block(r, 0, 3, 3) = p.a_unscaled.rotation.toRotationMatrix() - Eigen::Matrix3d::Identity();
+    if (scale_free) My.block(r, 3, 3, 1) = p.a_unscaled.translation;
+    Mw.block(r, 0, 3, 1) = -v_perp;
+    Mw.block(r, 1, 3, 1) = -n.cross(v);
+    rhs.segment(r, 3) = n.dot(v) * n - (scale_free ? Eigen::Vector3d::Zero()
+                                                   : Eigen::Vector3d(p.a_unscaled.translation));
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd_y(My, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  svd_y.setThreshold(1e-6);
+  auto project_out = [&](const Eigen::VectorXd& x) -> Eigen::VectorXd {
+    return x - My * svd_y.solve(x);
+  };
+  const Eigen::MatrixXd PMw = [&] {
+    Eigen::MatrixXd m(rows, 2);
+    m.col(0) = project_out(Mw.col(0));
+    m.col(1) = project_out(Mw.col(1));
+    return m;
+  }();
+  const Eigen::VectorXd Pb = project_out(rhs);
+  const Eigen::Matrix2d Q = PMw.transpose() * PMw;
+  const Eigen::Vector2d g = PMw.transpose() * Pb;
+  auto cost = [&](double gamma) {
+    const Eigen::Vector2d w(std::cos(gamma), std::sin(gamma));
+    return w.dot(Q * w) - 2.0 * g.dot(w);
+  };
+  double best = 0, best_cost = cost(0);
+  for (int k = 1; k < 720; ++k) {
+    const double gamma = -M_PI + k * (2 * M_PI / 720);
+    if (const double c = cost(gamma); c < best_cost) best_cost = c, best = gamma;
+  }
+  double lo = best - M_PI / 360, hi = best + M_PI / 360;  // golden-section refinement
+  for (int k = 0; k < 60; ++k) {
+    const double m1 = lo + (hi - lo) * 0.381966, m2 = lo + (hi - lo) * 0.618034;
+    if (cost(m1) < cost(m2)) {
+      hi = m2;
+    } else {
+      lo = m1;
+    }
+  }
+  const double gamma = 0.5 * (lo + hi);
+  const Eigen::Vector2d w(std::cos(gamma), std::sin(gamma));
+  const Eigen::VectorXd y = svd_y.solve(rhs - Mw * w);
+  const Eigen::Matrix3d R = rotationAbout(n, gamma) * R0;
+  if (scale_free) {
+    *scale = y[3];
+    if (!(*scale > 0)) {
+      throw Error("motion_calibration: the linear initialisation gives a non-positive scale (" +
+                  formatDouble(*scale) +
+                  "): the relative motions seen by the cameras are inconsistent");
+    }
+  }
+  return Rigid3d(Eigen::Quaterniond(R).normalized(), y.head<3>());
+}
+
+const char* componentName(int k) {
+  static const char* names[6] = {"its offset along the fisheye's x axis",
+                                 "its offset along the fisheye's y axis",
+                                 "its offset along the fisheye's z axis (the height of the marker "
+                                 "relative to the fisheye)",
+                                 "its rotation about the marker's x axis",
+                                 "its rotation about the marker's y axis",
+                                 "its rotation about the marker's z axis"};
+  return names[k];
+}
+
+struct Direction {
+  Eigen::VectorXd v;  // tangent [dt; dtheta; (ds)]
+  double eigenvalue = 0;
+  double sigma = 0;
+  enum Kind { kTranslation, kRotation, kScale } kind = kTranslation;
+};
+
+}  // namespace
+
+void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationOptions& options,
+                          const ProgressReporter& progress) {
+  if (!problem.associated) {
+    throw Error("motion_calibration needs associated detections: put 'associate' before it");
+  }
+  progress.report("motion_calibration", 0, 3);
+  const bool scale_free = problem.input.mode == TrajectoryMode::kVisual;
+  const TimeNs min_dt = static_cast<TimeNs>(options.min_pair_interval_s * 1e9);
+  const TimeNs max_dt = static_cast<TimeNs>(options.max_pair_interval_s * 1e9);
+
+  // Pairs of detections of one camera.
+  std::vector<MotionPair> pairs;
+  std::vector<Matrix6d> covariances(problem.associations.size());
+  const double default_t = 0.01, default_r = 2.0 * kDeg;
+  for (std::size_t a = 0; a < problem.associations.size(); ++a) {
+    covariances[a] =
+        detectionCovariance(problem.marker(problem.associations[a]), default_t, default_r);
+  }
+  for (const auto& [label, indices] : problem.associations_by_camera) {
+    std::size_t j = 0;
+    for (std::size_t i = 0; i < indices.size(); ++i) {
+      const Association& ai = problem.associations[indices[i]];
+      if (j <= i) j = i + 1;
+      while (j < indices.size() && problem.associations[indices[j]].t_robot - ai.t_robot < min_dt) {
+        ++j;
+      }
+      if (j >= indices.size()) break;
+      const Association& aj = problem.associations[indices[j]];
+      if (aj.t_robot - ai.t_robot > max_dt) continue;
+      MotionPair p;
+      p.i = indices[i];
+      p.j = indices[j];
+      p.a_unscaled = ai.world_from_fisheye.inverse() * aj.world_from_fisheye;
+      const Rigid3d& mi = problem.marker(ai).camera_from_marker;
+      p.b = mi.inverse() * problem.marker(aj).camera_from_marker;
+      p.mi = mi;
+      p.covariance_i = covariances[p.i];
+      p.covariance_j = covariances[p.j];
+      pairs.push_back(p);
+    }
+  }
+  if (pairs.size() < 3) {
+    throw Error("motion_calibration: only " + std::to_string(pairs.size()) +
+                " pairs of detections of one camera " + formatDouble(options.min_pair_interval_s) +
+                " to " + formatDouble(options.max_pair_interval_s) +
+                " s apart: not enough to estimate the scale and fisheye_from_marker");
+  }
+
+  double scale = 1.0;
+  Rigid3d X =
+      linearInitialisation(pairs, scale_free, options.min_rotation_for_axis_deg * kDeg, &scale);
+  progress.report("motion_calibration", 1, 3);
+  progress.checkStop();
+
+  const double sigma_r = options.sigma_rotation_deg * kDeg;
+  const double sigma_t = options.sigma_translation_m;
+  double x[7];
+  double s[1] = {scale};
+  std::vector<Direction> undetermined;
+  std::vector<double> eigenvalues;
+  Eigen::MatrixXd information;
+  std::vector<std::string> prior_notes;
+  std::vector<std::string> unfixed;
+
+  // Builds and solves the problem with weights from the current X; returns
+  // the information matrix J^T J over the tangent space.
+  auto solve = [&](bool with_priors) {
+    poseToParams(X, x);
+    ceres::Problem ceres_problem;
+    const Eigen::Matrix3d Rx = X.rotation.toRotationMatrix();
+    for (const MotionPair& p : pairs) {
+      Matrix6d J = Matrix6d::Zero();
+      J.topLeftCorner<3, 3>() = -Rx;
+      J.bottomRightCorner<3, 3>() = -Eigen::Matrix3d::Identity();
+      // Covariance of B at the PREDICTED relative motion X^-1 A X: weights
+      // from the measured B would favour pairs whose noise shortened them
+      // (a bias of the scale).
+      const Rigid3d a_scaled(p.a_unscaled.rotation, scale * p.a_unscaled.translation);
+      const Rigid3d b_predicted = X.inverse() * a_scaled * X;
+      Matrix6d cov =
+          J * relativeCovariance(p.mi, b_predicted, p.covariance_i, p.covariance_j) * J.transpose();
+      cov.topLeftCorner<3, 3>().diagonal().array() += sigma_t * sigma_t;
+      cov.bottomRightCorner<3, 3>().diagonal().array() += sigma_r * sigma_r;
+      const Matrix6d sqrt_info = sqrtInformation(cov.inverse());
+      ceres_problem.AddResidualBlock(new ceres::AutoDiffCostFunction<MotionPairCost, 6, 7, 1>(
+                                         new MotionPairCost(p, sqrt_info)),
+                                     new ceres::HuberLoss(options.huber), x, s);
+    }
+    ceres_problem.SetManifold(x, newPoseManifold());
+    if (!scale_free) {
+      ceres_problem.SetParameterBlockConstant(s);
+    } else {
+      ceres_problem.SetParameterLowerBound(s, 0, 1e-9);
+    }
+    if (with_priors) {
+      for (const Direction& d : undetermined) {
+        if (d.kind == Direction::kScale) continue;
+        const bool t = d.kind == Direction::kTranslation;
+        if (t && !options.prior_translation_m) continue;
+        if (!t && !options.prior_rotation) continue;
+        auto* cost = new DirectionPriorCost;
+        cost->prior = Rigid3d(options.prior_rotation.value_or(X.rotation),
+                              options.prior_translation_m.value_or(X.translation));
+        cost->direction = (t ? d.v.head<3>() : d.v.segment<3>(3)).normalized();
+        cost->translation = t;
+        cost->sigma =
+            t ? options.prior_translation_sigma_m : options.prior_rotation_sigma_deg * kDeg;
+        ceres_problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<DirectionPriorCost, 1, 7>(cost), nullptr, x);
+      }
+    }
+    ceres::Solver::Options solver;
+    solver.linear_solver_type = ceres::DENSE_QR;
+    solver.max_num_iterations = options.max_iterations;
+    solver.num_threads = 1;
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver, &ceres_problem, &summary);
+    X = paramsToPose(x);
+    scale = s[0];
+    // Information over [dt; dtheta; (ds)] at the solution (robust weights included).
+    ceres::CRSMatrix crs;
+    ceres::Problem::EvaluateOptions eval;
+    eval.parameter_blocks = {x};
+    if (scale_free) eval.parameter_blocks.push_back(s);
+    ceres_problem.Evaluate(eval, nullptr, nullptr, nullptr, &crs);
+    Eigen::MatrixXd J = Eigen::MatrixXd::Zero(crs.num_rows, crs.num_cols);
+    for (int r = 0; r < crs.num_rows; ++r) {
+      for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) J(r, crs.cols[k]) = crs.values[k];
+    }
+    return Eigen::MatrixXd(J.transpose() * J);
+  };
+
+  // Two rounds: the whitening depends on R_X.
+  solve(false);
+  progress.checkStop();
+  information = solve(false);
+  progress.report("motion_calibration", 2, 3);
+
+  // Observability.
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(information);
+  for (Eigen::Index k = 0; k < eig.eigenvalues().size(); ++k) {
+    const double lambda = eig.eigenvalues()[k];
+    eigenvalues.push_back(lambda);
+    Direction d;
+    d.v = eig.eigenvectors().col(k);
+    d.eigenvalue = lambda;
+    d.sigma = lambda > 0 ? 1.0 / std::sqrt(lambda) : std::numeric_limits<double>::infinity();
+    const double t2 = d.v.head<3>().squaredNorm(), r2 = d.v.segment<3>(3).squaredNorm();
+    const double s2 = scale_free ? d.v[6] * d.v[6] : 0.0;
+    if (s2 >= t2 && s2 >= r2) {
+      d.kind = Direction::kScale;
+      if (d.sigma * 1.0 > 0.01 * scale) undetermined.push_back(d);  // 1 % of the scale
+    } else if (t2 >= r2) {
+      d.kind = Direction::kTranslation;
+      if (d.sigma > options.max_translation_sigma_m) undetermined.push_back(d);
+    } else {
+      d.kind = Direction::kRotation;
+      if (d.sigma > options.max_rotation_sigma_deg * kDeg) undetermined.push_back(d);
+    }
+  }
+  for (const Direction& d : undetermined) {
+    if (d.kind == Direction::kScale) {
+      throw Error(
+          "motion_calibration: the detections do not determine the trajectory's scale (sigma " +
+          formatDouble(d.sigma) + "): the robot must move while cameras see its marker");
+    }
+  }
+
+  std::array<bool, 6> determined = {true, true, true, true, true, true};
+  std::ostringstream message;
+  if (undetermined.empty()) {
+    message << "The robot's motion determines the scale and every component of "
+               "fisheye_from_marker; no prior was used.";
+  } else {
+    message << "The robot's motion does not determine " << undetermined.size()
+            << (undetermined.size() == 1 ? " direction" : " directions")
+            << " of fisheye_from_marker:";
+    for (const Direction& d : undetermined) {
+      int dominant = 0;
+      Eigen::Matrix<double, 6, 1> v = d.v.head<6>();
+      v.cwiseAbs().maxCoeff(&dominant);
+      for (int c = 0; c < 6; ++c) {
+        if (std::abs(v[c]) > 0.3) determined[c] = false;
+      }
+      message << " mostly " << componentName(dominant) << " (sigma from the motion alone "
+              << (std::isfinite(d.sigma)
+                      ? formatFixed(d.kind == Direction::kRotation ? d.sigma / kDeg : d.sigma, 3)
+                      : std::string("infinite"))
+              << (d.kind == Direction::kRotation ? " deg)" : " m)");
+      message << ";";
+      const bool t = d.kind == Direction::kTranslation;
+      if (t && options.prior_translation_m) {
+        prior_notes.push_back(std::string(componentName(dominant)) +
+                              " from the configured prior_translation_m [" +
+                              formatDouble((*options.prior_translation_m)[0]) + ", " +
+                              formatDouble((*options.prior_translation_m)[1]) + ", " +
+                              formatDouble((*options.prior_translation_m)[2]) + "] m, sigma " +
+                              formatDouble(options.prior_translation_sigma_m) + " m");
+      } else if (!t && options.prior_rotation) {
+        prior_notes.push_back(std::string(componentName(dominant)) +
+                              " from the configured prior_rotation_xyzw, sigma " +
+                              formatDouble(options.prior_rotation_sigma_deg) + " deg");
+      } else {
+        unfixed.push_back(componentName(dominant));
+      }
+    }
+    message << " the robot drives on a (nearly) planar floor, so its rotations are all about the "
+               "vertical and the motion cannot tell where the marker is along that axis.";
+    if (!prior_notes.empty()) {
+      message << " Fixed by priors: ";
+      for (std::size_t k = 0; k < prior_notes.size(); ++k) {
+        message << (k ? "; " : "") << prior_notes[k];
+      }
+      message << ".";
+      information = solve(true);
+    }
+    if (!unfixed.empty()) {
+      std::string text = "fisheye_from_marker: no prior configured for ";
+      for (std::size_t k = 0; k < unfixed.size(); ++k) text += (k ? ", " : "") + unfixed[k];
+      text +=
+          ": its value comes from the linear initialisation and is arbitrary; every camera "
+          "position shifts with it (set register.motion_calibration.prior_translation_m / "
+          "prior_rotation_xyzw to the measured mount)";
+      problem.result.warnings.push_back(text);
+      message << " NOT fixed (no prior configured): ";
+      for (std::size_t k = 0; k < unfixed.size(); ++k) message << (k ? ", " : "") << unfixed[k];
+      message << ".";
+    }
+  }
+
+  // Covariance over [dt; dtheta; ds] (pseudo-inverse when something stayed free).
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig_final(information);
+  Eigen::VectorXd inv = eig_final.eigenvalues();
+  const double largest = inv.maxCoeff();
+  for (Eigen::Index k = 0; k < inv.size(); ++k) {
+    inv[k] = inv[k] > 1e-12 * largest ? 1.0 / inv[k] : 0.0;
+  }
+  const Eigen::MatrixXd covariance =
+      eig_final.eigenvectors() * inv.asDiagonal() * eig_final.eigenvectors().transpose();
+
+  problem.scale = scale;
+  problem.fisheye_from_marker = X;
+  Registration& r = problem.result;
+  r.scale = scale;
+  r.scale_sigma = scale_free ? std::sqrt(std::max(0.0, covariance(6, 6))) : 0.0;
+  r.fisheye_from_marker = X;
+  r.fisheye_from_marker_covariance = covariance.topLeftCorner<6, 6>();
+  r.fisheye_from_marker_determined = determined;
+  r.fisheye_from_marker_prior.clear();
+  for (std::size_t k = 0; k < prior_notes.size(); ++k) {
+    r.fisheye_from_marker_prior += (k ? "; " : "") + prior_notes[k];
+  }
+  r.observability.message = message.str() + " (" + std::to_string(pairs.size()) +
+                            " motion pairs; eigenvalues of the information matrix over [t (m), "
+                            "theta (rad)" +
+                            (scale_free ? ", scale" : "") + "])";
+  r.observability.eigenvalues = eigenvalues;
+  progress.report("motion_calibration", 3, 3);
+}
+
+}  // namespace lookboth

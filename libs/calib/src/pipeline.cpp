@@ -1,0 +1,360 @@
+// The registration controller: configuration, input, stages in order, output.
+#include "lookboth/calib/pipeline.h"
+
+#include <ceres/version.h>
+#include <mrpt/version.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <ctime>
+#include <iomanip>
+#include <opencv2/core/version.hpp>
+#include <sstream>
+
+#include "lookboth/core/atomic_file.h"
+#include "lookboth/core/error.h"
+#include "lookboth/core/paths.h"
+#include "lookboth/core/text.h"
+#include "lookboth/core/version.h"
+#include "lookboth/dataset/dataset_io.h"
+#include "lookboth/geometry/tum.h"
+
+namespace lookboth {
+namespace fs = std::filesystem;
+
+// ---- configuration ----
+
+StageConfig RegistrationConfig::stageConfig(const std::string& name) const {
+  StageConfig config;
+  config.field = "register." + name;
+  for (const StageConfig::Layer& layer : layers) {
+    StageConfig::Layer stage_layer;
+    stage_layer.reader = layer.reader;
+    if (layer.node.IsDefined() && layer.node.IsMap()) {
+      // (Assigning a missing key's node to a Node throws in yaml-cpp; test first.)
+      const YAML::Node section = layer.node[name];
+      if (section.IsDefined()) stage_layer.node = section;
+    }
+    config.layers.push_back(stage_layer);
+  }
+  return config;
+}
+
+namespace {
+
+YAML::Node mergeNodes(const YAML::Node& base, const YAML::Node& over) {
+  if (!over.IsDefined() || over.IsNull()) return YAML::Clone(base);
+  if (!base.IsDefined() || base.IsNull() || !base.IsMap() || !over.IsMap()) {
+    return YAML::Clone(over);
+  }
+  YAML::Node merged = YAML::Clone(base);
+  for (const auto& entry : over) {
+    const std::string key = entry.first.as<std::string>();
+    merged[key] = mergeNodes(base[key], entry.second);
+  }
+  return merged;
+}
+
+}  // namespace
+
+std::string RegistrationConfig::mergedYaml() const {
+  YAML::Node merged;
+  for (const StageConfig::Layer& layer : layers) merged = mergeNodes(merged, layer.node);
+  if (!merged.IsDefined() || merged.IsNull()) return "";
+  merged["pipeline"] = pipeline;
+  YAML::Emitter out;
+  out << merged;
+  return out.c_str();
+}
+
+RegistrationConfig registrationConfigFromYaml(
+    const std::vector<std::pair<std::string, std::string>>& text_and_source) {
+  RegistrationConfig config;
+  std::set<std::string> known = {"pipeline"};
+  for (const auto& [name, description] : StageRegistry::global().list()) known.insert(name);
+  for (const auto& [text, source] : text_and_source) {
+    auto reader = std::make_shared<YamlReader>(source);
+    const YAML::Node root = reader->parse(text);
+    config.files.push_back(source);
+    config.readers.push_back(reader);
+    StageConfig::Layer layer;
+    layer.reader = reader.get();
+    if (root.IsDefined() && !root.IsNull()) {
+      if (!root.IsMap()) throw Error(ErrorContext{source, 0, "", ""}, "expected a YAML mapping");
+      const YAML::Node section = root["register"];
+      if (section && !section.IsNull()) {
+        reader->rejectUnknownKeys(section, known, "register");
+        layer.node = section;
+        if (const YAML::Node pipeline = section["pipeline"]; pipeline) {
+          if (!pipeline.IsSequence() || pipeline.size() == 0) {
+            throw Error(reader->at(pipeline, "register.pipeline"),
+                        "expected a list of stage names");
+          }
+          config.pipeline.clear();
+          for (std::size_t i = 0; i < pipeline.size(); ++i) {
+            const std::string name =
+                reader->text(pipeline[i], "register.pipeline[" + std::to_string(i) + "]");
+            if (!StageRegistry::global().has(name)) {
+              throw Error(reader->at(pipeline[i], "register.pipeline"),
+                          "unknown stage '" + name + "'");
+            }
+            config.pipeline.push_back(name);
+          }
+        }
+      }
+    }
+    config.layers.push_back(layer);
+  }
+  if (config.pipeline.empty()) {
+    throw Error(ErrorContext{"", 0, "register.pipeline", ""}, "no stage configured");
+  }
+  return config;
+}
+
+RegistrationConfig loadRegistrationConfig(const std::optional<fs::path>& user_file) {
+  std::vector<std::pair<std::string, std::string>> texts;
+  const fs::path defaults = shareDirectory() / "config" / "default.yaml";
+  texts.emplace_back(readFile(defaults), defaults.string());
+  if (user_file) texts.emplace_back(readFile(*user_file), user_file->string());
+  return registrationConfigFromYaml(texts);
+}
+
+// ---- input ----
+
+std::string RegisterOptions::check() const {
+  if (dataset.empty()) return "'dataset': missing";
+  return "";
+}
+
+RegistrationInput loadRegistrationInput(const RegisterOptions& options,
+                                        const ProgressReporter& progress) {
+  if (const std::string why = options.check(); !why.empty()) throw Error(why);
+  DatasetReadOptions read_options;
+  read_options.check_images = false;
+  auto reader = DatasetReader::open(options.dataset, read_options);
+  RegistrationInput input;
+  input.dataset = fs::absolute(options.dataset).lexically_normal();
+  input.manifest = reader->manifest();
+  input.mode = options.mode;
+  const std::string dataset = options.dataset.string();
+  std::string label = options.trajectory_label;
+  if (label.empty()) label = options.mode == TrajectoryMode::kVisual ? "vo" : "odometry";
+  const bool from_file = !options.trajectory_file.empty();
+  if (from_file) {
+    input.trajectory = readTumFile(options.trajectory_file);
+    input.trajectory_label = options.trajectory_file.string();
+  } else {
+    input.trajectory_label = label;
+    const TrajectoryInfo* info = input.manifest.findTrajectory(label);
+    if (!info) {
+      std::string available;
+      for (const TrajectoryInfo& t : input.manifest.trajectories) {
+        available += (available.empty() ? "" : ", ") + t.label;
+      }
+      if (options.mode == TrajectoryMode::kVisual && label == "vo") {
+        throw Error(ErrorContext{dataset, 0, "", ""},
+                    "no visual odometry trajectory 'vo' in this dataset: run `lookboth odometry " +
+                        dataset +
+                        "` first, or register with --trajectory metric (trajectories present: " +
+                        (available.empty() ? "none" : available) + ")");
+      }
+      throw Error(ErrorContext{dataset, 0, "", ""},
+                  "no trajectory '" + label + "' in this dataset (present: " +
+                      (available.empty() ? "none" : available) + ")");
+    }
+    if (options.mode == TrajectoryMode::kMetric && !info->metric) {
+      throw Error(ErrorContext{dataset, 0, "", ""},
+                  "trajectory '" + label +
+                      "' is not metric (up to scale): register it with --trajectory visual");
+    }
+  }
+  const CameraSensor* fisheye = input.manifest.fisheye();
+  std::vector<StampedPose> samples;
+  std::int64_t count = 0;
+  const std::int64_t expected = reader->expectedCount();
+  while (auto record = reader->next()) {
+    if (++count % 10000 == 0) {
+      progress.checkStop();
+      progress.report("read", count, std::max<std::int64_t>(expected, 0));
+    }
+    if (auto* m = std::get_if<MarkerObservation>(&*record)) {
+      input.markers.push_back(std::move(*m));
+    } else if (auto* b = std::get_if<BlobObservation>(&*record)) {
+      if (!fisheye || b->camera == fisheye->label) input.blobs.push_back(std::move(*b));
+    } else if (auto* p = std::get_if<PoseSample>(&*record)) {
+      if (!from_file && p->label == label) samples.push_back({p->t, p->world_from_body});
+    }
+  }
+  if (!from_file) {
+    std::stable_sort(samples.begin(), samples.end(),
+                     [](const StampedPose& a, const StampedPose& b) { return a.t < b.t; });
+    samples.erase(
+        std::unique(samples.begin(), samples.end(),
+                    [](const StampedPose& a, const StampedPose& b) { return a.t == b.t; }),
+        samples.end());
+    input.trajectory = Trajectory(std::move(samples));
+  }
+  std::stable_sort(input.blobs.begin(), input.blobs.end(),
+                   [](const BlobObservation& a, const BlobObservation& b) { return a.t < b.t; });
+  progress.report("read", count, count);
+  return input;
+}
+
+// ---- controller ----
+
+RegistrationController::RegistrationController(RegistrationConfig config, StageRegistry& registry)
+    : config_(std::move(config)) {
+  for (const std::string& name : config_.pipeline) {
+    stages_.push_back(registry.create(name, config_.stageConfig(name)));
+  }
+}
+
+namespace {
+
+std::string utcNow() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  std::ostringstream out;
+  out << std::put_time(&tm, "%Y-%m-%dT%H:%M:%SZ");
+  return out.str();
+}
+
+}  // namespace
+
+RegistrationRun RegistrationController::run(RegistrationInput input,
+                                            const ProgressReporter& progress) const {
+  RegistrationProblem problem;
+  problem.input = std::move(input);
+  Registration& r = problem.result;
+  r.dataset = problem.input.dataset.string();
+  r.created = utcNow();
+  r.versions = {{"lookboth", versionString()},
+                {"mrpt", std::to_string((MRPT_VERSION >> 8) & 0xF) + "." +
+                             std::to_string((MRPT_VERSION >> 4) & 0xF) + "." +
+                             std::to_string(MRPT_VERSION & 0xF)},
+                {"opencv", CV_VERSION},
+                {"ceres", CERES_VERSION_STRING}};
+  r.trajectory_mode = problem.input.mode;
+  r.trajectory_label = problem.input.trajectory_label;
+  r.config_yaml = config_.mergedYaml();
+  for (const auto& stage : stages_) {
+    progress.checkStop();
+    const auto start = std::chrono::steady_clock::now();
+    stage->run(problem, progress);
+    r.pipeline.push_back(stage->name());
+    r.statistics.seconds_per_stage[stage->name()] =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+  r.scale = problem.scale;
+  if (problem.input.mode == TrajectoryMode::kMetric) r.scale_sigma = 0;
+  for (const StampedPose& p : problem.input.trajectory.samples()) {
+    r.trajectory.push_back({p.t, problem.metricWorldFromFisheye(p.world_from_body)});
+  }
+  std::sort(
+      r.cameras.begin(), r.cameras.end(),
+      [](const CameraRegistration& a, const CameraRegistration& b) { return a.label < b.label; });
+  RegistrationRun run;
+  for (const auto& [label, indices] : problem.inliers_by_camera) {
+    const CameraRegistration* camera = r.findCamera(label);
+    if (!camera || camera->status == CameraStatus::kUnregistered) continue;
+    for (std::size_t a : indices) {
+      const Rigid3d marker =
+          camera->world_from_camera * problem.marker(problem.associations[a]).camera_from_marker;
+      run.rays.push_back({camera->world_from_camera.translation, marker.translation});
+    }
+  }
+  run.registration = std::move(r);
+  return run;
+}
+
+// ---- output ----
+
+void writeRegistrationOutput(const RegistrationRun& run, const fs::path& dir, bool overwrite) {
+  const fs::path target = fs::absolute(dir).lexically_normal();
+  const fs::path parent = target.parent_path();
+  if (!fs::is_directory(parent)) {
+    throw Error(ErrorContext{dir.string(), 0, "", ""}, "its parent directory does not exist");
+  }
+  if (fs::exists(target) && !overwrite) {
+    throw Error(ErrorContext{dir.string(), 0, "", ""}, "already exists (use --overwrite)");
+  }
+  const std::string stem = target.filename().string();
+  const fs::path temporary = parent / ("." + stem + ".tmp-" + std::to_string(::getpid()));
+  fs::remove_all(temporary);
+  try {
+    fs::create_directories(temporary);
+    saveRegistration(run.registration, temporary);
+    writeRegistrationScene(run, temporary / "scene.3Dscene");
+    if (fs::exists(target)) {
+      const fs::path old = parent / ("." + stem + ".old-" + std::to_string(::getpid()));
+      fs::remove_all(old);
+      fs::rename(target, old);
+      fs::rename(temporary, target);
+      fs::remove_all(old);
+    } else {
+      fs::rename(temporary, target);
+    }
+  } catch (...) {
+    std::error_code ec;
+    fs::remove_all(temporary, ec);
+    throw;
+  }
+}
+
+std::string registrationSummary(const Registration& r) {
+  std::ostringstream out;
+  int registered = 0, suspect = 0, unregistered = 0;
+  for (const CameraRegistration& c : r.cameras) {
+    if (c.status == CameraStatus::kRegistered) ++registered;
+    if (c.status == CameraStatus::kSuspect) ++suspect;
+    if (c.status == CameraStatus::kUnregistered) ++unregistered;
+  }
+  out << "registered " << registered + suspect << " of " << r.cameras.size() << " cameras ("
+      << suspect << " suspect, " << unregistered << " unregistered) with the "
+      << trajectoryModeName(r.trajectory_mode) << " trajectory '" << r.trajectory_label << "'\n";
+  out << "scale " << formatFixed(r.scale, 6);
+  if (r.scale_sigma > 0) out << " +- " << formatFixed(r.scale_sigma, 6);
+  const Eigen::Vector3d t = r.fisheye_from_marker.translation;
+  out << "; fisheye_from_marker t = [" << formatFixed(t.x(), 4) << ", " << formatFixed(t.y(), 4)
+      << ", " << formatFixed(t.z(), 4) << "] m\n";
+  out << "observability: " << r.observability.message << "\n";
+  out << "detections: " << r.statistics.detections_total << " total, "
+      << r.statistics.detections_associated << " associated, "
+      << r.statistics.dropped_outside_trajectory << " outside the trajectory, "
+      << r.statistics.dropped_gap << " in gaps\n";
+  out << std::left << std::setw(10) << "camera" << std::setw(14) << "status" << std::setw(12)
+      << "used/total" << std::setw(12) << "pos_rms_m" << std::setw(13) << "rot_rms_deg"
+      << std::setw(20) << "reproj_px before>after"
+      << "  reason\n";
+  for (const CameraRegistration& c : r.cameras) {
+    out << std::left << std::setw(10) << c.label << std::setw(14) << cameraStatusName(c.status)
+        << std::setw(12)
+        << (std::to_string(c.detections.used) + "/" + std::to_string(c.detections.total))
+        << std::setw(12) << (c.residuals ? formatFixed(c.residuals->position_rms_m, 4) : "-")
+        << std::setw(13) << (c.residuals ? formatFixed(c.residuals->rotation_rms_deg, 3) : "-")
+        << std::setw(20)
+        << (c.reprojection ? formatFixed(c.reprojection->rms_px_before, 2) + " > " +
+                                 formatFixed(c.reprojection->rms_px_after, 2)
+                           : "-")
+        << "  " << c.reason << "\n";
+  }
+  if (r.reprojection) {
+    out << "reprojection: " << r.reprojection->blobs << " blobs, RMS "
+        << formatFixed(r.reprojection->rms_px_before, 2) << " px before, "
+        << formatFixed(r.reprojection->rms_px_after, 2) << " px after look_up\n";
+  }
+  for (const std::string& w : r.warnings) out << "warning: " << w << "\n";
+  for (const CameraRegistration& c : r.cameras) {
+    for (const std::string& w : c.warnings) out << "warning: " << c.label << ": " << w << "\n";
+  }
+  out << "time:";
+  for (const auto& [stage, seconds] : r.statistics.seconds_per_stage) {
+    out << " " << stage << " " << formatFixed(seconds, 3) << " s";
+  }
+  out << "\n";
+  return out.str();
+}
+
+}  // namespace lookboth

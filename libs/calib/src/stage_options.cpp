@@ -1,0 +1,212 @@
+// Options of the paper's stages: reading from a configuration section (each
+// layer sets the keys it has; unknown keys are errors) and checks.
+#include <cmath>
+
+#include "lookboth/calib/stages.h"
+#include "lookboth/core/text.h"
+
+namespace lookboth {
+namespace {
+
+// Sets `target` from node[key] when present.
+struct Section {
+  const YamlReader& r;
+  const YAML::Node& node;
+  const std::string& field;
+
+  std::string path(const char* key) const { return field + "." + key; }
+  void number(const char* key, double& target) const {
+    if (node[key]) target = r.number(node[key], path(key));
+  }
+  void integer(const char* key, int& target) const {
+    if (node[key]) target = static_cast<int>(r.integer(node[key], path(key)));
+  }
+  void vector3(const char* key, Eigen::Vector3d& target) const {
+    const YAML::Node n = node[key];
+    if (!n) return;
+    if (!n.IsSequence() || n.size() != 3) throw Error(r.at(n, path(key)), "expected [x, y, z]");
+    for (int i = 0; i < 3; ++i) target[i] = r.number(n[i], path(key));
+  }
+  void optionalVector3(const char* key, std::optional<Eigen::Vector3d>& target) const {
+    const YAML::Node n = node[key];
+    if (!n) return;
+    if (n.IsNull()) {
+      target.reset();
+      return;
+    }
+    Eigen::Vector3d v;
+    vector3(key, v);
+    target = v;
+  }
+  void optionalQuaternion(const char* key, std::optional<Eigen::Quaterniond>& target) const {
+    const YAML::Node n = node[key];
+    if (!n) return;
+    if (n.IsNull()) {
+      target.reset();
+      return;
+    }
+    if (!n.IsSequence() || n.size() != 4) {
+      throw Error(r.at(n, path(key)), "expected [qx, qy, qz, qw]");
+    }
+    double v[4];
+    for (int i = 0; i < 4; ++i) v[i] = r.number(n[i], path(key));
+    Eigen::Quaterniond q(v[3], v[0], v[1], v[2]);
+    if (std::abs(q.norm() - 1.0) > 1e-3)
+      throw Error(r.at(n, path(key)), "quaternion norm is not 1");
+    target = q.normalized();
+  }
+};
+
+std::string positive(const char* name, double value) {
+  if (!(value > 0) || !std::isfinite(value)) {
+    return std::string("'") + name + "': must be positive, got " + formatDouble(value);
+  }
+  return "";
+}
+
+}  // namespace
+
+void AssociateOptions::read(const YamlReader& r, const YAML::Node& node, const std::string& field) {
+  r.rejectUnknownKeys(node, {"max_gap_s", "clock_offsets_ns"}, field);
+  const Section s{r, node, field};
+  s.number("max_gap_s", max_gap_s);
+  if (const YAML::Node offsets = node["clock_offsets_ns"]; offsets && !offsets.IsNull()) {
+    if (!offsets.IsMap()) {
+      throw Error(r.at(offsets, field + ".clock_offsets_ns"), "expected a mapping label: ns");
+    }
+    for (const auto& entry : offsets) {
+      const std::string label = entry.first.as<std::string>();
+      clock_offsets_ns[label] = r.integer(entry.second, field + ".clock_offsets_ns." + label);
+    }
+  }
+}
+
+std::string AssociateOptions::check() const { return positive("max_gap_s", max_gap_s); }
+
+void MotionCalibrationOptions::read(const YamlReader& r, const YAML::Node& node,
+                                    const std::string& field) {
+  r.rejectUnknownKeys(
+      node,
+      {"min_pair_interval_s", "max_pair_interval_s", "sigma_translation_m", "sigma_rotation_deg",
+       "huber", "min_rotation_for_axis_deg", "max_translation_sigma_m", "max_rotation_sigma_deg",
+       "prior_translation_m", "prior_translation_sigma_m", "prior_rotation_xyzw",
+       "prior_rotation_sigma_deg", "max_iterations"},
+      field);
+  const Section s{r, node, field};
+  s.number("min_pair_interval_s", min_pair_interval_s);
+  s.number("max_pair_interval_s", max_pair_interval_s);
+  s.number("sigma_translation_m", sigma_translation_m);
+  s.number("sigma_rotation_deg", sigma_rotation_deg);
+  s.number("huber", huber);
+  s.number("min_rotation_for_axis_deg", min_rotation_for_axis_deg);
+  s.number("max_translation_sigma_m", max_translation_sigma_m);
+  s.number("max_rotation_sigma_deg", max_rotation_sigma_deg);
+  s.optionalVector3("prior_translation_m", prior_translation_m);
+  s.number("prior_translation_sigma_m", prior_translation_sigma_m);
+  s.optionalQuaternion("prior_rotation_xyzw", prior_rotation);
+  s.number("prior_rotation_sigma_deg", prior_rotation_sigma_deg);
+  s.integer("max_iterations", max_iterations);
+}
+
+std::string MotionCalibrationOptions::check() const {
+  for (const auto& [name, value] : std::initializer_list<std::pair<const char*, double>>{
+           {"min_pair_interval_s", min_pair_interval_s},
+           {"max_pair_interval_s", max_pair_interval_s},
+           {"sigma_translation_m", sigma_translation_m},
+           {"sigma_rotation_deg", sigma_rotation_deg},
+           {"huber", huber},
+           {"max_translation_sigma_m", max_translation_sigma_m},
+           {"max_rotation_sigma_deg", max_rotation_sigma_deg},
+           {"prior_translation_sigma_m", prior_translation_sigma_m},
+           {"prior_rotation_sigma_deg", prior_rotation_sigma_deg}}) {
+    if (std::string why = positive(name, value); !why.empty()) return why;
+  }
+  if (max_pair_interval_s < min_pair_interval_s) {
+    return "'max_pair_interval_s': must be at least min_pair_interval_s";
+  }
+  if (min_rotation_for_axis_deg < 0) return "'min_rotation_for_axis_deg': must not be negative";
+  if (max_iterations < 1) return "'max_iterations': must be at least 1";
+  return "";
+}
+
+void LookDownOptions::read(const YamlReader& r, const YAML::Node& node, const std::string& field) {
+  r.rejectUnknownKeys(
+      node,
+      {"min_detections", "suspect_min_detections", "suspect_rejected_fraction", "huber",
+       "reject_chi2", "robot_position_sigma_m", "robot_rotation_sigma_deg",
+       "default_translation_sigma_m", "default_rotation_sigma_deg", "consensus_radius_m"},
+      field);
+  const Section s{r, node, field};
+  s.integer("min_detections", min_detections);
+  s.integer("suspect_min_detections", suspect_min_detections);
+  s.number("suspect_rejected_fraction", suspect_rejected_fraction);
+  s.number("huber", huber);
+  s.number("reject_chi2", reject_chi2);
+  s.number("robot_position_sigma_m", robot_position_sigma_m);
+  s.number("robot_rotation_sigma_deg", robot_rotation_sigma_deg);
+  s.number("default_translation_sigma_m", default_translation_sigma_m);
+  s.number("default_rotation_sigma_deg", default_rotation_sigma_deg);
+  s.number("consensus_radius_m", consensus_radius_m);
+}
+
+std::string LookDownOptions::check() const {
+  if (min_detections < 1) return "'min_detections': must be at least 1";
+  if (suspect_min_detections < min_detections) {
+    return "'suspect_min_detections': must be at least min_detections";
+  }
+  if (!(suspect_rejected_fraction >= 0 && suspect_rejected_fraction <= 1)) {
+    return "'suspect_rejected_fraction': must be in [0, 1]";
+  }
+  for (const auto& [name, value] : std::initializer_list<std::pair<const char*, double>>{
+           {"huber", huber},
+           {"reject_chi2", reject_chi2},
+           {"default_translation_sigma_m", default_translation_sigma_m},
+           {"default_rotation_sigma_deg", default_rotation_sigma_deg},
+           {"consensus_radius_m", consensus_radius_m}}) {
+    if (std::string why = positive(name, value); !why.empty()) return why;
+  }
+  if (robot_position_sigma_m < 0) return "'robot_position_sigma_m': must not be negative";
+  if (robot_rotation_sigma_deg < 0) return "'robot_rotation_sigma_deg': must not be negative";
+  return "";
+}
+
+void LookUpOptions::read(const YamlReader& r, const YAML::Node& node, const std::string& field) {
+  r.rejectUnknownKeys(node,
+                      {"gate_px", "min_gate_px", "ambiguity_ratio", "cauchy_px", "rounds",
+                       "max_blobs_per_camera", "association_frame_step", "min_blobs", "max_shift_m",
+                       "blob_offset_in_camera_m", "max_gap_s"},
+                      field);
+  const Section s{r, node, field};
+  s.number("gate_px", gate_px);
+  s.number("min_gate_px", min_gate_px);
+  s.number("ambiguity_ratio", ambiguity_ratio);
+  s.number("cauchy_px", cauchy_px);
+  s.integer("rounds", rounds);
+  s.integer("max_blobs_per_camera", max_blobs_per_camera);
+  s.integer("association_frame_step", association_frame_step);
+  s.integer("min_blobs", min_blobs);
+  s.number("max_shift_m", max_shift_m);
+  s.vector3("blob_offset_in_camera_m", blob_offset_in_camera_m);
+  s.number("max_gap_s", max_gap_s);
+}
+
+std::string LookUpOptions::check() const {
+  for (const auto& [name, value] :
+       std::initializer_list<std::pair<const char*, double>>{{"gate_px", gate_px},
+                                                             {"cauchy_px", cauchy_px},
+                                                             {"max_shift_m", max_shift_m},
+                                                             {"max_gap_s", max_gap_s}}) {
+    if (std::string why = positive(name, value); !why.empty()) return why;
+  }
+  if (ambiguity_ratio < 1) return "'ambiguity_ratio': must be at least 1";
+  if (!(min_gate_px > 0) || min_gate_px > gate_px) {
+    return "'min_gate_px': must be positive and at most gate_px";
+  }
+  if (rounds < 1) return "'rounds': must be at least 1";
+  if (min_blobs < 1) return "'min_blobs': must be at least 1";
+  if (max_blobs_per_camera < 0) return "'max_blobs_per_camera': must not be negative";
+  if (association_frame_step < 1) return "'association_frame_step': must be at least 1";
+  return "";
+}
+
+}  // namespace lookboth

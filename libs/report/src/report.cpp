@@ -1,0 +1,462 @@
+#include "lookboth/report/report.h"
+
+#include <unistd.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "lookboth/calib/registration.h"
+#include "lookboth/core/atomic_file.h"
+#include "lookboth/core/error.h"
+#include "lookboth/core/text.h"
+#include "lookboth/core/version.h"
+#include "lookboth/dataset/dataset_io.h"
+
+namespace lookboth::report {
+namespace fs = std::filesystem;
+
+const char* verdictName(Verdict verdict) {
+  switch (verdict) {
+    case Verdict::kTrustworthy:
+      return "trustworthy";
+    case Verdict::kNeedsChecking:
+      return "needs checking";
+    case Verdict::kFailed:
+      return "failed";
+  }
+  return "?";
+}
+
+std::string ReportOptions::check() const {
+  if (out.empty()) return "'out': the HTML file to write is required";
+  if (max_reprojection_rms_px < 0) return "'max_reprojection_rms_px': must be >= 0";
+  if (!(max_position_sigma_m > 0)) return "'max_position_sigma_m': must be positive";
+  if (auto_frames < 1) return "'auto_frames': must be at least 1";
+  if (max_env_views < 0) return "'max_env_views': must be >= 0";
+  return {};
+}
+
+std::string base64(const std::vector<unsigned char>& bytes) {
+  static const char* kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((bytes.size() + 2) / 3 * 4);
+  size_t i = 0;
+  for (; i + 2 < bytes.size(); i += 3) {
+    const unsigned v = (bytes[i] << 16) | (bytes[i + 1] << 8) | bytes[i + 2];
+    out += kAlphabet[(v >> 18) & 63];
+    out += kAlphabet[(v >> 12) & 63];
+    out += kAlphabet[(v >> 6) & 63];
+    out += kAlphabet[v & 63];
+  }
+  if (i + 1 == bytes.size()) {
+    const unsigned v = bytes[i] << 16;
+    out += kAlphabet[(v >> 18) & 63];
+    out += kAlphabet[(v >> 12) & 63];
+    out += "==";
+  } else if (i + 2 == bytes.size()) {
+    const unsigned v = (bytes[i] << 16) | (bytes[i + 1] << 8);
+    out += kAlphabet[(v >> 18) & 63];
+    out += kAlphabet[(v >> 12) & 63];
+    out += kAlphabet[(v >> 6) & 63];
+    out += '=';
+  }
+  return out;
+}
+
+namespace {
+
+std::string escape(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+std::string fixed(double value, int decimals) { return formatFixed(value, decimals); }
+
+/// 1-sigma along the worst direction of a 3x3 block of a covariance.
+double worstSigma(const Eigen::Matrix3d& covariance) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
+  return std::sqrt(std::max(0.0, solver.eigenvalues().maxCoeff()));
+}
+
+const char* kStyle = R"(
+body { font-family: "DejaVu Sans", Arial, sans-serif; margin: 24px; color: #222; max-width: 1400px; }
+h1 { font-size: 24px; margin-bottom: 4px; }
+h2 { font-size: 19px; margin-top: 28px; border-bottom: 1px solid #ccc; padding-bottom: 3px; }
+.verdict { padding: 14px 18px; border-radius: 6px; font-size: 20px; font-weight: bold; color: #fff; }
+.trustworthy { background: #1e8f3a; } .needs-checking { background: #d9822b; } .failed { background: #c0392b; }
+.reasons { margin: 8px 0 0 0; font-size: 14px; font-weight: normal; }
+table { border-collapse: collapse; font-size: 13px; margin: 8px 0; }
+th, td { border: 1px solid #bbb; padding: 3px 7px; text-align: right; }
+th { background: #eee; } td.l, th.l { text-align: left; }
+tr.suspect td { background: #fdf0dc; } tr.unregistered td { background: #f8dcd9; }
+.meta td { text-align: left; border: none; padding: 1px 10px 1px 0; }
+figure { display: inline-block; margin: 8px; vertical-align: top; max-width: 100%; }
+figure img { max-width: 100%; border: 1px solid #999; }
+figcaption { font-size: 13px; max-width: 900px; }
+.note { font-size: 13px; color: #555; }
+)";
+
+struct Section {
+  std::ostringstream html;
+};
+
+void comparisonTables(std::ostringstream& out, const PoseComparison& c, const std::string& what) {
+  out << "<p>" << escape(what) << ": aligned by " << (c.with_scale ? "Sim(3)" : "SE(3)")
+      << " (Umeyama over " << c.cameras.size() << " camera positions";
+  if (c.with_scale) out << ", scale " << fixed(c.reference_from_estimate.scale, 6);
+  out << "). Differences are estimate minus reference in the reference's world axes; roll, "
+         "pitch and yaw are rotations about its x, y and z (vertical) axes.</p>\n";
+  out << "<table><tr><th class=l></th><th>&phi; roll [&deg;]</th><th>&theta; pitch [&deg;]</th>"
+         "<th>&psi; yaw [&deg;]</th><th>X [m]</th><th>Y [m]</th><th>Z [m]</th>"
+         "<th>position [m]</th><th>rotation [&deg;]</th></tr>\n";
+  out << "<tr><td class=l>RMS</td><td>" << fixed(c.rms.roll_pitch_yaw_deg.x(), 4) << "</td><td>"
+      << fixed(c.rms.roll_pitch_yaw_deg.y(), 4) << "</td><td>"
+      << fixed(c.rms.roll_pitch_yaw_deg.z(), 4) << "</td><td>" << fixed(c.rms.position_m.x(), 4)
+      << "</td><td>" << fixed(c.rms.position_m.y(), 4) << "</td><td>"
+      << fixed(c.rms.position_m.z(), 4) << "</td><td>" << fixed(c.rms.position_m_total, 4)
+      << "</td><td>" << fixed(c.rms.rotation_deg_total, 4) << "</td></tr>\n";
+  out << "<tr><td class=l>max</td><td></td><td></td><td></td><td></td><td></td><td></td><td>"
+      << fixed(c.rms.position_m_max, 4) << "</td><td>" << fixed(c.rms.rotation_deg_max, 4)
+      << "</td></tr></table>\n";
+  if (!c.missing_in_estimate.empty()) {
+    out << "<p class=note>Not registered, not counted:";
+    for (const auto& label : c.missing_in_estimate) out << " " << escape(label);
+    out << "</p>\n";
+  }
+}
+
+}  // namespace
+
+ReportSummary writeReport(const fs::path& dataset, const fs::path& registration_dir,
+                          const ReportOptions& options, const ProgressReporter& progress) {
+  if (const std::string why = options.check(); !why.empty()) throw Error(why);
+  progress.report("report: load", 0, 1);
+  const Registration registration = loadRegistration(registration_dir);
+  const RegistrationView view = viewOfRegistration(registration, "registration");
+  const CompareOptions compare{options.with_scale};
+  const CameraPoseSet estimate = poseSetOfRegistration(registration, registration_dir.string());
+
+  std::optional<PoseComparison> ground_truth, against;
+  std::optional<CameraPoseSet> truth_poses;
+  if (!options.ground_truth.empty()) {
+    truth_poses = loadGroundTruthPoses(options.ground_truth);
+    ground_truth = comparePoses(*truth_poses, estimate, compare);
+  }
+  std::optional<CameraPoseSet> other_poses;
+  if (!options.against.empty()) {
+    other_poses =
+        poseSetOfRegistration(loadRegistration(options.against), options.against.string());
+    against = comparePoses(*other_poses, estimate, compare);
+  }
+  const ReprojectionTable reprojection = reprojectionTable(view.blob_associations);
+
+  // Fisheye width for the reprojection threshold.
+  int fisheye_width = 1920;
+  {
+    DatasetReadOptions read_options;
+    read_options.check_images = false;
+    const auto reader = DatasetReader::open(dataset, read_options);
+    if (const CameraSensor* fisheye = reader->manifest().fisheye(); fisheye && fisheye->camera) {
+      fisheye_width = fisheye->camera->width();
+    }
+  }
+  const double max_reprojection = options.max_reprojection_rms_px > 0
+                                      ? options.max_reprojection_rms_px
+                                      : std::max(2.0, 3.0 * fisheye_width / 1920.0);
+
+  // The verdict.
+  ReportSummary summary;
+  std::vector<std::string>& reasons = summary.reasons;
+  const int registered = registration.registeredCount();
+  int suspect = 0, unregistered = 0, uncertain = 0;
+  for (const CameraRegistration& c : registration.cameras) {
+    if (c.status == CameraStatus::kSuspect) ++suspect;
+    if (c.status == CameraStatus::kUnregistered) ++unregistered;
+    if (c.status != CameraStatus::kUnregistered && c.covariance &&
+        worstSigma(c.covariance->topLeftCorner<3, 3>()) > options.max_position_sigma_m) {
+      ++uncertain;
+    }
+  }
+  if (registered == 0) reasons.push_back("no camera could be registered");
+  if (unregistered) reasons.push_back(std::to_string(unregistered) + " camera(s) not registered");
+  if (suspect) reasons.push_back(std::to_string(suspect) + " camera(s) suspect");
+  if (uncertain) {
+    reasons.push_back(std::to_string(uncertain) + " camera(s) with a position uncertainty above " +
+                      fixed(options.max_position_sigma_m * 1000, 0) + " mm (1 sigma)");
+  }
+  if (reprojection.total.blobs_after > 0 && reprojection.total.rms_px_after > max_reprojection) {
+    reasons.push_back("fisheye reprojection RMS after refinement " +
+                      fixed(reprojection.total.rms_px_after, 2) + " px exceeds " +
+                      fixed(max_reprojection, 2) + " px");
+  }
+  if (reprojection.total.blobs_before > 0 && reprojection.total.blobs_after > 0 &&
+      reprojection.total.rms_px_after > reprojection.total.rms_px_before) {
+    reasons.push_back("the refinement increased the reprojection error");
+  }
+  if (ground_truth && ground_truth->rms.position_m_total > options.max_position_error_m) {
+    reasons.push_back("position RMS against ground truth " +
+                      fixed(ground_truth->rms.position_m_total, 3) + " m exceeds " +
+                      fixed(options.max_position_error_m, 3) + " m");
+  }
+  if (ground_truth && ground_truth->rms.rotation_deg_total > options.max_rotation_error_deg) {
+    reasons.push_back("rotation RMS against ground truth " +
+                      fixed(ground_truth->rms.rotation_deg_total, 2) + " deg exceeds " +
+                      fixed(options.max_rotation_error_deg, 2) + " deg");
+  }
+  if (!registration.warnings.empty()) {
+    reasons.push_back(std::to_string(registration.warnings.size()) +
+                      " warning(s) from the registration");
+  }
+  summary.verdict = registered == 0   ? Verdict::kFailed
+                    : reasons.empty() ? Verdict::kTrustworthy
+                                      : Verdict::kNeedsChecking;
+
+  // The pictures, in a temporary folder beside the output, embedded, then removed.
+  const fs::path out_dir = fs::absolute(options.out).parent_path();
+  if (!fs::is_directory(out_dir)) {
+    throw Error({options.out.string(), 0, "", ""}, "the output's folder does not exist");
+  }
+  static int counter = 0;
+  const fs::path pictures_dir = out_dir / (".lookboth-report-" + std::to_string(::getpid()) + "-" +
+                                           std::to_string(counter++));
+  struct RemoveDir {
+    fs::path dir;
+    ~RemoveDir() {
+      std::error_code ec;
+      fs::remove_all(dir, ec);
+    }
+  } remove_dir{pictures_dir};
+  SnapshotOptions snapshot;
+  snapshot.out = pictures_dir;
+  snapshot.frames = options.frames;
+  snapshot.size = options.size;
+  snapshot.auto_frames = options.auto_frames;
+  snapshot.max_env_views = options.max_env_views;
+  snapshot.overview = options.overview;
+  if (truth_poses) snapshot.references.push_back({"ground_truth", *truth_poses});
+  if (other_poses) {
+    const std::string name = fs::path(options.against).lexically_normal().filename().string();
+    snapshot.references.push_back({name.empty() ? "other" : name, *other_poses});
+  }
+  snapshot.reference_with_scale = options.with_scale;
+  const SnapshotResult pictures = writeSnapshots(dataset, view, snapshot, progress);
+  summary.pictures = static_cast<int>(pictures.pictures.size());
+
+  progress.report("report: write", 0, 1);
+  std::ostringstream out;
+  out << "<!DOCTYPE html>\n<html lang=en><head><meta charset=utf-8>\n<title>lookboth registration "
+         "report</title>\n<style>"
+      << kStyle << "</style></head><body>\n";
+  out << "<h1>Camera registration report</h1>\n";
+  out << "<table class=meta>";
+  out << "<tr><td>dataset</td><td>"
+      << escape(registration.dataset.empty() ? dataset.string() : registration.dataset)
+      << "</td></tr>";
+  out << "<tr><td>registration</td><td>" << escape(fs::absolute(registration_dir).string())
+      << " (created " << escape(registration.created) << ")</td></tr>";
+  out << "<tr><td>pipeline</td><td>";
+  for (size_t i = 0; i < registration.pipeline.size(); ++i) {
+    out << (i ? " &rarr; " : "") << escape(registration.pipeline[i]);
+  }
+  out << "</td></tr>";
+  out << "<tr><td>trajectory</td><td>" << trajectoryModeName(registration.trajectory_mode) << " ("
+      << escape(registration.trajectory_label) << "), scale " << fixed(registration.scale, 5);
+  if (registration.scale_sigma > 0) out << " &plusmn; " << fixed(registration.scale_sigma, 5);
+  out << "</td></tr>";
+  out << "<tr><td>versions</td><td>lookboth " << escape(versionString());
+  for (const auto& [name, version] : registration.versions) {
+    if (name != "lookboth") out << ", " << escape(name) << " " << escape(version);
+  }
+  out << "</td></tr></table>\n";
+
+  const std::string verdict_class = summary.verdict == Verdict::kTrustworthy     ? "trustworthy"
+                                    : summary.verdict == Verdict::kNeedsChecking ? "needs-checking"
+                                                                                 : "failed";
+  out << "<div class=\"verdict " << verdict_class
+      << "\">Verdict: " << escape(verdictName(summary.verdict)) << " &mdash; " << registered
+      << " of " << registration.cameras.size() << " cameras registered";
+  if (reasons.empty()) {
+    out << "<div class=reasons>Every camera registered, no warning, reprojection after refinement "
+           "within "
+        << fixed(max_reprojection, 2) << " px"
+        << (ground_truth ? ", within the ground truth bounds" : "") << ".</div>";
+  } else {
+    out << "<ul class=reasons>";
+    for (const std::string& reason : reasons) out << "<li>" << escape(reason) << "</li>";
+    out << "</ul>";
+  }
+  out << "</div>\n";
+
+  // Per-camera table.
+  out << "<h2>Cameras</h2>\n<table><tr><th class=l>camera</th><th class=l>status</th>"
+         "<th>detections used / total</th><th>rejected</th><th>outside traj.</th>"
+         "<th>residual pos. [mm]</th><th>residual rot. [&deg;]</th><th>blobs</th>"
+         "<th>reproj. before [px]</th><th>reproj. after [px]</th><th>&sigma; pos. [mm]</th>"
+         "<th>&sigma; rot. [&deg;]</th>";
+  if (ground_truth) out << "<th>error pos. [mm]</th><th>error rot. [&deg;]</th>";
+  out << "<th class=l>reason / warnings</th></tr>\n";
+  for (const CameraRegistration& c : registration.cameras) {
+    out << "<tr class=" << cameraStatusName(c.status) << "><td class=l>" << escape(c.label)
+        << "</td><td class=l>" << cameraStatusName(c.status) << "</td><td>" << c.detections.used
+        << " / " << c.detections.total << "</td><td>" << c.detections.rejected << "</td><td>"
+        << c.detections.outside_trajectory << "</td>";
+    if (c.residuals) {
+      out << "<td>" << fixed(c.residuals->position_rms_m * 1000, 1) << "</td><td>"
+          << fixed(c.residuals->rotation_rms_deg, 3) << "</td>";
+    } else {
+      out << "<td></td><td></td>";
+    }
+    const auto table_row = reprojection.by_camera.find(c.label);
+    if (table_row != reprojection.by_camera.end()) {
+      const ReprojectionSummary& r = table_row->second;
+      out << "<td>" << r.blobs << "</td><td>" << (r.blobs_before ? fixed(r.rms_px_before, 2) : "")
+          << "</td><td>" << (r.blobs_after ? fixed(r.rms_px_after, 2) : "") << "</td>";
+    } else if (c.reprojection) {
+      out << "<td>" << c.reprojection->blobs << "</td><td>"
+          << fixed(c.reprojection->rms_px_before, 2) << "</td><td>"
+          << fixed(c.reprojection->rms_px_after, 2) << "</td>";
+    } else {
+      out << "<td>0</td><td></td><td></td>";
+    }
+    if (c.covariance && c.status != CameraStatus::kUnregistered) {
+      out << "<td>" << fixed(worstSigma(c.covariance->topLeftCorner<3, 3>()) * 1000, 2)
+          << "</td><td>"
+          << fixed(worstSigma(c.covariance->bottomRightCorner<3, 3>()) * 180 / M_PI, 3) << "</td>";
+    } else {
+      out << "<td></td><td></td>";
+    }
+    if (ground_truth) {
+      const auto d = std::find_if(ground_truth->cameras.begin(), ground_truth->cameras.end(),
+                                  [&](const CameraDifference& x) { return x.label == c.label; });
+      if (d != ground_truth->cameras.end()) {
+        out << "<td>" << fixed(d->position_error_m * 1000, 1) << "</td><td>"
+            << fixed(d->rotation_error_deg, 3) << "</td>";
+      } else {
+        out << "<td></td><td></td>";
+      }
+    }
+    out << "<td class=l>" << escape(c.reason);
+    for (const std::string& w : c.warnings) out << (c.reason.empty() ? "" : "; ") << escape(w);
+    out << "</td></tr>\n";
+  }
+  out << "</table>\n<p class=note>&sigma;: one standard deviation along the worst direction, from "
+         "the registration's covariance. Residuals: RMS of the looking-down residuals of the "
+         "used detections.</p>\n";
+
+  // Table I.
+  out << "<h2>Reprojection of the camera positions into the fisheye (paper's Table I)</h2>\n";
+  if (reprojection.total.blobs > 0) {
+    out << "<table><tr><th class=l></th><th>blobs</th><th>RMSE before refinement [px]</th>"
+           "<th>RMSE after refinement [px]</th></tr>\n";
+    out << "<tr><td class=l>recomputed from blob_associations.csv</td><td>"
+        << reprojection.total.blobs << "</td><td>"
+        << (reprojection.total.blobs_before ? fixed(reprojection.total.rms_px_before, 3) : "-")
+        << "</td><td>"
+        << (reprojection.total.blobs_after ? fixed(reprojection.total.rms_px_after, 3) : "-")
+        << "</td></tr>\n";
+    if (registration.reprojection) {
+      out << "<tr><td class=l>reported by the registration</td><td>"
+          << registration.reprojection->blobs << "</td><td>"
+          << fixed(registration.reprojection->rms_px_before, 3) << "</td><td>"
+          << fixed(registration.reprojection->rms_px_after, 3) << "</td></tr>\n";
+    }
+    out << "</table>\n";
+  } else {
+    out << "<p class=note>No blob association: the looking-up stage did not run (no fisheye "
+           "blobs, or a metric trajectory without fisheye frames).</p>\n";
+  }
+
+  // Table II.
+  if (ground_truth || against) {
+    out << "<h2>Comparison (paper's Table II form: RMS differences per axis)</h2>\n";
+    if (ground_truth)
+      comparisonTables(out, *ground_truth, "Against ground truth " + options.ground_truth.string());
+    if (against)
+      comparisonTables(out, *against, "Against the registration " + options.against.string());
+  }
+
+  // Robot calibration, observability, warnings.
+  out << "<h2>Robot: fisheye_from_marker</h2>\n<p>translation [m] ("
+      << fixed(registration.fisheye_from_marker.translation.x(), 4) << ", "
+      << fixed(registration.fisheye_from_marker.translation.y(), 4) << ", "
+      << fixed(registration.fisheye_from_marker.translation.z(), 4)
+      << "), determined by the data: ";
+  const char* names[6] = {"x", "y", "z", "roll", "pitch", "yaw"};
+  for (int i = 0; i < 6; ++i) {
+    out << names[i] << (registration.fisheye_from_marker_determined[i] ? " yes" : " <b>no</b>")
+        << (i < 5 ? ", " : "");
+  }
+  out << ".";
+  if (!registration.fisheye_from_marker_prior.empty()) {
+    out << " Prior: " << escape(registration.fisheye_from_marker_prior) << ".";
+  }
+  out << "</p>\n";
+  if (!registration.observability.message.empty()) {
+    out << "<p>" << escape(registration.observability.message) << "</p>\n";
+  }
+  if (!registration.warnings.empty()) {
+    out << "<h2>Warnings</h2>\n<ul>";
+    for (const std::string& w : registration.warnings) out << "<li>" << escape(w) << "</li>";
+    out << "</ul>\n";
+  }
+
+  // Pictures.
+  out << "<h2>Pictures</h2>\n";
+  const std::pair<const char*, const char*> groups[] = {
+      {"fisheye_check",
+       "Reprojection checks on fisheye frames: detected blobs (green rings), camera positions "
+       "before (red crosses) and after (blue discs) the looking-up refinement."},
+      {"env_view", "Environment cameras' views of the robot's marker."},
+      {"overview_3d", "3-D overview."},
+      {"compare", "Top and side views against the reference."},
+      {"loop_closure", "Trajectory before and after loop closure."}};
+  for (const auto& [kind, heading] : groups) {
+    bool any = false;
+    for (const SnapshotPicture& picture : pictures.pictures) {
+      if (picture.kind != kind) continue;
+      if (!any) out << "<p>" << heading << "</p>\n";
+      any = true;
+      std::ifstream in(picture.file, std::ios::binary);
+      const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
+                                             std::istreambuf_iterator<char>());
+      out << "<figure><img alt=\"" << escape(picture.file.filename().string())
+          << "\" src=\"data:image/png;base64," << base64(bytes) << "\"><figcaption>"
+          << escape(picture.caption) << " <i>(" << escape(picture.file.filename().string())
+          << ")</i></figcaption></figure>\n";
+    }
+  }
+  for (const std::string& note : pictures.notes)
+    out << "<p class=note>" << escape(note) << "</p>\n";
+  out << "<p class=note>Written by lookboth " << escape(versionString())
+      << " (lookboth report). Self-contained: no script, no external resource.</p>\n";
+  out << "</body></html>\n";
+
+  const std::string html = out.str();
+  writeFileAtomically(options.out, html);
+  summary.bytes = html.size();
+  progress.report("report: write", 1, 1);
+  return summary;
+}
+
+}  // namespace lookboth::report

@@ -1,0 +1,149 @@
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <filesystem>
+#include <mutex>
+
+#include "lookboth/core/error.h"
+#include "lookboth/sim/simulate.h"
+#include "lookboth/studio/dataset_index.h"
+#include "lookboth/studio/job_runner.h"
+
+namespace lookboth::studio {
+namespace {
+
+namespace fs = std::filesystem;
+
+class TempDir {
+ public:
+  TempDir() {
+    path_ = fs::temp_directory_path() /
+            ("lookboth_studio_test_" +
+             std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
+             ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(path_);
+    fs::create_directories(path_);
+  }
+  ~TempDir() { fs::remove_all(path_); }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+TEST(DatasetIndexTest, IndexesASimulatedDatasetByCameraAndTime) {
+  TempDir dir;
+  sim::SimulateOptions options;
+  options.scenario = "small";
+  options.out = dir.path() / "small.rawlog";
+  options.detections_only = true;
+  options.max_duration_s = 20;
+  const sim::SimulateSummary summary = sim::simulate(options, ProgressReporter());
+
+  std::int64_t last_done = -1;
+  const DatasetIndex index = DatasetIndex::build(
+      options.out, ProgressReporter([&](const ProgressEvent& e) { last_done = e.done; }));
+  EXPECT_EQ(last_done, summary.total());
+  EXPECT_EQ(index.recordCounts().at("marker"), summary.records.at("marker"));
+  EXPECT_EQ(static_cast<std::int64_t>(index.blobs().size()), summary.records.at("blobs"));
+  ASSERT_NE(index.trajectory("ground_truth"), nullptr);
+  ASSERT_NE(index.trajectory("odometry"), nullptr);
+  EXPECT_TRUE(index.fisheyeFrames().empty());  // detections only: no images
+
+  const auto rows = index.cameraSummaries();
+  EXPECT_EQ(static_cast<int>(rows.size()), summary.cameras);
+  std::int64_t detections = 0;
+  for (const auto& row : rows) {
+    EXPECT_TRUE(row.has_calibration) << row.label;
+    detections += row.detections;
+    const auto& markers = index.markers(row.label);
+    for (size_t i = 1; i < markers.size(); ++i) EXPECT_LE(markers[i - 1].t, markers[i].t);
+    if (row.detections > 0) {
+      EXPECT_LE(row.first_detection, row.last_detection);
+    }
+  }
+  EXPECT_EQ(detections, summary.records.at("marker"));
+  ASSERT_FALSE(index.blobs().empty());
+  const BlobObservation& some = index.blobs()[index.blobs().size() / 2];
+  ASSERT_NE(index.blobsAt(some.t), nullptr);
+  EXPECT_EQ(index.blobsAt(some.t)->t, some.t);
+  EXPECT_EQ(index.blobsAt(some.t + 1), nullptr);
+  EXPECT_TRUE(index.markers("no such camera").empty());
+}
+
+TEST(DatasetIndexTest, MissingDatasetIsAnErrorNamingIt) {
+  try {
+    DatasetIndex::build("/nonexistent/lookboth/x.rawlog");
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("x.rawlog"), std::string::npos) << e.what();
+  }
+}
+
+// Waits for a JobRunner's completion callback.
+struct DoneLatch {
+  std::mutex mutex;
+  std::condition_variable cv;
+  bool done = false;
+  JobResult result;
+  void set(const JobResult& r) {
+    std::lock_guard<std::mutex> lock(mutex);
+    result = r;
+    done = true;
+    cv.notify_all();
+  }
+  JobResult get() {
+    std::unique_lock<std::mutex> lock(mutex);
+    cv.wait(lock, [&] { return done; });
+    return result;
+  }
+};
+
+TEST(JobRunnerTest, ReportsSuccessProgressAndErrors) {
+  JobRunner runner;
+  DoneLatch ok;
+  std::int64_t progress_seen = 0;
+  ASSERT_TRUE(runner.start(
+      "count", [](const ProgressReporter& p) { p.report("count", 3, 3); },
+      [&](const ProgressEvent& e) { progress_seen = e.done; },
+      [&](const JobResult& r) { ok.set(r); }));
+  EXPECT_EQ(ok.get().status, JobStatus::kSucceeded);
+  runner.wait();
+  EXPECT_EQ(progress_seen, 3);
+
+  DoneLatch failed;
+  ASSERT_TRUE(runner.start(
+      "bad", [](const ProgressReporter&) { throw Error("x.yaml: bad field"); }, nullptr,
+      [&](const JobResult& r) { failed.set(r); }));
+  const JobResult r = failed.get();
+  EXPECT_EQ(r.status, JobStatus::kFailed);
+  EXPECT_NE(r.message.find("x.yaml"), std::string::npos);
+}
+
+TEST(JobRunnerTest, StopRequestEndsALongJobAsStoppedAndRefusesASecondJob) {
+  JobRunner runner;
+  DoneLatch done;
+  std::atomic<bool> started{false};
+  ASSERT_TRUE(runner.start(
+      "long",
+      [&](const ProgressReporter& p) {
+        started = true;
+        for (;;) {
+          p.checkStop();
+          std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        }
+      },
+      nullptr, [&](const JobResult& r) { done.set(r); }));
+  while (!started) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  EXPECT_TRUE(runner.running());
+  EXPECT_FALSE(runner.start(
+      "second", [](const ProgressReporter&) {}, nullptr, nullptr));
+  runner.requestStop();
+  EXPECT_EQ(done.get().status, JobStatus::kStopped);
+  runner.wait();
+  EXPECT_FALSE(runner.running());
+}
+
+}  // namespace
+}  // namespace lookboth::studio

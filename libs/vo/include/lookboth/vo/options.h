@@ -1,0 +1,77 @@
+// Options of the fisheye visual odometry (YAML section `odometry:` of a
+// lookboth configuration file; defaults in share/lookboth/config/default.yaml,
+// fields in doc/formats.md, "Configuration: odometry").
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+namespace lookboth::vo {
+
+struct OdometryOptions {
+  // Images.
+  int working_width = 640;  ///< Frames wider than this are downscaled by an integer factor [px].
+  double max_incidence_deg =
+      90;                ///< Features farther than this from the optical axis are dropped [deg].
+  double border_px = 8;  ///< Margin from the image border and the valid circle [px, working].
+
+  // Features and tracking (pixel sizes at the working resolution).
+  int max_features = 500;  ///< Tracked features kept per frame.
+  int grid_cols = 8;       ///< Detection grid: new features go to cells with few tracks.
+  int grid_rows = 6;
+  double min_feature_distance_px = 8;  ///< Between tracked features [px].
+  double fast_threshold = 6;           ///< FAST corner threshold (intensity levels).
+  int klt_window_px = 15;              ///< Lucas-Kanade window side [px].
+  int klt_levels = 3;                  ///< Pyramid levels above the working image.
+  double klt_max_fb_error_px = 1.0;    ///< Forward-backward consistency bound [px].
+
+  // Geometry.
+  double ransac_threshold_px = 2.0;  ///< Inlier bound on the angular error x focal length [px].
+  int ransac_max_iterations = 300;
+  double init_min_parallax_deg = 2.5;  ///< Median triangulation angle needed to initialise [deg].
+  int init_min_inliers = 50;           ///< Inliers of the first two-view geometry.
+  int min_tracking_inliers = 15;       ///< Fewer inliers in a frame = tracking lost.
+  double triangulation_min_angle_deg = 1.0;  ///< New landmarks need this parallax [deg].
+
+  // Keyframes and local bundle adjustment.
+  double keyframe_translation_ratio = 0.06;  ///< New keyframe after moving this x median depth.
+  double keyframe_tracked_ratio = 0.65;  ///< ... or when fewer than this share of landmarks remain.
+  double keyframe_rotation_deg = 10;     ///< ... or after turning this much [deg].
+  int max_frames_between_keyframes = 20;
+  int local_window = 12;      ///< Keyframes adjusted at each new keyframe.
+  int local_iterations = 10;  ///< Solver iterations of the local adjustment.
+  double huber_px = 1.5;      ///< Robust loss scale of the adjustments [px].
+
+  // Loop closure.
+  bool loop_closure = true;
+  int loop_min_keyframe_gap = 40;          ///< Candidates are at least this many keyframes older.
+  int loop_min_inliers = 25;               ///< Verified 2D-3D matches needed to close a loop.
+  int vocabulary_words = 512;              ///< Visual words (trained on the first keyframes).
+  int vocabulary_training_keyframes = 30;  ///< Keyframes whose descriptors train the vocabulary.
+  int loop_candidates = 5;                 ///< Best-scoring keyframes verified per new keyframe.
+  int loop_features = 500;                 ///< ORB features per keyframe for place recognition.
+  int global_iterations = 30;              ///< Solver iterations of the global adjustment.
+
+  // Tracking loss.
+  int relocalisation_keyframes = 30;  ///< Recent keyframes matched when relocalising.
+  int max_lost_frames = 10;  ///< Then a new segment starts (joined by scale and last pose).
+
+  // Output.
+  bool all_frames = true;  ///< Poses of every tracked frame (else keyframes only).
+
+  // Execution.
+  int threads = 1;         ///< Solver threads (results do not depend on it for 1).
+  std::uint32_t seed = 1;  ///< RANSAC seed.
+
+  /// Empty when valid; else a message naming the field.
+  std::string check() const;
+};
+
+/// Reads the `odometry:` section of a configuration file over `defaults`
+/// (keys absent keep their value; unknown keys are errors naming file and line).
+/// A file without the section returns `defaults`.
+OdometryOptions loadOdometryOptions(const std::filesystem::path& yaml,
+                                    const OdometryOptions& defaults = {});
+
+}  // namespace lookboth::vo

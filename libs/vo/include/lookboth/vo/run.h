@@ -1,0 +1,42 @@
+// `lookboth odometry`: the visual odometry over a dataset's fisheye frames.
+//
+// Frames are read and decoded (and downscaled to the working resolution) on
+// a second thread, overlapped with tracking on the calling thread. Outputs
+// (a TUM file) are written atomically, and only when the run completes.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "lookboth/core/progress.h"
+#include "lookboth/vo/odometry.h"
+#include "lookboth/vo/options.h"
+
+namespace lookboth::vo {
+
+struct OdometryRunOptions {
+  std::filesystem::path dataset;  ///< A rawlog dataset or a folder.
+  OdometryOptions odometry;
+  std::filesystem::path tum_out;  ///< Trajectory in TUM format; empty = none.
+  bool overwrite = true;          ///< Replace an existing TUM file.
+  std::string camera;             ///< The fisheye's label; empty = the manifest's fisheye.
+  double max_duration_s = 0;      ///< Only the first seconds of frames [s]; 0 = all.
+  std::string check() const;
+};
+
+struct OdometryRunSummary {
+  OdometryResult result;
+  std::string camera;  ///< Label of the fisheye used.
+  int working_width = 0, working_height = 0;
+  double decode_seconds = 0;  ///< Reading + decoding + downscaling (second thread).
+  double track_seconds = 0;   ///< VisualOdometry::processFrame, all frames (this thread).
+  double finish_seconds = 0;  ///< Final global adjustment.
+  double wall_seconds = 0;
+  std::optional<AteResult> ate;  ///< Against the dataset's "ground_truth" trajectory, if any.
+  std::optional<AteResult> ate_keyframes;
+};
+
+OdometryRunSummary runOdometry(const OdometryRunOptions& options, const ProgressReporter& progress);
+
+}  // namespace lookboth::vo

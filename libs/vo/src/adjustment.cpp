@@ -1,0 +1,224 @@
+// Bundle adjustment on bearings and the Sim(3) pose graph, in Ceres.
+#include <ceres/ceres.h>
+
+#include <cmath>
+
+#include "lookboth/geometry/lie.h"
+#include "lookboth/vo/bearing_geometry.h"
+#include "map.h"
+
+namespace lookboth::vo {
+namespace {
+
+/// Reprojection error on the tangent plane of the measured bearing f:
+///   p_c = R^T (X - C)   (R, C: world_from_camera rotation and camera centre)
+///   r   = focal * [b1.p_c; b2.p_c] / (f.p_c)
+/// i.e. the gnomonic projection of the predicted direction onto the plane
+/// tangent to the unit sphere at f, in pixels (focal in px/rad). It is
+/// defined for any incidence angle (beyond 90 deg too) and grows without
+/// bound as the prediction turns 90 deg away from f; the denominator is
+/// floored so that a gross outlier gives a large but finite residual.
+struct TangentResidual {
+  TangentResidual(const Eigen::Vector3d& bearing, double focal)
+      : f(bearing.normalized()), basis(tangentBasis(bearing)), focal(focal) {}
+
+  template <typename T>
+  bool operator()(const T* q_world_from_camera, const T* c_in_world, const T* p_in_world,
+                  T* residual) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> q(q_world_from_camera);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> c(c_in_world);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p(p_in_world);
+    const Eigen::Matrix<T, 3, 1> p_c = q.conjugate() * (p - c);
+    T depth = f.cast<T>().dot(p_c);
+    const T floor = T(0.1) * p_c.norm();
+    if (depth < floor) depth = floor;
+    const Eigen::Matrix<T, 2, 1> tangent = basis.cast<T>() * p_c;
+    residual[0] = T(focal) * tangent(0) / depth;
+    residual[1] = T(focal) * tangent(1) / depth;
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const Eigen::Vector3d& bearing, double focal) {
+    return new ceres::AutoDiffCostFunction<TangentResidual, 2, 4, 3, 3>(
+        new TangentResidual(bearing, focal));
+  }
+
+  Eigen::Vector3d f;
+  Eigen::Matrix<double, 2, 3> basis;
+  double focal;
+};
+
+/// Sim(3) relative-pose error: D = Z^-1 * (T_from^-1 * T_to), residual
+/// [D.translation; log(D.rotation); log(D.scale)] * weight. Parameters per
+/// node: quaternion (4), translation (3), log scale (1).
+struct Sim3EdgeResidual {
+  explicit Sim3EdgeResidual(const Sim3d& measured, double weight)
+      : measured_inverse(measured.inverse()), weight(weight) {}
+
+  template <typename T>
+  bool operator()(const T* q_from, const T* t_from, const T* s_from, const T* q_to, const T* t_to,
+                  const T* s_to, T* residual) const {
+    using std::exp;
+    using std::log;
+    const Sim3<T> world_from_a(exp(s_from[0]), Eigen::Map<const Eigen::Quaternion<T>>(q_from),
+                               Eigen::Map<const Eigen::Matrix<T, 3, 1>>(t_from));
+    const Sim3<T> world_from_b(exp(s_to[0]), Eigen::Map<const Eigen::Quaternion<T>>(q_to),
+                               Eigen::Map<const Eigen::Matrix<T, 3, 1>>(t_to));
+    const Sim3<T> z_inv(T(measured_inverse.scale), measured_inverse.rotation.cast<T>(),
+                        measured_inverse.translation.cast<T>());
+    const Sim3<T> d = z_inv * (world_from_a.inverse() * world_from_b);
+    const Eigen::Matrix<T, 3, 1> w = so3Log(d.rotation);
+    for (int i = 0; i < 3; ++i) {
+      residual[i] = T(weight) * d.translation(i);
+      residual[3 + i] = T(weight) * w(i);
+    }
+    residual[6] = T(weight) * log(d.scale);
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const Sim3d& measured, double weight) {
+    return new ceres::AutoDiffCostFunction<Sim3EdgeResidual, 7, 4, 3, 1, 4, 3, 1>(
+        new Sim3EdgeResidual(measured, weight));
+  }
+
+  Sim3d measured_inverse;
+  double weight;
+};
+
+}  // namespace
+
+double tangentError(const Eigen::Vector3d& bearing, const Eigen::Vector3d& p_in_camera) {
+  return angularError(bearing, p_in_camera);
+}
+
+int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& fixed,
+                 const AdjustmentOptions& options) {
+  // Parameter blocks: per keyframe [qx qy qz qw] and camera centre; per landmark its point.
+  struct Pose {
+    Eigen::Quaterniond q;
+    Eigen::Vector3d c;
+  };
+  std::map<int, Pose> poses;
+  std::set<int> landmark_ids;
+  for (int k : variable) {
+    for (int l : map.keyframes[k].landmarks) {
+      if (map.landmarks[l].valid) landmark_ids.insert(l);
+    }
+  }
+  if (landmark_ids.empty()) return 0;
+
+  ceres::Problem::Options problem_options;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  ceres::EigenQuaternionManifold quaternion_manifold;
+  ceres::HuberLoss* loss = new ceres::HuberLoss(options.huber_px);
+
+  auto pose_of = [&](int k) -> Pose& {
+    auto it = poses.find(k);
+    if (it == poses.end()) {
+      const Rigid3d& w = map.keyframes[k].world_from_camera;
+      it = poses.emplace(k, Pose{w.rotation, w.translation}).first;
+    }
+    return it->second;
+  };
+  int residuals = 0;
+  for (int l : landmark_ids) {
+    Landmark& landmark = map.landmarks[l];
+    for (const Observation& o : landmark.observations) {
+      Pose& pose = pose_of(o.keyframe);
+      problem.AddResidualBlock(TangentResidual::Create(o.bearing, options.focal_px), loss,
+                               pose.q.coeffs().data(), pose.c.data(), landmark.p_in_world.data());
+      ++residuals;
+    }
+  }
+  for (auto& [k, pose] : poses) {
+    problem.SetManifold(pose.q.coeffs().data(), &quaternion_manifold);
+    if (!variable.count(k) || fixed.count(k)) {
+      problem.SetParameterBlockConstant(pose.q.coeffs().data());
+      problem.SetParameterBlockConstant(pose.c.data());
+    }
+  }
+  // Landmarks seen by a single keyframe only have no depth constraint: hold them.
+  for (int l : landmark_ids) {
+    if (map.landmarks[l].observations.size() < 2) {
+      problem.SetParameterBlockConstant(map.landmarks[l].p_in_world.data());
+    }
+  }
+
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = variable.size() <= 20 ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
+  solver.max_num_iterations = options.iterations;
+  solver.num_threads = options.threads;
+  solver.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  delete loss;
+
+  for (auto& [k, pose] : poses) {
+    if (!variable.count(k) || fixed.count(k)) continue;
+    map.keyframes[k].world_from_camera = Rigid3d(pose.q.normalized(), pose.c);
+  }
+  // Drop observations that stay far off, and landmarks left with fewer than two.
+  const double outlier_rad = options.outlier_px / options.focal_px;
+  int removed = 0;
+  for (int l : landmark_ids) {
+    Landmark& landmark = map.landmarks[l];
+    std::vector<Observation> kept;
+    for (const Observation& o : landmark.observations) {
+      const Rigid3d camera_from_world = map.keyframes[o.keyframe].world_from_camera.inverse();
+      if (angularError(o.bearing, camera_from_world * landmark.p_in_world) < outlier_rad) {
+        kept.push_back(o);
+      } else {
+        ++removed;
+      }
+    }
+    landmark.observations = kept;
+    if (landmark.observations.size() < 2) landmark.valid = false;
+  }
+  return removed;
+}
+
+std::map<int, Sim3d> optimisePoseGraph(const std::map<int, Sim3d>& nodes,
+                                       const std::vector<PoseGraphEdge>& edges,
+                                       const std::set<int>& fixed, int iterations, int threads) {
+  struct Node {
+    Eigen::Quaterniond q;
+    Eigen::Vector3d t;
+    double log_s;
+  };
+  std::map<int, Node> values;
+  for (const auto& [k, s] : nodes) values[k] = Node{s.rotation, s.translation, std::log(s.scale)};
+  ceres::Problem::Options problem_options;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  ceres::EigenQuaternionManifold quaternion_manifold;
+  for (const PoseGraphEdge& e : edges) {
+    Node& a = values.at(e.from);
+    Node& b = values.at(e.to);
+    problem.AddResidualBlock(Sim3EdgeResidual::Create(e.from_from_to, e.weight), nullptr,
+                             a.q.coeffs().data(), a.t.data(), &a.log_s, b.q.coeffs().data(),
+                             b.t.data(), &b.log_s);
+  }
+  for (auto& [k, v] : values) {
+    if (!problem.HasParameterBlock(v.q.coeffs().data())) continue;
+    problem.SetManifold(v.q.coeffs().data(), &quaternion_manifold);
+    if (fixed.count(k)) {
+      problem.SetParameterBlockConstant(v.q.coeffs().data());
+      problem.SetParameterBlockConstant(v.t.data());
+      problem.SetParameterBlockConstant(&v.log_s);
+    }
+  }
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  solver.max_num_iterations = iterations;
+  solver.num_threads = threads;
+  solver.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  std::map<int, Sim3d> out;
+  for (const auto& [k, v] : values) out[k] = Sim3d(std::exp(v.log_s), v.q.normalized(), v.t);
+  return out;
+}
+
+}  // namespace lookboth::vo

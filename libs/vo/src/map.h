@@ -1,0 +1,98 @@
+// The map of the odometry (private): keyframes, landmarks, observations, and
+// the adjustments that work on it.
+#pragma once
+
+#include <Eigen/Core>
+#include <map>
+#include <opencv2/core.hpp>
+#include <set>
+#include <vector>
+
+#include "lookboth/geometry/rigid3.h"
+#include "lookboth/geometry/sim3.h"
+#include "lookboth/geometry/time.h"
+
+namespace lookboth::vo {
+
+struct Observation {
+  int keyframe = -1;
+  Eigen::Vector3d bearing = Eigen::Vector3d::UnitZ();  ///< Unit, in the keyframe's camera frame.
+};
+
+struct Landmark {
+  Eigen::Vector3d p_in_world = Eigen::Vector3d::Zero();
+  std::vector<Observation> observations;
+  int reference_keyframe = -1;  ///< The first keyframe that saw it (moves it in a correction).
+  bool valid = true;
+};
+
+struct Keyframe {
+  int id = -1;
+  TimeNs t = 0;
+  int segment = 0;
+  Rigid3d world_from_camera;
+  std::vector<int> landmarks;  ///< Landmarks observed (valid or not: check the landmark).
+  double median_depth = 1.0;   ///< Of its landmarks [map units].
+  // Loop closure and relocalisation: ORB descriptors of its landmark observations.
+  cv::Mat descriptors;  ///< One row per entry of descriptor_landmarks.
+  std::vector<int> descriptor_landmarks;
+  // ORB features detected afresh in the keyframe (for place recognition and
+  // the 2D-3D verification of loops): descriptors and their bearings.
+  cv::Mat orb_descriptors;
+  std::vector<Eigen::Vector3d> orb_bearings;
+};
+
+struct Map {
+  std::vector<Keyframe> keyframes;  ///< Indexed by id.
+  std::vector<Landmark> landmarks;  ///< Indexed by id.
+
+  int addLandmark(const Eigen::Vector3d& p, int reference_keyframe) {
+    Landmark l;
+    l.p_in_world = p;
+    l.reference_keyframe = reference_keyframe;
+    landmarks.push_back(l);
+    return static_cast<int>(landmarks.size()) - 1;
+  }
+  /// Adds the observation to both the landmark and the keyframe (once).
+  void observe(int landmark, int keyframe, const Eigen::Vector3d& bearing) {
+    Landmark& l = landmarks[landmark];
+    for (const Observation& o : l.observations) {
+      if (o.keyframe == keyframe) return;
+    }
+    l.observations.push_back({keyframe, bearing});
+    keyframes[keyframe].landmarks.push_back(landmark);
+  }
+};
+
+struct AdjustmentOptions {
+  double focal_px = 200;  ///< Pixels per radian: residuals are in pixels.
+  double huber_px = 1.5;
+  int iterations = 10;
+  int threads = 1;
+  double outlier_px = 6;  ///< Observations worse than this after the solve are removed.
+};
+
+/// Bundle adjustment of the keyframes `variable` and their landmarks; the
+/// other keyframes that see those landmarks stay fixed, as do the keyframes
+/// in `fixed` (the gauge). Removes outlier observations afterwards. Returns
+/// the number of observations removed.
+int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& fixed,
+                 const AdjustmentOptions& options);
+
+/// Residual of the adjustments: tangent-plane (gnomonic) projection of the
+/// predicted direction around the measured bearing [rad].
+double tangentError(const Eigen::Vector3d& bearing, const Eigen::Vector3d& p_in_camera);
+
+struct PoseGraphEdge {
+  int from = -1, to = -1;
+  Sim3d from_from_to;  ///< Measured relative similarity.
+  double weight = 1.0;
+};
+
+/// Sim(3) pose graph over keyframes: returns corrected world_from_keyframe
+/// similarities for `nodes` (initial values given); `fixed` nodes do not move.
+std::map<int, Sim3d> optimisePoseGraph(const std::map<int, Sim3d>& nodes,
+                                       const std::vector<PoseGraphEdge>& edges,
+                                       const std::set<int>& fixed, int iterations, int threads);
+
+}  // namespace lookboth::vo

@@ -1,0 +1,153 @@
+#include "lookboth/vo/options.h"
+
+#include <fstream>
+#include <functional>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "lookboth/core/error.h"
+#include "lookboth/core/yaml_reader.h"
+
+namespace lookboth::vo {
+namespace {
+
+std::string positive(const char* name, double value) {
+  return value > 0 ? "" : std::string("'") + name + "': must be positive";
+}
+
+}  // namespace
+
+std::string OdometryOptions::check() const {
+  const std::pair<const char*, double> positives[] = {
+      {"working_width", double(working_width)},
+      {"max_incidence_deg", max_incidence_deg},
+      {"max_features", double(max_features)},
+      {"grid_cols", double(grid_cols)},
+      {"grid_rows", double(grid_rows)},
+      {"min_feature_distance_px", min_feature_distance_px},
+      {"fast_threshold", fast_threshold},
+      {"klt_window_px", double(klt_window_px)},
+      {"klt_max_fb_error_px", klt_max_fb_error_px},
+      {"ransac_threshold_px", ransac_threshold_px},
+      {"ransac_max_iterations", double(ransac_max_iterations)},
+      {"init_min_parallax_deg", init_min_parallax_deg},
+      {"init_min_inliers", double(init_min_inliers)},
+      {"min_tracking_inliers", double(min_tracking_inliers)},
+      {"triangulation_min_angle_deg", triangulation_min_angle_deg},
+      {"keyframe_translation_ratio", keyframe_translation_ratio},
+      {"keyframe_tracked_ratio", keyframe_tracked_ratio},
+      {"keyframe_rotation_deg", keyframe_rotation_deg},
+      {"max_frames_between_keyframes", double(max_frames_between_keyframes)},
+      {"local_window", double(local_window)},
+      {"local_iterations", double(local_iterations)},
+      {"huber_px", huber_px},
+      {"loop_min_keyframe_gap", double(loop_min_keyframe_gap)},
+      {"loop_min_inliers", double(loop_min_inliers)},
+      {"vocabulary_words", double(vocabulary_words)},
+      {"vocabulary_training_keyframes", double(vocabulary_training_keyframes)},
+      {"loop_candidates", double(loop_candidates)},
+      {"loop_features", double(loop_features)},
+      {"global_iterations", double(global_iterations)},
+      {"relocalisation_keyframes", double(relocalisation_keyframes)},
+      {"max_lost_frames", double(max_lost_frames)},
+      {"threads", double(threads)},
+  };
+  for (const auto& [name, value] : positives) {
+    if (std::string why = positive(name, value); !why.empty()) return why;
+  }
+  if (border_px < 0) return "'border_px': must not be negative";
+  if (klt_levels < 0) return "'klt_levels': must not be negative";
+  if (max_incidence_deg > 120) return "'max_incidence_deg': must be at most 120";
+  if (keyframe_tracked_ratio >= 1) return "'keyframe_tracked_ratio': must be below 1";
+  if (min_tracking_inliers < 6) return "'min_tracking_inliers': must be at least 6";
+  if (init_min_inliers < 8) return "'init_min_inliers': must be at least 8";
+  if (loop_min_inliers < 6) return "'loop_min_inliers': must be at least 6";
+  if (local_window < 2) return "'local_window': must be at least 2";
+  return "";
+}
+
+OdometryOptions loadOdometryOptions(const std::filesystem::path& yaml,
+                                    const OdometryOptions& defaults) {
+  std::ifstream in(yaml);
+  if (!in) throw Error(yaml.string() + ": cannot open");
+  std::stringstream text;
+  text << in.rdbuf();
+  const YamlReader reader(yaml.string());
+  const YAML::Node root = reader.parse(text.str());
+  OdometryOptions o = defaults;
+  if (!root.IsMap() || !root["odometry"]) return o;
+  const YAML::Node node = root["odometry"];
+  if (!node.IsMap()) throw Error(reader.at(node, "odometry"), "expected a mapping");
+
+  std::map<std::string, std::function<void(const YAML::Node&, const std::string&)>> fields;
+  auto integer = [&](const char* name, int* target) {
+    fields[name] = [&reader, target](const YAML::Node& n, const std::string& f) {
+      *target = static_cast<int>(reader.integer(n, f));
+    };
+  };
+  auto number = [&](const char* name, double* target) {
+    fields[name] = [&reader, target](const YAML::Node& n, const std::string& f) {
+      *target = reader.number(n, f);
+    };
+  };
+  auto boolean = [&](const char* name, bool* target) {
+    fields[name] = [&reader, target](const YAML::Node& n, const std::string& f) {
+      *target = reader.boolean(n, f);
+    };
+  };
+  integer("working_width", &o.working_width);
+  number("max_incidence_deg", &o.max_incidence_deg);
+  number("border_px", &o.border_px);
+  integer("max_features", &o.max_features);
+  integer("grid_cols", &o.grid_cols);
+  integer("grid_rows", &o.grid_rows);
+  number("min_feature_distance_px", &o.min_feature_distance_px);
+  number("fast_threshold", &o.fast_threshold);
+  integer("klt_window_px", &o.klt_window_px);
+  integer("klt_levels", &o.klt_levels);
+  number("klt_max_fb_error_px", &o.klt_max_fb_error_px);
+  number("ransac_threshold_px", &o.ransac_threshold_px);
+  integer("ransac_max_iterations", &o.ransac_max_iterations);
+  number("init_min_parallax_deg", &o.init_min_parallax_deg);
+  integer("init_min_inliers", &o.init_min_inliers);
+  integer("min_tracking_inliers", &o.min_tracking_inliers);
+  number("triangulation_min_angle_deg", &o.triangulation_min_angle_deg);
+  number("keyframe_translation_ratio", &o.keyframe_translation_ratio);
+  number("keyframe_tracked_ratio", &o.keyframe_tracked_ratio);
+  number("keyframe_rotation_deg", &o.keyframe_rotation_deg);
+  integer("max_frames_between_keyframes", &o.max_frames_between_keyframes);
+  integer("local_window", &o.local_window);
+  integer("local_iterations", &o.local_iterations);
+  number("huber_px", &o.huber_px);
+  boolean("loop_closure", &o.loop_closure);
+  integer("loop_min_keyframe_gap", &o.loop_min_keyframe_gap);
+  integer("loop_min_inliers", &o.loop_min_inliers);
+  integer("vocabulary_words", &o.vocabulary_words);
+  integer("vocabulary_training_keyframes", &o.vocabulary_training_keyframes);
+  integer("loop_candidates", &o.loop_candidates);
+  integer("loop_features", &o.loop_features);
+  integer("global_iterations", &o.global_iterations);
+  integer("relocalisation_keyframes", &o.relocalisation_keyframes);
+  integer("max_lost_frames", &o.max_lost_frames);
+  boolean("all_frames", &o.all_frames);
+  integer("threads", &o.threads);
+  fields["seed"] = [&reader, &o](const YAML::Node& n, const std::string& f) {
+    const long long seed = reader.integer(n, f);
+    if (seed < 0 || seed > 4294967295LL) throw Error(reader.at(n, f), "must be in [0, 4294967295]");
+    o.seed = static_cast<std::uint32_t>(seed);
+  };
+
+  std::set<std::string> known;
+  for (const auto& entry : fields) known.insert(entry.first);
+  reader.rejectUnknownKeys(node, known, "odometry");
+  for (const auto& entry : node) {
+    const std::string key = entry.first.as<std::string>();
+    fields.at(key)(entry.second, "odometry." + key);
+  }
+  if (const std::string why = o.check(); !why.empty())
+    throw Error(yaml.string() + ": 'odometry." + why.substr(1));
+  return o;
+}
+
+}  // namespace lookboth::vo

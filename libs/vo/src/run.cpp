@@ -1,0 +1,218 @@
+#include "lookboth/vo/run.h"
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <mutex>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <thread>
+
+#include "lookboth/core/error.h"
+#include "lookboth/dataset/dataset_io.h"
+#include "lookboth/geometry/time.h"
+#include "lookboth/geometry/tum.h"
+
+namespace lookboth::vo {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+
+struct DecodedFrame {
+  TimeNs t = 0;
+  cv::Mat image;  ///< Working resolution, 8-bit grey.
+};
+
+/// Bounded single-producer single-consumer queue; `close()` ends it.
+class FrameQueue {
+ public:
+  explicit FrameQueue(size_t capacity) : capacity_(capacity) {}
+  bool push(DecodedFrame frame) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    not_full_.wait(lock, [&] { return queue_.size() < capacity_ || cancelled_; });
+    if (cancelled_) return false;
+    queue_.push_back(std::move(frame));
+    not_empty_.notify_one();
+    return true;
+  }
+  std::optional<DecodedFrame> pop() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    not_empty_.wait(lock, [&] { return !queue_.empty() || closed_; });
+    if (queue_.empty()) return std::nullopt;
+    DecodedFrame f = std::move(queue_.front());
+    queue_.pop_front();
+    not_full_.notify_one();
+    return f;
+  }
+  void close(std::exception_ptr error = nullptr) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    closed_ = true;
+    error_ = error;
+    not_empty_.notify_all();
+  }
+  void cancel() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    cancelled_ = true;
+    not_full_.notify_all();
+  }
+  std::exception_ptr error() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return error_;
+  }
+
+ private:
+  size_t capacity_;
+  std::mutex mutex_;
+  std::condition_variable not_empty_, not_full_;
+  std::deque<DecodedFrame> queue_;
+  bool closed_ = false, cancelled_ = false;
+  std::exception_ptr error_;
+};
+
+cv::Mat decode(const ImageFrame& frame) {
+  cv::Mat image;
+  if (frame.encoded) {
+    const cv::Mat bytes(1, static_cast<int>(frame.encoded->size()), CV_8U,
+                        const_cast<std::uint8_t*>(frame.encoded->data()));
+    image = cv::imdecode(bytes, cv::IMREAD_GRAYSCALE);
+  } else {
+    image = cv::imread(frame.image_file.string(), cv::IMREAD_GRAYSCALE);
+  }
+  if (image.empty())
+    throw Error(frame.image_file.string() +
+                ": cannot decode the fisheye frame at t=" + formatSeconds(frame.t));
+  return image;
+}
+
+}  // namespace
+
+std::string OdometryRunOptions::check() const {
+  if (dataset.empty()) return "'dataset': missing";
+  if (max_duration_s < 0) return "'max_duration_s': must not be negative";
+  return odometry.check();
+}
+
+OdometryRunSummary runOdometry(const OdometryRunOptions& options,
+                               const ProgressReporter& progress) {
+  if (const std::string why = options.check(); !why.empty()) throw Error("odometry: " + why);
+  const Clock::time_point start = Clock::now();
+  if (!options.tum_out.empty() && !options.overwrite && std::filesystem::exists(options.tum_out))
+    throw Error(options.tum_out.string() + ": already exists");
+
+  auto reader = DatasetReader::open(options.dataset);
+  const Manifest manifest = reader->manifest();
+  const CameraSensor* sensor =
+      options.camera.empty() ? manifest.fisheye() : manifest.findCamera(options.camera);
+  if (!sensor)
+    throw Error(
+        options.dataset.string() + ": no camera " +
+        (options.camera.empty() ? std::string("with role fisheye") : "'" + options.camera + "'"));
+  if (!sensor->camera)
+    throw Error(options.dataset.string() + ": camera '" + sensor->label + "' has no calibration");
+  const Camera camera = *sensor->camera;
+  const std::string label = sensor->label;
+  const int factor = VisualOdometry::downscaleFactor(camera.width(), options.odometry);
+
+  // OpenCV's own worker threads off: the two threads here are the design
+  // (decoding beside tracking), results and CPU timings stay per thread.
+  struct OpenCvThreads {
+    int previous = cv::getNumThreads();
+    OpenCvThreads() { cv::setNumThreads(1); }
+    ~OpenCvThreads() { cv::setNumThreads(previous); }
+  } opencv_threads;
+
+  OdometryRunSummary summary;
+  summary.camera = label;
+  summary.working_width = camera.width() / factor;
+  summary.working_height = camera.height() / factor;
+  VisualOdometry odometry(camera, options.odometry);
+
+  // Reading and decoding on a second thread; ground truth collected there too.
+  FrameQueue queue(8);
+  std::vector<StampedPose> ground_truth;
+  std::int64_t expected = reader->expectedCount();
+  double decode_seconds = 0;
+  std::atomic<std::int64_t> records_read{0};
+  std::thread producer([&] {
+    try {
+      std::optional<TimeNs> first;
+      while (auto record = reader->next()) {
+        ++records_read;
+        if (progress.stopRequested()) break;
+        if (const auto* pose = std::get_if<PoseSample>(&*record)) {
+          if (pose->label == "ground_truth")
+            ground_truth.push_back({pose->t, pose->world_from_body});
+          continue;
+        }
+        const auto* frame = std::get_if<ImageFrame>(&*record);
+        if (!frame || frame->sensor != label) continue;
+        if (!first) first = frame->t;
+        if (options.max_duration_s > 0 && frame->t - *first > secondsToNs(options.max_duration_s))
+          continue;
+        const double t0 = threadCpuSeconds();
+        DecodedFrame decoded{frame->t, VisualOdometry::prepareImage(decode(*frame), factor)};
+        decode_seconds += threadCpuSeconds() - t0;
+        if (!queue.push(std::move(decoded))) break;
+      }
+      queue.close();
+    } catch (...) {
+      queue.close(std::current_exception());
+    }
+  });
+
+  std::optional<TimeNs> last_t;
+  try {
+    while (auto frame = queue.pop()) {
+      progress.checkStop();
+      if (last_t && frame->t <= *last_t) continue;  // Duplicated or out-of-order stamp.
+      last_t = frame->t;
+      const double t0 = threadCpuSeconds();
+      odometry.processFrame(frame->t, frame->image);
+      summary.track_seconds += threadCpuSeconds() - t0;
+      const OdometryStatistics& s = odometry.statistics();
+      if (odometry.statistics().frames % 10 != 1) continue;
+      progress.report("odometry", records_read.load(), expected,
+                      std::to_string(s.keyframes) + " keyframes, " +
+                          std::to_string(s.loop_closures) + " loops, " +
+                          std::to_string(s.tracking_losses) + " losses");
+    }
+  } catch (...) {
+    queue.cancel();
+    producer.join();
+    throw;
+  }
+  producer.join();
+  if (std::exception_ptr error = queue.error()) std::rethrow_exception(error);
+  progress.checkStop();
+  summary.decode_seconds = decode_seconds;
+
+  const double t_finish = threadCpuSeconds();
+  progress.report("odometry: global adjustment", 0, 0);
+  summary.result = odometry.finish();
+  summary.finish_seconds = threadCpuSeconds() - t_finish;
+  progress.checkStop();
+
+  if (summary.result.trajectory.empty())
+    throw Error(
+        options.dataset.string() + ": odometry: no fisheye frame got a pose (" +
+        std::to_string(summary.result.statistics.frames) +
+        " frames; the map never initialised: too few frames, too little motion or texture)");
+  if (!ground_truth.empty()) {
+    std::sort(ground_truth.begin(), ground_truth.end(),
+              [](const StampedPose& a, const StampedPose& b) { return a.t < b.t; });
+    Trajectory truth;
+    for (const StampedPose& p : ground_truth) {
+      if (truth.empty() || p.t > truth.endTime()) truth.append(p.t, p.world_from_body);
+    }
+    summary.ate = absoluteTrajectoryError(summary.result.trajectory, truth);
+    summary.ate_keyframes = absoluteTrajectoryError(summary.result.keyframes, truth);
+  }
+  if (!options.tum_out.empty()) writeTumFile(options.tum_out, summary.result.trajectory);
+  summary.wall_seconds = seconds(Clock::now() - start);
+  return summary;
+}
+
+}  // namespace lookboth::vo

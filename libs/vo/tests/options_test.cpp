@@ -1,0 +1,56 @@
+#include "lookboth/vo/options.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "lookboth/core/error.h"
+
+namespace lookboth::vo {
+namespace {
+
+std::filesystem::path writeTemp(const std::string& name, const std::string& text) {
+  const auto path = std::filesystem::temp_directory_path() / name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+TEST(OdometryOptionsTest, DefaultsAreValid) { EXPECT_EQ(OdometryOptions().check(), ""); }
+
+TEST(OdometryOptionsTest, CheckNamesTheField) {
+  OdometryOptions o;
+  o.max_features = 0;
+  EXPECT_NE(o.check().find("'max_features'"), std::string::npos);
+}
+
+TEST(OdometryOptionsTest, ShippedDefaultConfigReadsAsTheDefaults) {
+  const OdometryOptions loaded =
+      loadOdometryOptions(std::filesystem::path(LOOKBOTH_SHARE_DIR) / "config" / "default.yaml");
+  const OdometryOptions defaults;
+  EXPECT_EQ(loaded.working_width, defaults.working_width);
+  EXPECT_EQ(loaded.max_features, defaults.max_features);
+  EXPECT_DOUBLE_EQ(loaded.ransac_threshold_px, defaults.ransac_threshold_px);
+  EXPECT_EQ(loaded.loop_closure, defaults.loop_closure);
+  EXPECT_EQ(loaded.seed, defaults.seed);
+}
+
+TEST(OdometryOptionsTest, ReadsValuesAndRejectsUnknownKeys) {
+  const auto good =
+      writeTemp("vo_options_good.yaml", "odometry:\n  max_features: 123\n  loop_closure: false\n");
+  const OdometryOptions o = loadOdometryOptions(good);
+  EXPECT_EQ(o.max_features, 123);
+  EXPECT_FALSE(o.loop_closure);
+  const auto bad = writeTemp("vo_options_bad.yaml", "odometry:\n  max_featurez: 123\n");
+  try {
+    loadOdometryOptions(bad);
+    FAIL() << "unknown key accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("max_featurez"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("vo_options_bad.yaml:2"), std::string::npos) << e.what();
+  }
+  const auto invalid = writeTemp("vo_options_invalid.yaml", "odometry:\n  local_window: 1\n");
+  EXPECT_THROW(loadOdometryOptions(invalid), Error);
+}
+
+}  // namespace
+}  // namespace lookboth::vo

@@ -1,0 +1,93 @@
+// End-to-end test of lookboth-studio under Xvfb: simulate a short `small`
+// run, open it, select a camera, save screenshots of the window and of each
+// view, exit; then check that the pictures show what a technician must see.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// Pixels of `image` (BGR) within `tolerance` of the colour `rgb`.
+int countColour(const cv::Mat& image, cv::Vec3b rgb, int tolerance) {
+  int n = 0;
+  for (int r = 0; r < image.rows; ++r) {
+    for (int c = 0; c < image.cols; ++c) {
+      const cv::Vec3b p = image.at<cv::Vec3b>(r, c);
+      if (std::abs(p[2] - rgb[0]) <= tolerance && std::abs(p[1] - rgb[1]) <= tolerance &&
+          std::abs(p[0] - rgb[2]) <= tolerance)
+        ++n;
+    }
+  }
+  return n;
+}
+
+double stddev(const cv::Mat& image) {
+  cv::Scalar mean;
+  cv::Scalar sd;
+  cv::meanStdDev(image, mean, sd);
+  return (sd[0] + sd[1] + sd[2]) / 3;
+}
+
+class StudioScreenshotTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / "lookboth_studio_screenshot_test";
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    if (!HasFailure() && !std::getenv("LOOKBOTH_KEEP_TEST_OUTPUT")) fs::remove_all(dir_);
+  }
+  fs::path dir_;
+};
+
+TEST_F(StudioScreenshotTest, SimulatesOpensAndShowsEveryView) {
+  const fs::path shot = dir_ / "studio.png";
+  // HOME in the work dir: the app's recent-files settings go there, not to the user's.
+  const std::string command = "cd " + dir_.string() + " && HOME=" + dir_.string() +
+                              " xvfb-run -a -s '-screen 0 1600x1000x24' " LOOKBOTH_STUDIO_EXE
+                              " --simulate small --detections-only --duration 30 --simulate-out " +
+                              (dir_ / "small.rawlog").string() +
+                              " --run-all --trajectory metric --select cam01 --screenshot " +
+                              shot.string() + " --exit > studio.log 2>&1";
+  const int status = std::system(command.c_str());
+  ASSERT_EQ(status, 0) << "see " << (dir_ / "studio.log");
+  // The whole pipeline ran through the button's code path and wrote a registration.
+  EXPECT_TRUE(fs::exists(dir_ / "small_registration" / "registration.yaml"));
+  EXPECT_TRUE(fs::exists(dir_ / "small_registration" / "cameras.csv"));
+
+  const cv::Mat window = cv::imread(shot.string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(window.empty()) << shot;
+  EXPECT_GE(window.cols, 1200);
+  EXPECT_GE(window.rows, 800);
+  EXPECT_GT(stddev(window), 20.0) << "the window looks blank";
+
+  // The 3-D view: trajectory (blue) and cameras (green frustums), not just background.
+  const cv::Mat scene = cv::imread((dir_ / "studio-scene.png").string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(scene.empty());
+  EXPECT_GT(countColour(scene, {80, 160, 255}, 40), 50) << "no trajectory in the 3-D view";
+  EXPECT_GT(countColour(scene, {40, 200, 80}, 40) + countColour(scene, {255, 200, 0}, 40), 20)
+      << "no camera in the 3-D view";
+
+  // The fisheye view: the frame (a blank canvas for detections only) with the overlay colours.
+  const cv::Mat fisheye = cv::imread((dir_ / "studio-fisheye.png").string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(fisheye.empty());
+  EXPECT_GT(stddev(fisheye), 5.0) << "the fisheye view looks blank";
+  // The report's overlay colours (libs/report/include/lookboth/report/draw.h), in RGB.
+  EXPECT_GT(countColour(fisheye, {0, 200, 0}, 30), 10) << "no detected blob drawn";
+  EXPECT_GT(countColour(fisheye, {0, 128, 255}, 30), 10) << "no camera projected after refinement";
+  EXPECT_GT(countColour(fisheye, {255, 0, 0}, 30), 5) << "no camera projected before refinement";
+
+  // The camera table: rows of dark text on a light background.
+  const cv::Mat table = cv::imread((dir_ / "studio-table.png").string(), cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(table.empty());
+  EXPECT_GT(cv::countNonZero(table < 110), 300) << "the camera table looks empty";
+}
+
+}  // namespace
