@@ -8,6 +8,7 @@ PACKAGES=(
   libeigen3-dev libceres-dev libopengv-dev
   libmrpt-dev mrpt-apps
   libopencv-dev libopencv-contrib-dev
+  opencv-doc  # real ArUco photographs for the detect tests
   libwxgtk3.2-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev

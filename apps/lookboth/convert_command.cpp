@@ -6,6 +6,7 @@
 #include "lookboth/core/error.h"
 #include "lookboth/core/progress.h"
 #include "lookboth/core/text.h"
+#include "lookboth/dataset/augment.h"
 #include "lookboth/dataset/convert.h"
 #include "lookboth/dataset/rosbag_import.h"
 #include "signals.h"
@@ -21,6 +22,8 @@ struct ConvertArgs {
   std::string topics_yaml, marker;
   std::vector<std::string> topics, calibrations;
   bool receive_time = false;
+  std::vector<std::string>
+      merge;  ///< Datasets to join (the shards of `lookboth detect --cameras`).
 };
 
 // "DICT_4X4_50:7:0.2"
@@ -95,7 +98,43 @@ TrajectoryInput parseTrajectoryArg(const std::string& text) {
   return input;
 }
 
+int runMerge(const ConvertArgs& args) {
+  MergeOptions options;
+  for (const std::string& input : args.merge) options.inputs.push_back(input);
+  options.output = args.to;
+  options.overwrite = args.overwrite;
+  options.on_issue = [](const DatasetIssue& issue) {
+    std::cerr << "lookboth: warning: " << issue.where << ": " << issue.message << "\n";
+  };
+  if (const std::string why = options.check(); !why.empty()) throw Error("'--merge': " + why);
+  const ProgressReporter progress(makeConsoleProgress());
+  const StopOnSignal stop_on_signal(progress);
+  try {
+    const MergeSummary summary = mergeDatasets(options, progress);
+    std::int64_t total = 0;
+    for (const auto& [kind, count] : summary.records) total += count;
+    std::cout << "wrote " << args.to << ": " << total << " records";
+    std::string sep = " (";
+    for (const auto& [kind, count] : summary.records) {
+      std::cout << sep << kind << ": " << count;
+      sep = ", ";
+    }
+    std::cout << (summary.records.empty() ? "" : ")") << " from " << args.merge.size()
+              << " datasets; " << summary.duplicates
+              << " records present in several written once\n";
+    return 0;
+  } catch (const StopRequested&) {
+    std::cerr << "lookboth: stopped; " << args.to << " was not written\n";
+    return 130;
+  }
+}
+
 int runConvert(const ConvertArgs& args) {
+  if (!args.merge.empty()) {
+    if (!args.from.empty()) throw Error("'--merge' and '--from' exclude each other");
+    return runMerge(args);
+  }
+  if (args.from.empty()) throw Error("'--from': required (or --merge A B ...)");
   ConvertOptions options;
   options.from = args.from;
   options.to = args.to;
@@ -140,10 +179,13 @@ void registerConvertCommand(CLI::App& app, const std::function<void(CommandBody)
       "Convert between dataset layouts (rawlog, folder), TUM trajectories and ROS 1 bags");
   const auto kinds = CLI::IsMember({"auto", "rawlog", "folder", "bag", "tum"});
   cmd->add_option("--from", args->from,
-                  "Input: x.rawlog (with x.yaml beside it), a folder, x.bag, x.tum")
+                  "Input: x.rawlog (with x.yaml beside it), a folder, x.bag, x.tum");
+  cmd->add_option("--to,--out", args->to, "Output: x.rawlog, a folder, or x.tum (a trajectory)")
       ->required();
-  cmd->add_option("--to", args->to, "Output: x.rawlog, a folder, or x.tum (a trajectory)")
-      ->required();
+  cmd->add_option("--merge", args->merge,
+                  "Join datasets of one recording (e.g. the shards of `lookboth detect "
+                  "--cameras`) into --to: records in time order, shared ones once")
+      ->expected(2, -1);
   cmd->add_option("--from-kind", args->from_kind, "Force the input kind")->check(kinds);
   cmd->add_option("--to-kind", args->to_kind, "Force the output kind")->check(kinds);
   cmd->add_flag("--overwrite", args->overwrite, "Replace an existing output");

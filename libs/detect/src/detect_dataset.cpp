@@ -29,7 +29,8 @@ namespace {
 void readMarkerOptions(const YamlReader& r, const YAML::Node& node, MarkerDetectorOptions& o) {
   r.rejectUnknownKeys(node,
                       {"detect_scale", "track_roi", "roi_margin", "refine_edges", "corner_sigma_px",
-                       "min_side_px", "max_reprojection_px", "ambiguity_ratio"},
+                       "min_corner_sigma_px", "min_side_px", "max_reprojection_px",
+                       "ambiguity_ratio", "max_speed_mps", "track_window_s"},
                       "detect.markers");
   const std::string f = "detect.markers.";
   if (node["detect_scale"])
@@ -39,6 +40,8 @@ void readMarkerOptions(const YamlReader& r, const YAML::Node& node, MarkerDetect
   if (node["refine_edges"]) o.refine_edges = r.boolean(node["refine_edges"], f + "refine_edges");
   if (node["corner_sigma_px"])
     o.corner_sigma_px = r.number(node["corner_sigma_px"], f + "corner_sigma_px");
+  if (node["min_corner_sigma_px"])
+    o.min_corner_sigma_px = r.number(node["min_corner_sigma_px"], f + "min_corner_sigma_px");
   if (node["min_side_px"]) o.min_side_px = r.number(node["min_side_px"], f + "min_side_px");
   if (node["max_reprojection_px"])
     o.max_reprojection_px = r.number(node["max_reprojection_px"], f + "max_reprojection_px");

@@ -130,6 +130,7 @@ std::string MarkerDetectorOptions::check() const {
     return "'detect_scale': must be in [0, 8] (0 = automatic), got " + std::to_string(detect_scale);
   if (!(roi_margin > 0)) return "'roi_margin': must be positive";
   if (!(corner_sigma_px > 0)) return "'corner_sigma_px': must be positive";
+  if (!(min_corner_sigma_px > 0)) return "'min_corner_sigma_px': must be positive";
   if (!(min_side_px >= 4)) return "'min_side_px': must be at least 4";
   if (!(max_reprojection_px > 0)) return "'max_reprojection_px': must be positive";
   if (!(ambiguity_ratio >= 1)) return "'ambiguity_ratio': must be at least 1";
@@ -168,10 +169,13 @@ MarkerDetector::MarkerDetector(MarkerDetector&&) noexcept = default;
 void MarkerDetector::resetTrack() { impl_->last_box.reset(); }
 
 std::optional<std::array<Eigen::Vector2d, 4>> MarkerDetector::refineCorners(
-    const cv::Mat& grey, const std::array<Eigen::Vector2d, 4>& initial) const {
+    const cv::Mat& grey, const std::array<Eigen::Vector2d, 4>& initial,
+    double* corner_sigma_px) const {
+  double variance_sum = 0;  // of the corners' positions along each edge's normal [px^2]
   const Camera& camera = impl_->camera;
   std::array<Eigen::Vector2d, 4> corners = initial;
   for (int iteration = 0; iteration < 2; ++iteration) {
+    variance_sum = 0;
     std::array<Eigen::Vector3d, 4> corner_bearings;
     for (size_t k = 0; k < 4; ++k) {
       const auto b = camera.unproject(corners[k]);
@@ -183,8 +187,15 @@ std::optional<std::array<Eigen::Vector2d, 4>> MarkerDetector::refineCorners(
     for (size_t k = 0; k < 4; ++k) {
       const size_t k1 = (k + 1) % 4;
       const double length = (corners[k1] - corners[k]).norm();
-      const double cell = length / impl_->cells;
-      const double half_width = std::clamp(0.7 * cell, 1.5, 8.0);
+      // The profile must stay inside the black border cell, whose width
+      // across this edge is the adjacent sides' length over the cells.
+      const double across = 0.5 * ((corners[k] - corners[(k + 3) % 4]).norm() +
+                                   (corners[(k + 2) % 4] - corners[k1]).norm());
+      const double cell = across / impl_->cells;
+      // Inside: within the border cell; outside: the white quiet zone (at
+      // least a cell wide on a proper marker; the simulator's is 1.2 cells).
+      const double inner = std::clamp(0.6 * cell, 1.5, 8.0);
+      const double outer = std::clamp(0.8 * cell, 1.5, 8.0);
       const double step = 0.5;
       const int samples = std::max(6, static_cast<int>(length / 1.5));
       struct Profile {
@@ -193,7 +204,7 @@ std::optional<std::array<Eigen::Vector2d, 4>> MarkerDetector::refineCorners(
       };
       std::vector<Profile> profiles;
       std::vector<double> blacks, whites;
-      const int steps = static_cast<int>(std::round(2 * half_width / step));
+      const int steps = static_cast<int>(std::round((inner + outer) / step));
       for (int i = 0; i < samples; ++i) {
         const double s = 0.15 + 0.7 * (i + 0.5) / samples;
         const Eigen::Vector3d b0 = ((1 - s) * corner_bearings[k] + s * corner_bearings[k1]);
@@ -208,7 +219,7 @@ std::optional<std::array<Eigen::Vector2d, 4>> MarkerDetector::refineCorners(
         Profile profile{*p0, normal, {}};
         bool inside = true;
         for (int j = 0; j <= steps && inside; ++j) {
-          const Eigen::Vector2d q = *p0 + (-half_width + j * step) * normal;
+          const Eigen::Vector2d q = *p0 + (-inner + j * step) * normal;
           const double value = sampleBilinear(grey, q.x(), q.y());
           inside = !std::isnan(value);
           profile.values.push_back(value);
@@ -230,8 +241,8 @@ std::optional<std::array<Eigen::Vector2d, 4>> MarkerDetector::refineCorners(
         for (const double value : profile.values) {
           area += std::clamp((white - value) / (white - black), -0.5, 1.5) * step;
         }
-        const double offset = area - half_width - step / 2;
-        if (std::abs(offset) > half_width - 0.5) continue;
+        const double offset = area - inner - step / 2;
+        if (offset < -inner + 0.5 || offset > outer - 0.5) continue;
         const auto b = camera.unproject(profile.at + offset * profile.normal);
         if (b) edge_bearings.push_back(*b);
       }
@@ -246,6 +257,18 @@ std::optional<std::array<Eigen::Vector2d, 4>> MarkerDetector::refineCorners(
         if (std::abs(plane->dot(b)) <= limit) kept.push_back(b);
       if (kept.size() >= 3 && kept.size() < edge_bearings.size()) plane = fitPlane(kept);
       planes[k] = *plane;
+      // Scatter about the edge [px] (radians times pixels per radian along
+      // the edge), and the variance of the fitted line at its ends: samples
+      // span s in [0.15, 0.85], an end is 0.5 from their mean:
+      // var = sigma^2 (1/N + 0.5^2 / (N 0.7^2 / 12)).
+      const double angle =
+          std::acos(std::clamp(corner_bearings[k].dot(corner_bearings[k1]), -1.0, 1.0));
+      const double px_per_rad = angle > 0 ? length / angle : 0;
+      double squares = 0;
+      for (const Eigen::Vector3d& b : kept) squares += std::pow(plane->dot(b) * px_per_rad, 2);
+      const double n = static_cast<double>(kept.size());
+      const double sigma2 = n > 2 ? squares / (n - 2) : 0;
+      variance_sum += sigma2 * (1.0 / n + 0.25 / (n * 0.49 / 12.0));
     }
     for (size_t k = 0; k < 4; ++k) {
       // Corner k joins edge k-1 (corner k-1 -> k) and edge k (corner k -> k+1).
@@ -258,11 +281,13 @@ std::optional<std::array<Eigen::Vector2d, 4>> MarkerDetector::refineCorners(
       corners[k] = *p;
     }
   }
+  // Each corner's two coordinates get the mean variance of the ends of its two edges.
+  if (corner_sigma_px) *corner_sigma_px = std::sqrt(variance_sum / 4.0);
   return corners;
 }
 
 std::vector<MarkerPoseHypothesis> MarkerDetector::solvePose(
-    const std::array<Eigen::Vector2d, 4>& corners_px) const {
+    const std::array<Eigen::Vector2d, 4>& corners_px, double corner_sigma_px) const {
   const Camera& camera = impl_->camera;
   std::vector<cv::Point2d> normalised;
   for (const Eigen::Vector2d& px : corners_px) {
@@ -315,7 +340,7 @@ std::vector<MarkerPoseHypothesis> MarkerDetector::solvePose(
     MarkerPoseHypothesis h;
     h.camera_from_marker = pose;
     h.reprojection_rms_px = std::sqrt(r->squaredNorm() / 4);
-    const double sigma = options_.corner_sigma_px;
+    const double sigma = corner_sigma_px > 0 ? corner_sigma_px : options_.corner_sigma_px;
     h.information = jac->transpose() * *jac / (sigma * sigma);
     // The marker must face the camera: its z axis towards the optical centre.
     const Eigen::Vector3d normal = pose.rotation * Eigen::Vector3d::UnitZ();
@@ -396,10 +421,12 @@ std::vector<MarkerDetection> MarkerDetector::detect(const cv::Mat& grey) {
   impl_->last_box.reset();
   for (const auto& candidate : candidates) {
     std::array<Eigen::Vector2d, 4> corners = candidate;
+    double sigma = options_.corner_sigma_px;
     if (options_.refine_edges) {
-      const auto refined = refineCorners(grey, candidate);
+      const auto refined = refineCorners(grey, candidate, &sigma);
       if (!refined) continue;
       corners = *refined;
+      sigma = std::hypot(sigma, options_.min_corner_sigma_px);
     }
     double shortest = 1e300;
     for (size_t k = 0; k < 4; ++k) {
@@ -421,7 +448,7 @@ std::vector<MarkerDetection> MarkerDetector::detect(const cv::Mat& grey) {
     MarkerDetection detection;
     detection.marker_id = impl_->marker.id;
     detection.corners_px = corners;
-    detection.hypotheses = solvePose(corners);
+    detection.hypotheses = solvePose(corners, sigma);
     if (detection.hypotheses.empty() ||
         detection.hypotheses.front().reprojection_rms_px > options_.max_reprojection_px) {
       continue;
@@ -445,72 +472,62 @@ int resolveAmbiguity(std::vector<MarkerDetection*>& track, double agreement_deg)
   auto normalOf = [](const MarkerPoseHypothesis& h) -> Eigen::Vector3d {
     return h.camera_from_marker.rotation * Eigen::Vector3d::UnitZ();
   };
-  // Reference normal: the mean of the unambiguous detections' normals, else
-  // the hypothesis normal with the most support among all hypotheses.
+  // The track's normal: among all hypotheses' normals, the one that most
+  // detections have a hypothesis within `agreement_deg` of (ties: the lower
+  // sum of those hypotheses' reprojection errors); then the mean of those.
+  int best_support = 0;
+  double best_cost = 0;
   Eigen::Vector3d reference = Eigen::Vector3d::Zero();
-  int clear = 0;
   for (const MarkerDetection* d : track) {
-    if (!d->ambiguous && !d->hypotheses.empty()) {
-      reference += normalOf(d->hypotheses.front());
-      ++clear;
-    }
-  }
-  if (clear >= 1) {
-    // Refine: the mean of those within the agreement of the first mean.
-    Eigen::Vector3d mean = reference.normalized(), sum = Eigen::Vector3d::Zero();
-    for (const MarkerDetection* d : track) {
-      if (d->ambiguous || d->hypotheses.empty()) continue;
-      const Eigen::Vector3d n = normalOf(d->hypotheses.front());
-      if (n.dot(mean) >= cos_agreement) sum += n;
-    }
-    reference = sum.norm() > 0 ? sum.normalized() : mean;
-  } else {
-    int best_support = 0;
-    for (const MarkerDetection* d : track) {
-      for (const MarkerPoseHypothesis& h : d->hypotheses) {
-        const Eigen::Vector3d n = normalOf(h);
-        int support = 0;
-        for (const MarkerDetection* e : track) {
-          for (const MarkerPoseHypothesis& g : e->hypotheses) {
-            if (normalOf(g).dot(n) >= cos_agreement) {
-              ++support;
-              break;
-            }
+    for (const MarkerPoseHypothesis& h : d->hypotheses) {
+      const Eigen::Vector3d n = normalOf(h);
+      int support = 0;
+      double cost = 0;
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      for (const MarkerDetection* e : track) {
+        const MarkerPoseHypothesis* nearest = nullptr;
+        double nearest_dot = cos_agreement;
+        for (const MarkerPoseHypothesis& g : e->hypotheses) {
+          const double dot = normalOf(g).dot(n);
+          if (dot >= nearest_dot) {
+            nearest_dot = dot;
+            nearest = &g;
           }
         }
-        if (support > best_support) {
-          best_support = support;
-          reference = n;
+        if (nearest) {
+          ++support;
+          cost += nearest->reprojection_rms_px;
+          sum += normalOf(*nearest);
         }
       }
+      if (support > best_support || (support == best_support && cost < best_cost)) {
+        best_support = support;
+        best_cost = cost;
+        reference = sum.normalized();
+      }
     }
-    // One detection, or no agreement: nothing to decide with.
-    if (best_support < 2) reference.setZero();
   }
+  // One detection, or no two agreeing: nothing to decide with.
+  if (best_support < 2) reference.setZero();
   int unresolved = 0;
   for (MarkerDetection* d : track) {
     d->chosen = 0;
     d->unresolved = false;
-    if (d->hypotheses.size() < 2 || !d->ambiguous) continue;
-    if (reference.isZero()) {
-      d->unresolved = true;
-      ++unresolved;
-      continue;
-    }
+    if (d->hypotheses.size() < 2) continue;
     int best = -1;
     double best_dot = cos_agreement;
-    for (size_t i = 0; i < d->hypotheses.size(); ++i) {
+    for (size_t i = 0; i < d->hypotheses.size() && !reference.isZero(); ++i) {
       const double dot = normalOf(d->hypotheses[i]).dot(reference);
       if (dot >= best_dot) {
         best_dot = dot;
         best = static_cast<int>(i);
       }
     }
-    if (best < 0) {
+    if (best >= 0) {
+      d->chosen = best;
+    } else if (d->ambiguous) {
       d->unresolved = true;
       ++unresolved;
-    } else {
-      d->chosen = best;
     }
   }
   return unresolved;

@@ -38,9 +38,9 @@ namespace lookboth {
 
 struct MarkerDetectorOptions {
   /// Reduction of the frame for the whole-frame candidate search (1 = full
-  /// resolution; 2 = a quarter of the pixels). Corners are always refined at
-  /// full resolution.
-  int detect_scale = 2;
+  /// resolution; 2 = a quarter of the pixels; 0 = automatic: 2 for frames
+  /// wider than 1280 px, else 1). Corners are always refined at full resolution.
+  int detect_scale = 0;
   /// Search first around the previous detection of the same camera (a box
   /// `roi_margin` times the marker's size around it); the whole frame when
   /// that fails.
@@ -48,11 +48,15 @@ struct MarkerDetectorOptions {
   double roi_margin = 1.0;  ///< Extra size on each side of the last marker box, in marker sides.
   /// Fit the square's edges through the camera model (else OpenCV's corners are used as they are).
   bool refine_edges = true;
-  /// Corner noise assumed for the covariance [px] (measured on the
-  /// simulator's renders; doc/benchmarks.md).
+  /// Corner noise assumed for the covariance when it cannot be measured
+  /// (refine_edges off) [px]; with edge fitting, the corners' noise is
+  /// estimated per detection from the edge points' scatter, plus (in
+  /// quadrature) `min_corner_sigma_px` for what the scatter cannot show
+  /// (blur asymmetry, aliasing, calibration error).
   double corner_sigma_px = 0.1;
-  double min_side_px = 10;           ///< Shortest side of an accepted marker [px].
-  double max_reprojection_px = 1.5;  ///< RMS corner reprojection error of an accepted pose [px].
+  double min_corner_sigma_px = 0.03;  ///< [px]
+  double min_side_px = 10;            ///< Shortest side of an accepted marker [px].
+  double max_reprojection_px = 1.5;   ///< RMS corner reprojection error of an accepted pose [px].
   /// Hypotheses whose reprojection errors differ by less than this ratio are
   /// "ambiguous" (both plausible from this frame alone).
   double ambiguity_ratio = 2.0;
@@ -77,7 +81,8 @@ struct MarkerDetection {
   int marker_id = 0;
   /// Refined corners [px], OpenCV ArUco order: the marker's (-s/2, s/2),
   /// (s/2, s/2), (s/2, -s/2), (-s/2, -s/2) in its frame (x right, y up).
-  std::array<Eigen::Vector2d, 4> corners_px;
+  std::array<Eigen::Vector2d, 4> corners_px = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(),
+                                               Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
   /// Best first (lowest reprojection error); one or two hypotheses.
   std::vector<MarkerPoseHypothesis> hypotheses;
   /// Index of the chosen hypothesis (set by resolveAmbiguity; 0 before).
@@ -107,13 +112,18 @@ class MarkerDetector {
   void resetTrack();
 
   /// Step 2 alone: corners refined by edge fitting from approximate ones
-  /// (within ~1 px); nullopt when an edge cannot be located.
+  /// (within ~1 px); nullopt when an edge cannot be located. When
+  /// `corner_sigma_px` is given, it receives the corners' standard deviation
+  /// estimated from the scatter of the edge points about their fitted edges
+  /// (per axis: sigma_edge * sqrt(1/N + (extrapolation)^2 / sum of squares)).
   std::optional<std::array<Eigen::Vector2d, 4>> refineCorners(
-      const cv::Mat& grey, const std::array<Eigen::Vector2d, 4>& corners_px) const;
+      const cv::Mat& grey, const std::array<Eigen::Vector2d, 4>& corners_px,
+      double* corner_sigma_px = nullptr) const;
   /// Step 3 alone: both pose hypotheses from 4 corners (ArUco order), best
-  /// first; empty when degenerate.
-  std::vector<MarkerPoseHypothesis> solvePose(
-      const std::array<Eigen::Vector2d, 4>& corners_px) const;
+  /// first; empty when degenerate. The information assumes corner noise
+  /// `corner_sigma_px` (<= 0: the options' corner_sigma_px).
+  std::vector<MarkerPoseHypothesis> solvePose(const std::array<Eigen::Vector2d, 4>& corners_px,
+                                              double corner_sigma_px = 0) const;
 
   const MarkerDetectorOptions& options() const { return options_; }
 
@@ -123,13 +133,15 @@ class MarkerDetector {
   MarkerDetectorOptions options_;
 };
 
-/// Chooses among the hypotheses of one camera's detections (in time order),
-/// by agreement of the marker's normal (its z axis in the camera frame) with
-/// the track's: the normal of the unambiguous detections (their median
-/// direction), else the direction that most hypotheses agree with within
-/// `agreement_deg`. A detection whose chosen normal is further than
-/// `agreement_deg` from it keeps its best-reprojecting hypothesis and is
-/// marked `unresolved` when ambiguous. Returns the number of unresolved detections.
+/// Chooses among the hypotheses of one camera's detections (in time order)
+/// by agreement of the marker's normal (its z axis in the camera frame)
+/// with the track's: the normal that most detections have a hypothesis
+/// within `agreement_deg` of (ties: lower reprojection errors). Every
+/// detection with two hypotheses takes the one nearest that normal (even a
+/// frame that looked unambiguous alone: noise can favour the wrong one by
+/// more than the ratio); when neither agrees (or the track has fewer than two
+/// agreeing detections) the best-fitting one is kept and an ambiguous
+/// detection is marked `unresolved`. Returns the number of unresolved detections.
 int resolveAmbiguity(std::vector<MarkerDetection*>& track, double agreement_deg = 10.0);
 
 /// Removes the detections of one camera's track (in time order) that no

@@ -1,0 +1,185 @@
+#include "lookboth/detect/detect_dataset.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "lookboth/core/error.h"
+#include "lookboth/detect/evaluate.h"
+#include "lookboth/sim/simulate.h"
+
+namespace lookboth {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// The first seconds of the `small` scenario, rendered once for all tests
+/// (cam03 and cam04 see the robot from the start; 640x360 frames).
+class DetectDatasetTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = fs::temp_directory_path() / "lookboth_detect_dataset_test";
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    sim::SimulateOptions options;
+    options.scenario = "small";
+    options.out = dir_ / "small.rawlog";
+    options.max_duration_s = 4.0;
+    options.threads = 2;
+    sim::simulate(options, ProgressReporter());
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+
+  static std::vector<Record> readAll(const fs::path& path) {
+    auto reader = DatasetReader::open(path);
+    std::vector<Record> records;
+    while (auto r = reader->next()) records.push_back(*r);
+    return records;
+  }
+
+  static fs::path dir_;
+};
+fs::path DetectDatasetTest::dir_;
+
+TEST_F(DetectDatasetTest, AccuracyOnSmallAndThreadIndependence) {
+  DetectOptions options;
+  options.dataset = dir_ / "small.rawlog";
+  options.config = defaultDetectConfig();
+  options.threads = 1;
+  DetectSummary one, two;
+  const std::vector<Record> a = runDetection(options, ProgressReporter(), &one);
+  options.threads = 2;
+  const std::vector<Record> b = runDetection(options, ProgressReporter(), &two);
+  // Deterministic whatever the thread count.
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    ASSERT_EQ(recordKey(a[i]), recordKey(b[i]));
+    if (const auto* m = std::get_if<MarkerObservation>(&a[i])) {
+      EXPECT_EQ(m->camera_from_marker.translation,
+                std::get<MarkerObservation>(b[i]).camera_from_marker.translation);
+    }
+  }
+  const GroundTruthView truth = loadGroundTruth(options.dataset);
+  std::vector<MarkerObservation> markers;
+  std::vector<BlobObservation> blobs;
+  for (const Record& r : a) {
+    if (const auto* m = std::get_if<MarkerObservation>(&r)) markers.push_back(*m);
+    if (const auto* bl = std::get_if<BlobObservation>(&r)) blobs.push_back(*bl);
+  }
+  const MarkerEvaluation e = evaluateMarkers(truth, markers, one.searched, {0.0, 100.0});
+  std::printf(
+      "small, first 4 s: markers recall %d/%d, false positives %d, median %.2f mm, p90 "
+      "%.2f mm, in-plane %.3f deg, tilt %.3f deg, mean NEES %.2f\n",
+      e.detected_frames, e.visible_frames, e.false_positives, e.bands.back().median_position_mm,
+      e.bands.back().p90_position_mm, e.bands.back().median_in_plane_deg,
+      e.bands.back().median_tilt_deg, e.mean_nees);
+  ASSERT_GT(e.visible_frames, 30);
+  EXPECT_GE(e.recall(), 0.85);
+  EXPECT_EQ(e.false_positives, 0);
+  // 640x360 environment cameras (the marker ~22 px) at 2.7-3.8 m.
+  EXPECT_LT(e.bands.back().median_position_mm, 10.0);
+  EXPECT_LT(e.bands.back().median_tilt_deg, 2.0);
+  EXPECT_GT(e.mean_nees, 2.0);
+  EXPECT_LT(e.mean_nees, 12.0);
+  const BlobEvaluation be = evaluateBlobs(truth, blobs);
+  std::printf(
+      "small, first 4 s: blobs recall %d/%d, %.2f false positives per frame, centre "
+      "error median %.2f px\n",
+      be.matched, be.expected, be.falsePositivesPerFrame(), be.median_error_px);
+  EXPECT_GE(be.recall(), 0.6);
+  EXPECT_LT(be.median_error_px, 1.0);
+}
+
+TEST_F(DetectDatasetTest, WritesInPlaceReplacesOnRerunAndSkipsCorruptImages) {
+  // A copy of the dataset with one frame of cam03 corrupted.
+  const fs::path copy = dir_ / "copy.rawlog";
+  {
+    AugmentOptions duplicate;
+    duplicate.input = dir_ / "small.rawlog";
+    duplicate.output = copy;
+    duplicate.link_images = false;
+    augmentDataset(duplicate, {}, ProgressReporter());
+  }
+  fs::path corrupt;
+  for (const auto& entry : fs::directory_iterator(dir_ / "copy_Images")) {
+    if (entry.path().filename().string().rfind("cam03_", 0) == 0) {
+      corrupt = entry.path();
+      break;
+    }
+  }
+  ASSERT_FALSE(corrupt.empty());
+  std::ofstream(corrupt, std::ios::binary | std::ios::trunc) << "not a png";
+  const std::size_t before = readAll(copy).size();
+
+  DetectOptions options;
+  options.dataset = copy;
+  options.config = defaultDetectConfig();
+  options.cameras = {"cam03", "fisheye"};
+  std::vector<DatasetIssue> issues;
+  options.on_issue = [&](const DatasetIssue& issue) { issues.push_back(issue); };
+  const DetectSummary summary = detectDataset(options, ProgressReporter());
+  std::int64_t skipped = 0, markers = 0;
+  for (const CameraDetectSummary& c : summary.cameras) {
+    skipped += c.skipped;
+    if (!c.fisheye) markers += c.detections;
+  }
+  EXPECT_EQ(skipped, 1);
+  bool named = false;
+  for (const DatasetIssue& issue : issues) {
+    named = named || issue.message.find(corrupt.filename().string()) != std::string::npos;
+  }
+  EXPECT_TRUE(named) << "the warning names the corrupt file";
+  ASSERT_GT(markers, 10);
+  const std::vector<Record> after = readAll(copy);
+  EXPECT_EQ(after.size(), before + summary.written.added);
+  // Only cam03's markers (cam04 was not asked for).
+  for (const Record& r : after) {
+    if (const auto* m = std::get_if<MarkerObservation>(&r)) {
+      EXPECT_EQ(m->camera, "cam03");
+    }
+  }
+  // A second run replaces the detections instead of adding more.
+  detectDataset(options, ProgressReporter());
+  EXPECT_EQ(readAll(copy).size(), after.size());
+
+  // An unknown camera is an error naming it; nothing is written.
+  options.cameras = {"cam99"};
+  try {
+    detectDataset(options, ProgressReporter());
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cam99"), std::string::npos) << e.what();
+  }
+  // Stopped: the dataset is unchanged.
+  ProgressReporter stopped;
+  stopped.requestStop();
+  options.cameras = {"cam04"};
+  EXPECT_THROW(detectDataset(options, stopped), StopRequested);
+  EXPECT_EQ(readAll(copy).size(), after.size());
+}
+
+TEST(DetectConfig, ReadsTheDetectSectionStrictly) {
+  const fs::path file = fs::temp_directory_path() / "lookboth_detect_config_test.yaml";
+  std::ofstream(file) << "other: {x: 1}\n"
+                         "detect:\n"
+                         "  markers: {detect_scale: 1, corner_sigma_px: 0.2}\n"
+                         "  blobs: {min_area_px: 7}\n";
+  const DetectConfig config = loadDetectConfig(file);
+  EXPECT_EQ(config.markers.detect_scale, 1);
+  EXPECT_DOUBLE_EQ(config.markers.corner_sigma_px, 0.2);
+  EXPECT_DOUBLE_EQ(config.blobs.min_area_px, 7);
+  std::ofstream(file) << "detect:\n  blobs:\n    min_aera_px: 7\n";
+  try {
+    loadDetectConfig(file);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("min_aera_px"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(":3"), std::string::npos) << e.what();
+  }
+  fs::remove(file);
+  // The shipped default is valid.
+  EXPECT_EQ(defaultDetectConfig().check(), "");
+}
+
+}  // namespace
+}  // namespace lookboth
