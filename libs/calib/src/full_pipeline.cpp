@@ -4,7 +4,6 @@
 
 #include "lookboth/core/error.h"
 #include "lookboth/core/paths.h"
-#include "lookboth/dataset/augment.h"
 #include "lookboth/dataset/dataset_io.h"
 #include "lookboth/detect/detect_dataset.h"
 #include "lookboth/vo/run.h"
@@ -108,26 +107,19 @@ FullPipelineResult runFullPipeline(const FullPipelineOptions& options,
       throw Error(options.dataset.string() + ": no visual odometry trajectory '" + vo_label +
                   "' and no fisheye frames to run `lookboth odometry` on; use a metric "
                   "trajectory (--trajectory metric)");
+    if (vo_label != vo::kVoTrajectoryLabel)
+      throw Error(options.dataset.string() + ": no visual odometry trajectory '" + vo_label +
+                  "': `lookboth odometry` writes '" + std::string(vo::kVoTrajectoryLabel) + "'");
     vo::OdometryRunOptions odometry;
     odometry.dataset = options.dataset;
     odometry.odometry = vo::loadOdometryOptions(defaultConfigFile());
     if (options.config_file)
       odometry.odometry = vo::loadOdometryOptions(*options.config_file, odometry.odometry);
+    odometry.write_dataset = true;  // adds the trajectory to the dataset (augmentDataset)
     const vo::OdometryRunSummary summary = vo::runOdometry(odometry, progress);
     if (summary.result.trajectory.empty())
       throw Error(options.dataset.string() + ": the visual odometry tracked no frame");
-    std::vector<Record> poses;
-    for (const auto& sample : summary.result.trajectory.samples())
-      poses.emplace_back(PoseSample{sample.t, vo_label, sample.world_from_body});
-    AugmentOptions augment;
-    augment.input = options.dataset;
-    auto reader = DatasetReader::open(options.dataset);
-    Manifest manifest = reader->manifest();
-    reader.reset();
-    manifest.trajectories.push_back(TrajectoryInfo{vo_label, false, "lookboth odometry"});
-    augment.manifest = manifest;
-    augmentDataset(augment, std::move(poses), progress);
-    result.steps.push_back("odometry: " + std::to_string(summary.result.trajectory.size()) +
+    result.steps.push_back("odometry: " + std::to_string(summary.records_written) +
                            " poses added as trajectory '" + vo_label + "' (" +
                            std::to_string(summary.result.statistics.loop_closures) +
                            " loop closures)");
