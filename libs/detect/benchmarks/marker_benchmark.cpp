@@ -27,6 +27,7 @@
 
 #include "lookboth/core/error.h"
 #include "lookboth/dataset/dataset_io.h"
+#include "lookboth/dataset/marker_dictionary.h"
 #include "lookboth/detect/evaluate.h"
 #include "lookboth/detect/marker_detector.h"
 
@@ -127,7 +128,7 @@ std::optional<MarkerObservation> plainOpenCv(const Frame& frame, const Camera& c
 std::vector<MarkerObservation> runPlain(const Data& data) {
   const Manifest& manifest = data.truth.manifest;
   const auto dictionary =
-      cv::aruco::getPredefinedDictionary(arucoDictionaryIdOf(manifest.marker.dictionary));
+      cv::aruco::getPredefinedDictionary(arucoDictionaryId(manifest.marker.dictionary));
   auto params = cv::aruco::DetectorParameters::create();
   // OpenCV's refinement of the peer: subpix (default here), none or apriltag
   // (environment variable LOOKBOTH_PLAIN_REFINEMENT).

@@ -1,5 +1,7 @@
 #include "lookboth/detect/marker_detector.h"
 
+#include "lookboth/dataset/marker_dictionary.h"
+
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
@@ -88,42 +90,7 @@ std::optional<Eigen::Matrix<double, 8, 6>> jacobian(const Camera& camera, const 
   return jac;
 }
 
-const std::map<std::string, int>& dictionaryIds() {
-  static const std::map<std::string, int> ids = {
-      {"DICT_4X4_50", cv::aruco::DICT_4X4_50},
-      {"DICT_4X4_100", cv::aruco::DICT_4X4_100},
-      {"DICT_4X4_250", cv::aruco::DICT_4X4_250},
-      {"DICT_4X4_1000", cv::aruco::DICT_4X4_1000},
-      {"DICT_5X5_50", cv::aruco::DICT_5X5_50},
-      {"DICT_5X5_100", cv::aruco::DICT_5X5_100},
-      {"DICT_5X5_250", cv::aruco::DICT_5X5_250},
-      {"DICT_5X5_1000", cv::aruco::DICT_5X5_1000},
-      {"DICT_6X6_50", cv::aruco::DICT_6X6_50},
-      {"DICT_6X6_100", cv::aruco::DICT_6X6_100},
-      {"DICT_6X6_250", cv::aruco::DICT_6X6_250},
-      {"DICT_6X6_1000", cv::aruco::DICT_6X6_1000},
-      {"DICT_7X7_50", cv::aruco::DICT_7X7_50},
-      {"DICT_7X7_100", cv::aruco::DICT_7X7_100},
-      {"DICT_7X7_250", cv::aruco::DICT_7X7_250},
-      {"DICT_7X7_1000", cv::aruco::DICT_7X7_1000},
-      {"DICT_ARUCO_ORIGINAL", cv::aruco::DICT_ARUCO_ORIGINAL},
-      {"DICT_APRILTAG_16h5", cv::aruco::DICT_APRILTAG_16h5},
-      {"DICT_APRILTAG_25h9", cv::aruco::DICT_APRILTAG_25h9},
-      {"DICT_APRILTAG_36h10", cv::aruco::DICT_APRILTAG_36h10},
-      {"DICT_APRILTAG_36h11", cv::aruco::DICT_APRILTAG_36h11},
-  };
-  return ids;
-}
-
 }  // namespace
-
-int arucoDictionaryIdOf(const std::string& name) {
-  const auto it = dictionaryIds().find(name);
-  if (it == dictionaryIds().end()) {
-    throw Error({"", 0, "marker.dictionary", name}, "unknown ArUco dictionary");
-  }
-  return it->second;
-}
 
 std::string MarkerDetectorOptions::check() const {
   if (detect_scale < 0 || detect_scale > 8)
@@ -155,7 +122,7 @@ MarkerDetector::MarkerDetector(const MarkerSpec& marker, const Camera& camera,
     : impl_(new Impl{marker, camera, {}, {}, 6, {}, std::nullopt, 1}), options_(options) {
   if (const std::string why = marker.check(); !why.empty()) throw Error("marker: " + why);
   if (const std::string why = options.check(); !why.empty()) throw Error("detect.markers: " + why);
-  impl_->dictionary = cv::aruco::getPredefinedDictionary(arucoDictionaryIdOf(marker.dictionary));
+  impl_->dictionary = cv::aruco::getPredefinedDictionary(arucoDictionaryId(marker.dictionary));
   impl_->cells = impl_->dictionary->markerSize + 2;
   impl_->parameters = cv::aruco::DetectorParameters::create();
   impl_->parameters->cornerRefinementMethod = cv::aruco::CORNER_REFINE_NONE;

@@ -150,10 +150,6 @@ int resolveAmbiguity(std::vector<MarkerDetection*>& track, double agreement_deg 
 int rejectTrackOutliers(std::vector<std::pair<TimeNs, MarkerDetection>>& track,
                         double max_speed_mps, TimeNs window);
 
-/// OpenCV's cv::aruco::PREDEFINED_DICTIONARY_NAME value of a dictionary
-/// name ("DICT_4X4_50"); throws lookboth::Error for an unknown name.
-int arucoDictionaryIdOf(const std::string& name);
-
 /// The MarkerObservation of a detection's chosen hypothesis.
 MarkerObservation toMarkerObservation(const MarkerDetection& detection, TimeNs t,
                                       const std::string& camera);

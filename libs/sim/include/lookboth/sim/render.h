@@ -19,6 +19,7 @@
 
 #include "lookboth/cameras/camera.h"
 #include "lookboth/dataset/manifest.h"
+#include "lookboth/dataset/marker_dictionary.h"
 #include "lookboth/sim/world.h"
 
 namespace lookboth::sim {
@@ -65,10 +66,6 @@ cv::Mat renderFisheye(const World& world, const Camera& fisheye, const Rigid3d& 
 cv::Mat renderEnvCamera(const World& world, const Camera& camera, const Rigid3d& world_from_camera,
                         const RobotAppearance& robot, const RenderOptions& options,
                         std::mt19937& rng);
-
-/// OpenCV's cv::aruco::PREDEFINED_DICTIONARY_NAME value of a dictionary name
-/// ("DICT_4X4_50"); throws lookboth::Error for an unknown name.
-int arucoDictionaryId(const std::string& name);
 
 /// The marker's cells, one pixel per cell including the one-cell black
 /// border (6 x 6 for a 4x4 dictionary): 0 black, 255 white, row 0 at the
