@@ -47,6 +47,15 @@ struct MarkerObservation {
   /// [dt (3, m); dtheta (3, rad)] with t_true = t + dt, R_true = R * Exp(dtheta).
   /// All zero when the source gave none.
   Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+  /// The marker's four corners as found in the camera's image [px; pixel
+  /// origin of doc/conventions.md], in the marker's corner order: marker-frame
+  /// (-s/2, s/2, 0), (s/2, s/2, 0), (s/2, -s/2, 0), (-s/2, -s/2, 0) for a
+  /// marker of side s (OpenCV ArUco's top-left, top-right, bottom-right,
+  /// bottom-left). Empty when the source stored none; otherwise exactly 4.
+  std::vector<Eigen::Vector2d> corners_px;
+  /// Standard deviation of one corner coordinate [px], as measured by the
+  /// detector; 0 when unknown.
+  double corner_sigma_px = 0;
 };
 
 /// Blobs (environment cameras' housings) found in one fisheye frame.
