@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
 #include <variant>
 
 #include "lookboth/calib/stages.h"
@@ -110,6 +111,7 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
     Eigen::Vector3d offset_in_world;
     std::vector<Match> matches;
     double gate = 0;  // [px]: options.gate_px, then from the camera's own residuals
+    std::optional<Eigen::Matrix3d> position_covariance;  // of the last solve [m^2, world]
   };
   std::vector<Candidate> cameras;
   for (CameraRegistration& c : result.cameras) {
@@ -118,7 +120,8 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
                        c.world_from_camera.translation,
                        c.world_from_camera.rotation * options.blob_offset_in_camera_m,
                        {},
-                       options.gate_px});
+                       options.gate_px,
+                       std::nullopt});
   }
   if (cameras.empty()) return;
   std::sort(cameras.begin(), cameras.end(),
@@ -250,6 +253,19 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
       solver.num_threads = 1;
       ceres::Solver::Summary summary;
       ceres::Solve(solver, &ceres_problem, &summary);
+      // Position covariance (world frame): Ceres' inverse of J^T J at the
+      // solution (robust weights included), scaled by the residuals' variance
+      // per pixel coordinate estimated from the final cost.
+      c.position_covariance.reset();
+      const double dof = 2.0 * static_cast<double>(keep) - 3.0;
+      ceres::Covariance::Options cov_options;
+      ceres::Covariance covariance(cov_options);
+      const std::vector<std::pair<const double*, const double*>> blocks = {{p, p}};
+      if (dof > 0 && covariance.Compute(blocks, &ceres_problem)) {
+        Eigen::Matrix<double, 3, 3, Eigen::RowMajor> cov;
+        covariance.GetCovarianceBlock(p, p, cov.data());
+        c.position_covariance = Eigen::Matrix3d(cov) * (2.0 * summary.final_cost / dof);
+      }
       delete loss;
       c.position = Eigen::Vector3d(p[0], p[1], p[2]);
       // Tighter gate for the next association: 4x this camera's RMS, within [min_gate_px, gate_px].
@@ -277,6 +293,13 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
       final_position = initial[k];
     } else {
       ++refined;
+      // The position now rests on the blobs: its block of the covariance is
+      // look_up's, uncorrelated with look_down's rotation.
+      if (camera.covariance && c.position_covariance) {
+        camera.covariance->topLeftCorner<3, 3>() = *c.position_covariance;
+        camera.covariance->topRightCorner<3, 3>().setZero();
+        camera.covariance->bottomLeftCorner<3, 3>().setZero();
+      }
     }
     ReprojectionStats stats;
     stats.blobs = n;
