@@ -246,6 +246,16 @@ class MarkerStream final : public Stream {
       if (csv_.hasColumn("information") && !csv_.text("information").empty()) {
         obs.information = readInformation();
       }
+      if (csv_.hasColumn("corners") && !csv_.text("corners").empty()) {
+        obs.corners_px = readCorners();
+      }
+      if (csv_.hasColumn("corner_sigma_px") && !csv_.text("corner_sigma_px").empty()) {
+        obs.corner_sigma_px = csv_.number("corner_sigma_px");
+        if (obs.corner_sigma_px < 0) {
+          throw Error(csv_.where("corner_sigma_px"),
+                      "negative corner noise " + formatDouble(obs.corner_sigma_px));
+        }
+      }
       const std::string where = location(csv_.path(), csv_.line());
       if (last_ && obs.t < *last_) {
         issue_(where, timeOrderMessage(obs.t, *last_, "marker observation"));
@@ -288,6 +298,27 @@ class MarkerStream final : public Stream {
       }
     }
     return information;
+  }
+
+  /// 8 numbers: u0 v0 u1 v1 u2 v2 u3 v3 [px], in the marker's corner order.
+  std::vector<Eigen::Vector2d> readCorners() const {
+    const std::vector<std::string> tokens = splitWhitespace(csv_.text("corners"));
+    if (tokens.size() != 8) {
+      throw Error(csv_.where("corners"),
+                  "expected 8 space-separated numbers (u0 v0 u1 v1 u2 v2 u3 v3 of the marker's "
+                  "4 corners, in pixels), got " +
+                      std::to_string(tokens.size()));
+    }
+    std::vector<Eigen::Vector2d> corners(4);
+    for (size_t k = 0; k < 8; ++k) {
+      const std::optional<double> value = parseDouble(tokens[k]);
+      if (!value || !std::isfinite(*value)) {
+        throw Error(csv_.where("corners"), "value " + std::to_string(k + 1) + " '" + tokens[k] +
+                                               "' is not a finite number");
+      }
+      corners[k / 2][static_cast<Eigen::Index>(k % 2)] = *value;
+    }
+    return corners;
   }
 
   CsvReader csv_;

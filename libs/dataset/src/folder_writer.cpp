@@ -320,7 +320,13 @@ class FolderWriter final : public DatasetWriter {
     }
     if (!markers_.started()) {
       markers_.open(temporary_ / "detections/markers.csv",
-                    "timestamp_ns,camera,marker_id,tx,ty,tz,qx,qy,qz,qw,information");
+                    "timestamp_ns,camera,marker_id,tx,ty,tz,qx,qy,qz,qw,information,corners,"
+                    "corner_sigma_px");
+    }
+    if (!obs.corners_px.empty() && obs.corners_px.size() != 4) {
+      throw Error({folder_.string(), 0, "", obs.camera},
+                  "marker observation at " + std::to_string(obs.t) + " ns has " +
+                      std::to_string(obs.corners_px.size()) + " corners (expected 0 or 4)");
     }
     std::ostream& out = markers_.stream();
     out << obs.t << ',' << obs.camera << ',' << obs.marker_id << ','
@@ -332,6 +338,13 @@ class FolderWriter final : public DatasetWriter {
         }
       }
     }
+    out << ',';
+    for (size_t k = 0; k < obs.corners_px.size(); ++k) {
+      out << (k == 0 ? "" : " ") << formatDouble(obs.corners_px[k].x()) << ' '
+          << formatDouble(obs.corners_px[k].y());
+    }
+    out << ',';
+    if (obs.corner_sigma_px != 0) out << formatDouble(obs.corner_sigma_px);
     out << '\n';
   }
 

@@ -13,10 +13,12 @@
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
+#include <tuple>
 
 #include "internal.h"
 #include "lookboth/core/error.h"
 #include "lookboth/geometry/pose_conversions.h"
+#include "lookboth/obs/CObservationMarkerCorners.h"
 
 namespace lookboth::internal {
 namespace {
@@ -48,10 +50,10 @@ class RawlogReader : public DatasetReader {
   std::int64_t expectedCount() const override { return manifest_.rawlog_entries; }
 
   std::optional<Record> next() override {
-    while (pending_.empty()) {
-      if (at_end_) return std::nullopt;
-      readEntry();
-    }
+    // The marker poses of the last entry read may still get their corners
+    // from the next entries: read on before handing them out.
+    while (!at_end_ && pending_.size() <= unsettled_) readEntry();
+    if (pending_.empty()) return std::nullopt;
     Record record = std::move(pending_.front());
     pending_.pop_front();
     return record;
@@ -135,8 +137,10 @@ class RawlogReader : public DatasetReader {
     return true;
   }
 
-  void push(Record record) {
-    if (acceptTime(record)) pending_.push_back(std::move(record));
+  bool push(Record record) {
+    if (!acceptTime(record)) return false;
+    pending_.push_back(std::move(record));
+    return true;
   }
 
   TimeNs timeOf(const mrpt::obs::CObservation& obs) {
@@ -147,7 +151,37 @@ class RawlogReader : public DatasetReader {
     }
   }
 
+  /// Gives the corners to the marker pose of the entry just before (same
+  /// label, stamp and id; doc/formats.md).
+  void attachCorners(const CObservationMarkerCorners& corners) {
+    const TimeNs t = timeOf(corners);
+    for (const auto& [label, time, id, kept] : last_features_) {
+      if (label != corners.sensorLabel || time != t || id != corners.marker_id) continue;
+      if (!kept) return;  // its pose was dropped (reported): so are its corners
+      for (auto it = pending_.rbegin(); it != pending_.rend(); ++it) {
+        auto* marker = std::get_if<MarkerObservation>(&*it);
+        if (!marker || marker->camera != label || marker->t != t || marker->marker_id != id ||
+            !marker->corners_px.empty()) {
+          continue;
+        }
+        for (const CornerPixel& c : corners.corners) marker->corners_px.emplace_back(c.u, c.v);
+        marker->corner_sigma_px = corners.corner_sigma_px;
+        return;
+      }
+    }
+    reportIssue(where(), "marker corners of '" + corners.sensorLabel + "' (marker " +
+                             std::to_string(corners.marker_id) + ") at " + formatSeconds(t) +
+                             " s do not follow their marker pose (a CObservation6DFeatures of "
+                             "the same label, stamp and id); skipped");
+  }
+
   void convert(const mrpt::obs::CObservation::Ptr& obs) {
+    if (auto corners = std::dynamic_pointer_cast<CObservationMarkerCorners>(obs)) {
+      attachCorners(*corners);
+      return;
+    }
+    last_features_.clear();
+    unsettled_ = 0;
     if (auto image = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(obs)) {
       ImageFrame frame;
       frame.t = timeOf(*image);
@@ -178,7 +212,9 @@ class RawlogReader : public DatasetReader {
         for (int i = 0; i < 6; ++i) {
           for (int j = 0; j < 6; ++j) marker.information(i, j) = m.inf_matrix(i, j);
         }
-        push(std::move(marker));
+        last_features_.emplace_back(marker.camera, marker.t, marker.marker_id, false);
+        std::get<3>(last_features_.back()) = push(std::move(marker));
+        unsettled_ += std::get<3>(last_features_.back()) ? 1 : 0;
       }
     } else if (auto blobs = std::dynamic_pointer_cast<CObservationBlobs>(obs)) {
       BlobObservation record;
@@ -207,6 +243,12 @@ class RawlogReader : public DatasetReader {
   std::set<std::string> skipped_;
   std::int64_t entry_ = 0;
   bool at_end_ = false;
+  /// How many records at the back of pending_ are marker poses that the next
+  /// entries may still give corners to (those of the last 6DFeatures, while
+  /// only corners follow it).
+  size_t unsettled_ = 0;
+  /// (label, stamp, id, kept) of the marker poses of the last 6DFeatures.
+  std::vector<std::tuple<std::string, TimeNs, int, bool>> last_features_;
 };
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include "lookboth/cameras/camera_io.h"
 #include "lookboth/core/error.h"
 #include "lookboth/geometry/pose_conversions.h"
+#include "lookboth/obs/CObservationMarkerCorners.h"
 
 namespace lookboth::internal {
 namespace {
@@ -123,6 +124,11 @@ class RawlogWriter : public DatasetWriter {
   }
 
   void writeRecord(const MarkerObservation& marker) {
+    if (!marker.corners_px.empty() && marker.corners_px.size() != 4) {
+      throw Error({rawlog_.string(), 0, "", marker.camera},
+                  "marker observation at " + std::to_string(marker.t) + " ns has " +
+                      std::to_string(marker.corners_px.size()) + " corners (expected 0 or 4)");
+    }
     mrpt::obs::CObservation6DFeatures obs;
     obs.sensorLabel = marker.camera;
     obs.timestamp = toMrptTime(marker.t);
@@ -134,6 +140,17 @@ class RawlogWriter : public DatasetWriter {
     }
     obs.sensedFeatures.push_back(m);
     writeObservation(obs);
+    if (marker.corners_px.empty()) return;
+    // Right after its pose, same label, stamp and id: the reader pairs them.
+    CObservationMarkerCorners corners;
+    corners.sensorLabel = marker.camera;
+    corners.timestamp = obs.timestamp;
+    corners.marker_id = marker.marker_id;
+    for (size_t k = 0; k < 4; ++k) {
+      corners.corners[k] = {marker.corners_px[k].x(), marker.corners_px[k].y()};
+    }
+    corners.corner_sigma_px = marker.corner_sigma_px;
+    writeObservation(corners);
   }
 
   void writeRecord(const BlobObservation& blobs) {

@@ -27,7 +27,7 @@ class AugmentTest : public ::testing::Test {
 
   fs::path writeSample(const fs::path& path, DatasetKind kind) {
     auto writer = DatasetWriter::create(path, kind, testing::sampleManifest());
-    for (const Record& r : testing::sampleRecords()) writer->write(r);
+    for (const Record& r : testing::withCorners(testing::sampleRecords())) writer->write(r);
     writer->finish();
     return path;
   }
@@ -200,9 +200,15 @@ TEST_F(AugmentTest, MergeJoinsShardsAndWritesSharedRecordsOnce) {
   EXPECT_EQ(summary.duplicates, static_cast<std::int64_t>(base));
   const std::vector<Record> merged = readAll(merge.output);
   EXPECT_EQ(merged.size(), base + 10 + 5);
+  int with_corners = 0;
   for (std::size_t i = 1; i < merged.size(); ++i) {
     EXPECT_LE(recordTime(merged[i - 1]), recordTime(merged[i])) << i;
   }
+  for (const Record& r : merged) {
+    const auto* m = std::get_if<MarkerObservation>(&r);
+    with_corners += m && m->corners_px.size() == 4;
+  }
+  EXPECT_EQ(with_corners, 5);  // augmenting and merging keep the input markers' corners
   // Different cameras: refused, naming the camera.
   Manifest other = testing::sampleManifest();
   other.cameras.pop_back();

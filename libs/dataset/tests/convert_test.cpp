@@ -25,7 +25,7 @@ class ConvertTest : public ::testing::Test {
   fs::path writeSampleRawlog() {
     const fs::path rawlog = dir_ / "sample.rawlog";
     auto writer = DatasetWriter::create(rawlog, DatasetKind::kRawlog, testing::sampleManifest());
-    for (const Record& r : testing::sampleRecords()) writer->write(r);
+    for (const Record& r : testing::withCorners(testing::sampleRecords())) writer->write(r);
     writer->finish();
     return rawlog;
   }
@@ -102,6 +102,12 @@ TEST_F(ConvertTest, RawlogToFolderToRawlogLosesNothing) {
   convertData(back, ProgressReporter());
 
   expectSameRecords(readAll(rawlog), readAll(dir_ / "again.rawlog"));
+  int with_corners = 0;
+  for (const Record& r : readAll(dir_ / "again.rawlog")) {
+    const auto* m = std::get_if<MarkerObservation>(&r);
+    with_corners += m && m->corners_px.size() == 4;
+  }
+  EXPECT_EQ(with_corners, 5);  // the markers' corners crossed both formats
   expectSameManifest(DatasetReader::open(rawlog)->manifest(),
                      DatasetReader::open(dir_ / "again.rawlog")->manifest());
   EXPECT_EQ(DatasetReader::open(dir_ / "again.rawlog")->manifest().name, "again");

@@ -368,6 +368,60 @@ TEST_F(FolderIoTest, WritesEncodedImagesAndSyntheticRecords) {
       fs::exists(folder / "fisheye/frames" / (std::to_string(recordTime(records[2])) + ".png")));
 }
 
+TEST_F(FolderIoTest, MarkerCornersRoundTripExactlyAndOldFilesReadWithout) {
+  const std::vector<Record> records = testing::withCorners(testing::sampleRecords());
+  const fs::path folder = dir_ / "sample";
+  {
+    auto writer = DatasetWriter::create(folder, DatasetKind::kFolder, testing::sampleManifest());
+    for (const Record& record : records) writer->write(record);
+    writer->finish();
+  }
+  DatasetReadOptions options;
+  options.check_images = false;
+  const ReadResult result = readAll(folder, options);
+  ASSERT_EQ(result.records.size(), records.size());
+  int with_corners = 0;
+  for (size_t i = 0; i < records.size(); ++i) {
+    EXPECT_TRUE(testing::sameRecord(result.records[i], records[i])) << "record " << i;
+    if (const auto* m = std::get_if<MarkerObservation>(&result.records[i]))
+      with_corners += !m->corners_px.empty();
+  }
+  EXPECT_EQ(with_corners, 5);
+  expectContains(readText(folder / "detections/markers.csv"),
+                 {"qw,information,corners,corner_sigma_px\n", ",,\n"});
+  // The shipped sample has neither column: no corners, no noise.
+  for (const auto& m : recordsOf<MarkerObservation>(readAll(sampleFolder()).records)) {
+    EXPECT_TRUE(m.corners_px.empty());
+    EXPECT_EQ(m.corner_sigma_px, 0.0);
+  }
+}
+
+TEST_F(FolderIoTest, BadCornersAreErrorsNamingFileLineAndColumn) {
+  const fs::path folder = copySample();
+  const fs::path markers = folder / "detections/markers.csv";
+  const std::string header =
+      "timestamp_ns,camera,marker_id,tx,ty,tz,qx,qy,qz,qw,corners,corner_sigma_px\n";
+  const std::string good = "1000000000,cam_a,7,0.1,-0.2,2.5,0,0,0,1,1 2 3 4 5 6 7 8,0.2\n";
+  writeText(markers, header + good + "1050000000,cam_b,7,0,0,2,0,0,0,1,,\n");
+  const ReadResult ok = readAll(folder);
+  const auto read = recordsOf<MarkerObservation>(ok.records);
+  ASSERT_EQ(read.size(), 2u);
+  EXPECT_EQ(read[0].corners_px, (std::vector<Eigen::Vector2d>{{1, 2}, {3, 4}, {5, 6}, {7, 8}}));
+  EXPECT_EQ(read[0].corner_sigma_px, 0.2);
+  EXPECT_TRUE(read[1].corners_px.empty());  // empty cells: none
+  writeText(markers, header + good + "1050000000,cam_b,7,0,0,2,0,0,0,1,1 2 3 4 5 6 7,\n");
+  expectReadError(folder,
+                  {"markers.csv:3: 'corners': expected 8 space-separated numbers", "got 7"});
+  writeText(markers, header + good + "1050000000,cam_b,7,0,0,2,0,0,0,1,1 2 3 x 5 6 7 8,\n");
+  expectReadError(folder, {"markers.csv:3: 'corners': value 4 'x' is not a finite number"});
+  writeText(markers, header + good + "1050000000,cam_b,7,0,0,2,0,0,0,1,1 2 3 4 5 6 7 nan,\n");
+  expectReadError(folder, {"markers.csv:3: 'corners': value 8 'nan' is not a finite number"});
+  writeText(markers, header + good + "1050000000,cam_b,7,0,0,2,0,0,0,1,,-0.5\n");
+  expectReadError(folder, {"markers.csv:3: 'corner_sigma_px': negative corner noise"});
+  writeText(markers, header + good + "1050000000,cam_b,7,0,0,2,0,0,0,1,,abc\n");
+  expectReadError(folder, {"markers.csv:3: 'corner_sigma_px'"});
+}
+
 TEST_F(FolderIoTest, WriterRefusesAnExistingOutputWithoutOverwrite) {
   const Manifest manifest = readAll(sampleFolder()).manifest;
   const fs::path folder = dir_ / "existing";

@@ -1,11 +1,15 @@
 #include <gtest/gtest.h>
 #include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/io/CFileGZOutputStream.h>
+#include <mrpt/obs/CObservation6DFeatures.h>
 #include <mrpt/obs/CObservationImage.h>
 #include <mrpt/obs/CRawlog.h>
+#include <mrpt/serialization/CArchive.h>
 
 #include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
+#include "lookboth/geometry/pose_conversions.h"
+#include "lookboth/obs/CObservationMarkerCorners.h"
 #include "test_dataset.h"
 
 namespace lookboth {
@@ -79,6 +83,105 @@ TEST_F(RawlogIoTest, RoundTripLosesNothing) {
   EXPECT_EQ(manifest.name, "sample");
   // Opening through the manifest path works too.
   EXPECT_EQ(readAll(dir_ / "sample.yaml").size(), records.size());
+}
+
+size_t countCorners(const std::vector<Record>& records) {
+  size_t n = 0;
+  for (const Record& r : records) {
+    const auto* m = std::get_if<MarkerObservation>(&r);
+    n += m && !m->corners_px.empty();
+  }
+  return n;
+}
+
+TEST_F(RawlogIoTest, MarkerCornersRoundTripExactlyAndOldRawlogsReadWithout) {
+  const auto records = testing::withCorners(testing::sampleRecords());
+  const size_t with_corners = countCorners(records);
+  ASSERT_EQ(with_corners, 5u);
+  writeSample(records, rawlog_);
+  const auto back = readAll(rawlog_);
+  ASSERT_EQ(back.size(), records.size());
+  for (size_t i = 0; i < records.size(); ++i)
+    EXPECT_TRUE(testing::sameRecord(records[i], back[i])) << i;
+  EXPECT_TRUE(issues_.empty());
+  EXPECT_EQ(countCorners(back), with_corners);
+  // One more rawlog entry per marker with corners, which MRPT reads too.
+  EXPECT_EQ(loadManifest(dir_ / "sample.yaml").rawlog_entries,
+            static_cast<std::int64_t>(records.size() + with_corners));
+  mrpt::obs::CRawlog rawlog;
+  ASSERT_TRUE(rawlog.loadFromRawLogFile(rawlog_.string()));
+  EXPECT_EQ(rawlog.size(), records.size() + with_corners);
+  // A rawlog without corners (written before they existed) reads as before.
+  fs::remove_all(dir_);
+  fs::create_directories(dir_);
+  writeSample(testing::sampleRecords(), rawlog_);
+  const auto old = readAll(rawlog_);
+  EXPECT_EQ(old.size(), records.size());
+  EXPECT_EQ(countCorners(old), 0u);
+  EXPECT_TRUE(issues_.empty());
+}
+
+TEST_F(RawlogIoTest, WriterRefusesAMarkerWithoutFourCorners) {
+  auto records = testing::sampleRecords();
+  auto writer = DatasetWriter::create(rawlog_, DatasetKind::kRawlog, testing::sampleManifest());
+  MarkerObservation marker = std::get<MarkerObservation>(records[3]);
+  marker.corners_px.resize(3);
+  try {
+    writer->write(marker);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("has 3 corners (expected 0 or 4)"), std::string::npos)
+        << e.what();
+  }
+}
+
+// Corners pair with the pose of the entry just before; a repeated pose is
+// dropped with its corners; corners that match no pose are reported.
+TEST_F(RawlogIoTest, CornersPairOnlyWithTheirPose) {
+  writeSample({}, rawlog_);
+  const TimeNs t = secondsToNs(1700000000);
+  auto features = [&](TimeNs stamp, int id) {
+    mrpt::obs::CObservation6DFeatures obs;
+    obs.sensorLabel = "cam00";
+    obs.timestamp = toMrptTime(stamp);
+    mrpt::obs::CObservation6DFeatures::TMeasurement m;
+    m.pose = mrpt::poses::CPose3D(0.1, 0.2, 3.0, 0, 0, 0);
+    m.id = id;
+    m.inf_matrix.setIdentity();
+    obs.sensedFeatures.push_back(m);
+    return obs;
+  };
+  auto corners = [&](TimeNs stamp, int id, double u0) {
+    CObservationMarkerCorners obs;
+    obs.sensorLabel = "cam00";
+    obs.timestamp = toMrptTime(stamp);
+    obs.marker_id = id;
+    obs.corners = {{{u0, 10}, {u0 + 20, 10}, {u0 + 20, 30}, {u0, 30}}};
+    obs.corner_sigma_px = 0.25;
+    return obs;
+  };
+  {
+    mrpt::io::CFileGZOutputStream file(rawlog_.string());
+    auto out = mrpt::serialization::archiveFrom(file);
+    out << features(t, 7) << corners(t, 7, 100);  // 1, 2: a pair
+    out << features(t, 7) << corners(t, 7, 200);  // 3, 4: repeated stamp: both dropped
+    out << features(t + 1000, 7);                 // 5: a pose without corners
+    out << corners(t + 1000, 8, 300);             // 6: another marker id: no pose for it
+    out << corners(t + 5000, 7, 400);             // 7: no pose before
+  }
+  const auto back = readAll(rawlog_);
+  ASSERT_EQ(back.size(), 2u);
+  const auto& first = std::get<MarkerObservation>(back[0]);
+  ASSERT_EQ(first.corners_px.size(), 4u);
+  EXPECT_EQ(first.corners_px[1], Eigen::Vector2d(120, 10));
+  EXPECT_EQ(first.corner_sigma_px, 0.25);
+  EXPECT_TRUE(std::get<MarkerObservation>(back[1]).corners_px.empty());
+  ASSERT_EQ(issues_.size(), 3u);
+  EXPECT_NE(issues_[0].message.find("repeats timestamp"), std::string::npos);
+  EXPECT_NE(issues_[1].where.find("entry 6"), std::string::npos) << issues_[1].where;
+  EXPECT_NE(issues_[1].message.find("(marker 8)"), std::string::npos) << issues_[1].message;
+  EXPECT_NE(issues_[1].message.find("do not follow their marker pose"), std::string::npos);
+  EXPECT_NE(issues_[2].where.find("entry 7"), std::string::npos) << issues_[2].where;
 }
 
 TEST_F(RawlogIoTest, MrptReadsOurRawlogAndFindsTheImages) {

@@ -38,6 +38,9 @@ bool samePose(const Rigid3d& a, const Rigid3d& b) {
         ma->information != mb.information) {
       return ::testing::AssertionFailure() << "marker observations differ";
     }
+    if (ma->corners_px != mb.corners_px || ma->corner_sigma_px != mb.corner_sigma_px) {
+      return ::testing::AssertionFailure() << "marker corners differ";
+    }
   } else if (const auto* ba = std::get_if<BlobObservation>(&a)) {
     const auto& bb = std::get<BlobObservation>(b);
     if (ba->blobs.size() != bb.blobs.size())

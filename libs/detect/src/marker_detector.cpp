@@ -415,6 +415,7 @@ std::vector<MarkerDetection> MarkerDetector::detect(const cv::Mat& grey) {
     MarkerDetection detection;
     detection.marker_id = impl_->marker.id;
     detection.corners_px = corners;
+    detection.corner_sigma_px = sigma;
     detection.hypotheses = solvePose(corners, sigma);
     if (detection.hypotheses.empty() ||
         detection.hypotheses.front().reprojection_rms_px > options_.max_reprojection_px) {
@@ -555,6 +556,8 @@ MarkerObservation toMarkerObservation(const MarkerDetection& detection, TimeNs t
   obs.marker_id = detection.marker_id;
   obs.camera_from_marker = detection.pose().camera_from_marker;
   obs.information = detection.pose().information;
+  obs.corners_px.assign(detection.corners_px.begin(), detection.corners_px.end());
+  obs.corner_sigma_px = detection.corner_sigma_px;
   return obs;
 }
 

@@ -90,6 +90,53 @@ TEST_F(DetectDatasetTest, AccuracyOnSmallAndThreadIndependence) {
   EXPECT_LT(be.median_error_px, 1.0);
 }
 
+// The stored corners are the marker's true corners projected through the
+// camera's model (sim ground truth), within the noise the detector stores.
+TEST_F(DetectDatasetTest, StoresCornersWithinTheirNoiseOfTheTrueProjections) {
+  DetectOptions options;
+  options.dataset = dir_ / "small.rawlog";
+  options.config = defaultDetectConfig();
+  options.threads = 2;
+  const std::vector<Record> records = runDetection(options, ProgressReporter(), nullptr);
+  const GroundTruthView truth = loadGroundTruth(options.dataset);
+  const double h = 0.5 * truth.manifest.marker.size_m;
+  const Eigen::Vector3d corners_in_marker[4] = {{-h, h, 0}, {h, h, 0}, {h, -h, 0}, {-h, -h, 0}};
+  int markers = 0;
+  double sum_normalised = 0, sum_squared_px = 0, worst_px = 0;
+  std::vector<double> sigmas;
+  for (const Record& r : records) {
+    const auto* m = std::get_if<MarkerObservation>(&r);
+    if (!m) continue;
+    ASSERT_EQ(m->corners_px.size(), 4u);
+    ASSERT_GT(m->corner_sigma_px, 0.0);
+    const auto camera_from_marker = truth.cameraFromMarker(m->camera, m->t);
+    const CameraSensor* sensor = truth.manifest.findCamera(m->camera);
+    ASSERT_TRUE(camera_from_marker && sensor && sensor->camera);
+    for (int k = 0; k < 4; ++k) {
+      const auto expected = sensor->camera->project(*camera_from_marker * corners_in_marker[k]);
+      ASSERT_TRUE(expected);
+      const Eigen::Vector2d error = m->corners_px[static_cast<size_t>(k)] - *expected;
+      sum_squared_px += error.squaredNorm();
+      sum_normalised += error.squaredNorm() / (m->corner_sigma_px * m->corner_sigma_px);
+      worst_px = std::max(worst_px, error.norm());
+    }
+    sigmas.push_back(m->corner_sigma_px);
+    ++markers;
+  }
+  ASSERT_GT(markers, 30);
+  const double rms_px = std::sqrt(sum_squared_px / (8.0 * markers));
+  const double mean_normalised = sum_normalised / (8.0 * markers);  // E = 1 if sigma is right
+  std::printf(
+      "small, first 4 s: %d markers, corner error rms %.3f px (worst %.3f px), median stored "
+      "sigma %.3f px, mean (error/sigma)^2 per coordinate %.2f\n",
+      markers, rms_px, worst_px, medianOf(sigmas), mean_normalised);
+  // Measured: rms 0.036 px, worst 0.133 px, mean (error/sigma)^2 1.00.
+  EXPECT_LT(rms_px, 0.1);
+  EXPECT_LT(worst_px, 0.5);
+  EXPECT_GT(mean_normalised, 0.5);
+  EXPECT_LT(mean_normalised, 2.0);
+}
+
 TEST_F(DetectDatasetTest, WritesInPlaceReplacesOnRerunAndSkipsCorruptImages) {
   // A copy of the dataset with one frame of cam03 corrupted.
   const fs::path copy = dir_ / "copy.rawlog";
@@ -132,10 +179,12 @@ TEST_F(DetectDatasetTest, WritesInPlaceReplacesOnRerunAndSkipsCorruptImages) {
   ASSERT_GT(markers, 10);
   const std::vector<Record> after = readAll(copy);
   EXPECT_EQ(after.size(), before + summary.written.added);
-  // Only cam03's markers (cam04 was not asked for).
+  // Only cam03's markers (cam04 was not asked for), with their corners and noise stored.
   for (const Record& r : after) {
     if (const auto* m = std::get_if<MarkerObservation>(&r)) {
       EXPECT_EQ(m->camera, "cam03");
+      EXPECT_EQ(m->corners_px.size(), 4u);
+      EXPECT_GT(m->corner_sigma_px, 0.0);
     }
   }
   // A second run replaces the detections instead of adding more.

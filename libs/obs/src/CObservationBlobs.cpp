@@ -8,6 +8,8 @@
 #include <iomanip>
 #include <sstream>
 
+#include "lookboth/obs/CObservationMarkerCorners.h"
+
 namespace lookboth {
 
 IMPLEMENTS_SERIALIZABLE(CObservationBlobs, mrpt::obs::CObservation, lookboth)
@@ -72,7 +74,10 @@ std::string CObservationBlobs::exportTxtDataRow() const {
   return row;
 }
 
-void registerLookbothObservations() { mrpt::rtti::registerClass(CLASS_ID(CObservationBlobs)); }
+void registerLookbothObservations() {
+  mrpt::rtti::registerClass(CLASS_ID(CObservationBlobs));
+  mrpt::rtti::registerClass(CLASS_ID(CObservationMarkerCorners));
+}
 
 MRPT_INITIALIZER(lookboth_register_observations) { registerLookbothObservations(); }
 

@@ -576,6 +576,7 @@ Scenario scenarioFromYaml(const std::string& yaml, const std::string& source,
     n.number("min_marker_px", scenario.noise.min_marker_px);
     n.number("image_margin_px", scenario.noise.image_margin_px);
     n.number("blob_sigma_px", scenario.noise.blob_sigma_px);
+    n.boolean("marker_corners", scenario.noise.marker_corners);
     n.finish();
   }
   readFaults(parser, top.sub("faults"), scenario.faults);

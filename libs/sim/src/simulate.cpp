@@ -17,6 +17,7 @@
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
 #include "lookboth/geometry/lie.h"
+#include "lookboth/sim/marker_corners.h"
 #include "lookboth/sim/motion.h"
 #include "lookboth/sim/render.h"
 #include "lookboth/sim/scenario.h"
@@ -459,8 +460,19 @@ std::vector<Event> buildEvents(const Setup& setup, const SimulateOptions& option
         const auto side =
             detectableSide(*setup.env_camera, camera_from_marker, sc.marker, sc.noise);
         std::mt19937 noise(itemSeed(seed, "detect/" + placement.label, k));
+        // noise.marker_corners: the pose from noisy corners, drawn from a
+        // stream of their own so that every other draw stays as without them.
+        auto observe = [&](const Rigid3d& camera_from_seen, double side_px) {
+          if (!sc.noise.marker_corners) {
+            return std::optional<MarkerObservation>(
+                noisyMarker(camera_from_seen, side_px, sc.marker, sc.noise, noise));
+          }
+          std::mt19937 corner_noise(itemSeed(seed, "corners/" + placement.label, k));
+          return markerFromNoisyCorners(*setup.env_camera, camera_from_seen, sc.marker,
+                                        sc.noise.marker_corner_sigma_px, corner_noise);
+        };
         if (side && !e.occluded) {
-          e.marker = noisyMarker(camera_from_marker, *side, sc.marker, sc.noise, noise);
+          e.marker = observe(camera_from_marker, *side);
         } else if (e.false_marker) {
           // A false detection only where the real marker is not seen (a
           // reader keeps one detection of an id per frame).
@@ -469,8 +481,8 @@ std::vector<Event> buildEvents(const Setup& setup, const SimulateOptions& option
             const Rigid3d camera_from_decoy = camera_from_world * *decoy;
             if (const auto decoy_side =
                     detectableSide(*setup.env_camera, camera_from_decoy, sc.marker, sc.noise)) {
-              e.marker = noisyMarker(camera_from_decoy, *decoy_side, sc.marker, sc.noise, noise);
-              ++fault_counts["false marker detections"];
+              e.marker = observe(camera_from_decoy, *decoy_side);
+              if (e.marker) ++fault_counts["false marker detections"];
             }
           }
         }

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <opencv2/aruco.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -365,6 +367,74 @@ TEST_F(SimulateTest, SameSeedSameOutputOtherSeedOtherOutput) {
   const Dataset rawlog = readAll(dir_ / "a" / "x.rawlog");
   EXPECT_EQ(folder.all<MarkerObservation>().size(), rawlog.all<MarkerObservation>().size());
   EXPECT_EQ(folder.all<BlobObservation>().size(), rawlog.all<BlobObservation>().size());
+}
+
+// noise.marker_corners: every marker carries corners that its pose explains,
+// the pose's error matches its information, and everything else (blobs,
+// trajectories, which frames hold a marker) is what the default gives.
+TEST_F(SimulateTest, MarkerCornersOptionAddsCornersAndLeavesTheRestAlone) {
+  std::ifstream in(builtinScenarioDirectory() / "small.yaml");
+  std::string yaml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string from = "blob_sigma_px: 1.2}";
+  const size_t at = yaml.find(from);
+  ASSERT_NE(at, std::string::npos) << "small.yaml changed: update this test";
+  yaml.replace(at, from.size(), "blob_sigma_px: 1.2, marker_corners: true}");
+  const fs::path scenario = dir_ / "small_corners.yaml";
+  std::ofstream(scenario) << yaml;
+  ASSERT_TRUE(loadScenario(scenario.string()).noise.marker_corners);
+  EXPECT_FALSE(loadScenario("small").noise.marker_corners);
+  run(scenario.string(), dir_ / "c" / "x.rawlog", true, std::nullopt, 12);
+  run("small", dir_ / "d" / "x.rawlog", true, std::nullopt, 12);
+  const Dataset with = readAll(dir_ / "c" / "x.rawlog");
+  const Dataset without = readAll(dir_ / "d" / "x.rawlog");
+  EXPECT_TRUE(with.issues.empty());
+
+  auto others = [](const Dataset& d) {
+    Dataset rest = d;
+    rest.manifest.rawlog_entries = -1;  // corner entries count in it
+    rest.records.clear();
+    for (const Record& r : d.records)
+      if (!std::holds_alternative<MarkerObservation>(r)) rest.records.push_back(r);
+    return dump(rest);
+  };
+  EXPECT_EQ(others(with), others(without));
+  const auto markers = with.all<MarkerObservation>();
+  const auto plain = without.all<MarkerObservation>();
+  ASSERT_EQ(markers.size(), plain.size());
+  ASSERT_GT(markers.size(), 40u);
+
+  const double sigma = loadScenario("small").noise.marker_corner_sigma_px;
+  const Camera& camera = *with.manifest.findCamera(markers[0].camera)->camera;
+  const Trajectory gt = with.trajectory("ground_truth");
+  const double h = 0.5 * with.manifest.marker.size_m;
+  const Eigen::Vector3d corners_in_marker[4] = {{-h, h, 0}, {h, h, 0}, {h, -h, 0}, {-h, -h, 0}};
+  double nees = 0;
+  for (size_t i = 0; i < markers.size(); ++i) {
+    const MarkerObservation& m = markers[i];
+    EXPECT_EQ(m.camera, plain[i].camera);
+    EXPECT_EQ(m.t, plain[i].t);
+    EXPECT_TRUE(plain[i].corners_px.empty());
+    ASSERT_EQ(m.corners_px.size(), 4u);
+    EXPECT_EQ(m.corner_sigma_px, sigma);
+    // The pose is the least-squares fit of its corners: residuals below the noise.
+    double squared = 0;
+    for (int k = 0; k < 4; ++k) {
+      const auto pixel = camera.project(m.camera_from_marker * corners_in_marker[k]);
+      ASSERT_TRUE(pixel);
+      squared += (*pixel - m.corners_px[static_cast<size_t>(k)]).squaredNorm();
+    }
+    EXPECT_LT(std::sqrt(squared / 8), 3 * sigma) << m.t;
+    const auto truth = trueCameraFromMarker(with, gt, m);
+    ASSERT_TRUE(truth);
+    const Vector6d e = markerError(m, *truth);
+    Matrix6d covariance = m.information.inverse();
+    covariance.topLeftCorner<3, 3>() += 0.0002 * 0.0002 * Eigen::Matrix3d::Identity();
+    nees += e.dot(covariance.inverse() * e);
+  }
+  const double mean_nees = nees / static_cast<double>(markers.size()) / 6.0;
+  std::printf("marker_corners: %zu markers, mean NEES / 6 = %.3f\n", markers.size(), mean_nees);
+  EXPECT_GT(mean_nees, 0.6);
+  EXPECT_LT(mean_nees, 1.5);
 }
 
 TEST_F(SimulateTest, FaultsShowUp) {

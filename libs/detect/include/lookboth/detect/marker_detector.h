@@ -83,6 +83,11 @@ struct MarkerDetection {
   /// (s/2, s/2), (s/2, -s/2), (-s/2, -s/2) in its frame (x right, y up).
   std::array<Eigen::Vector2d, 4> corners_px = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(),
                                                Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
+  /// Standard deviation of one corner coordinate [px]: measured from the
+  /// edge points' scatter (plus min_corner_sigma_px in quadrature) when edges
+  /// are fitted, else the options' corner_sigma_px. The hypotheses'
+  /// information assumes it.
+  double corner_sigma_px = 0;
   /// Best first (lowest reprojection error); one or two hypotheses.
   std::vector<MarkerPoseHypothesis> hypotheses;
   /// Index of the chosen hypothesis (set by resolveAmbiguity; 0 before).
@@ -150,7 +155,8 @@ int resolveAmbiguity(std::vector<MarkerDetection*>& track, double agreement_deg 
 int rejectTrackOutliers(std::vector<std::pair<TimeNs, MarkerDetection>>& track,
                         double max_speed_mps, TimeNs window);
 
-/// The MarkerObservation of a detection's chosen hypothesis.
+/// The MarkerObservation of a detection's chosen hypothesis, with the
+/// detection's refined corners and their noise.
 MarkerObservation toMarkerObservation(const MarkerDetection& detection, TimeNs t,
                                       const std::string& camera);
 

@@ -92,6 +92,11 @@ struct DetectionNoiseSpec {
   double min_marker_px = 12;             ///< Shortest side seen [px].
   double image_margin_px = 2;            ///< Corners/blobs must be this far inside [px].
   double blob_sigma_px = 0.7;            ///< Blob centre noise [px].
+  /// Marker observations carry the marker's 4 corners (true projections +
+  /// N(0, marker_corner_sigma_px^2) per coordinate) and the pose is solved
+  /// from them (sim/marker_corners.h); false: the pose noise model alone, no
+  /// corners (what every dataset made before this option holds).
+  bool marker_corners = false;
 };
 
 struct MotionBlurBurst {
