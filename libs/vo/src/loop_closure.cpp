@@ -306,20 +306,34 @@ std::optional<LoopClosure> LoopCloser::verify(const Map& map, int k, int candida
 
   // Guided matching: every landmark of the candidate's neighbourhood,
   // projected with the first pose, is matched to the nearest-in-descriptor
-  // fresh feature within the loose bound of its predicted bearing.
-  std::vector<std::pair<int, int>> guided;  // (current feature, index into old_landmarks)
+  // feature of the current keyframe within the loose bound of its predicted
+  // bearing. Features: the fresh ORB corners and the keyframe's own landmark
+  // observations (tracked FAST corners, the kind the old landmarks were made
+  // of: the same corner seen again is found there more often).
+  Bearings feature_bearings = current.orb_bearings;
+  cv::Mat feature_descriptors = current.orb_descriptors.clone();
+  for (int i = 0; i < current.descriptors.rows; ++i) {
+    const Landmark& l = map.landmarks[size_t(current.descriptor_landmarks[size_t(i)])];
+    for (const Observation& o : l.observations) {
+      if (o.keyframe != k) continue;
+      feature_bearings.push_back(o.bearing);
+      feature_descriptors.push_back(current.descriptors.row(i));
+      break;
+    }
+  }
+  std::vector<std::pair<int, int>> guided;  // (feature, index into old_landmarks)
   {
     const Rigid3d camera_from_world = initial->world_from_camera.inverse();
     const double cos_radius = std::cos(loose.threshold_rad);
-    std::vector<int> best_distance(current.orb_bearings.size(), kMaxGuidedDistance + 1);
-    std::vector<int> best_landmark(current.orb_bearings.size(), -1);
+    std::vector<int> best_distance(feature_bearings.size(), kMaxGuidedDistance + 1);
+    std::vector<int> best_landmark(feature_bearings.size(), -1);
     for (size_t j = 0; j < old_landmarks.size(); ++j) {
       const Eigen::Vector3d predicted =
           (camera_from_world * map.landmarks[size_t(old_landmarks[j])].p_in_world).normalized();
       int best = kMaxGuidedDistance + 1, best_i = -1;
-      for (size_t i = 0; i < current.orb_bearings.size(); ++i) {
-        if (current.orb_bearings[i].dot(predicted) < cos_radius) continue;
-        const int d = popcount256(current.orb_descriptors.ptr<uchar>(static_cast<int>(i)),
+      for (size_t i = 0; i < feature_bearings.size(); ++i) {
+        if (feature_bearings[i].dot(predicted) < cos_radius) continue;
+        const int d = popcount256(feature_descriptors.ptr<uchar>(static_cast<int>(i)),
                                   old_descriptors.ptr<uchar>(static_cast<int>(j)));
         if (d < best) {
           best = d;
@@ -338,7 +352,7 @@ std::optional<LoopClosure> LoopCloser::verify(const Map& map, int k, int candida
   bearings.clear();
   points.clear();
   for (const auto& [qi, ti] : guided) {
-    bearings.push_back(current.orb_bearings[size_t(qi)]);
+    bearings.push_back(feature_bearings[size_t(qi)]);
     points.push_back(map.landmarks[size_t(old_landmarks[size_t(ti)])].p_in_world);
   }
   const auto pose = estimateAbsolutePose(bearings, points, loose);

@@ -93,6 +93,11 @@ TEST(OdometryTest, NewSegmentIsJoinedToTheOldMapByALaterLoop) {
     }
     odometry.processFrame(frame->t, image);
     ++index;
+    // Once a loop has joined the segments, the rest of the clip adds nothing.
+    bool joined = false;
+    for (const auto& [t_current, t_old] : odometry.statistics().loops)
+      joined |= first_blank >= 0 && t_old < blank_begin && t_current > blank_end;
+    if (joined) break;
   }
   ASSERT_GE(first_blank, 0);
   const OdometryResult result = odometry.finish();
