@@ -22,6 +22,10 @@ constexpr int kPad = 32;
 constexpr double kLooseThreshold = 3.0;  // ORB skips keypoints closer than its patch to the border.
 /// Guided matching of loops: the largest Hamming distance accepted [bits of 256].
 constexpr int kMaxGuidedDistance = 64;
+/// Loop verification: keyframes either side of the candidate whose landmarks
+/// are matched by descriptor (ratio test), and those guided matching uses.
+constexpr int kVerifyNeighbours = 4;
+constexpr int kGuidedNeighbours = 10;
 
 cv::Ptr<cv::ORB> makeOrb(int features) {
   return cv::ORB::create(features, 1.2f, 1, kPatch, 0, 2, cv::ORB::HARRIS_SCORE, kPatch, 12);
@@ -268,20 +272,27 @@ std::optional<LoopClosure> LoopCloser::verify(const Map& map, int k, int candida
   std::set<int> seen;
   const std::set<int> current_set(current.landmarks.begin(), current.landmarks.end());
   const int segment = map.keyframes[size_t(candidate)].segment;
-  for (int j = std::max(0, candidate - 4);
-       j <= std::min<int>(candidate + 4, static_cast<int>(map.keyframes.size()) - 1); ++j) {
-    const Keyframe& kf = map.keyframes[size_t(j)];
-    if (kf.segment != segment || j > k - options_.loop_min_keyframe_gap) continue;
-    for (int i = 0; i < kf.descriptors.rows; ++i) {
-      const int l = kf.descriptor_landmarks[size_t(i)];
-      if (!map.landmarks[size_t(l)].valid || current_set.count(l) || !seen.insert(l).second)
-        continue;
-      old_landmarks.push_back(l);
-      old_descriptors.push_back(kf.descriptors.row(i));
+  // The candidate's neighbours within kVerifyNeighbours give the ratio-test
+  // matches (rows [0, near) of old_descriptors); guided matching also uses
+  // the landmarks of those up to kGuidedNeighbours away.
+  int near = 0;
+  for (const int reach : {kVerifyNeighbours, kGuidedNeighbours}) {
+    for (int j = std::max(0, candidate - reach);
+         j <= std::min<int>(candidate + reach, static_cast<int>(map.keyframes.size()) - 1); ++j) {
+      const Keyframe& kf = map.keyframes[size_t(j)];
+      if (kf.segment != segment || j > k - options_.loop_min_keyframe_gap) continue;
+      for (int i = 0; i < kf.descriptors.rows; ++i) {
+        const int l = kf.descriptor_landmarks[size_t(i)];
+        if (!map.landmarks[size_t(l)].valid || current_set.count(l) || !seen.insert(l).second)
+          continue;
+        old_landmarks.push_back(l);
+        old_descriptors.push_back(kf.descriptors.row(i));
+      }
     }
+    if (reach == kVerifyNeighbours) near = old_descriptors.rows;
   }
-  if (old_descriptors.rows < options_.loop_min_inliers) return std::nullopt;
-  const auto matches = matchDescriptors(current.orb_descriptors, old_descriptors);
+  if (near < options_.loop_min_inliers) return std::nullopt;
+  const auto matches = matchDescriptors(current.orb_descriptors, old_descriptors.rowRange(0, near));
   if (std::getenv("LOOKBOTH_VO_DEBUG"))
     std::fprintf(stderr, "  verify %d-%d: %d vs %d descriptors, %zu matches\n", k, candidate,
                  current.orb_descriptors.rows, old_descriptors.rows, matches.size());
