@@ -27,7 +27,7 @@ using scenes::Scene;
 Scene aisle() {
   Scene scene;
   scene.name = "aisle";
-  scene.loop = "[[2, 3], [9, 3], [9, 4.2], [2, 4.2]]";
+  scene.loop = "[[3, 3], [8, 3], [8, 4.2], [3, 4.2]]";
   scene.wait_s = 0.5;
   return scene;
 }
