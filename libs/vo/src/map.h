@@ -39,6 +39,8 @@ struct Keyframe {
   std::vector<int> descriptor_landmarks;
   // ORB features detected afresh in the keyframe (for place recognition and
   // the 2D-3D verification of loops): descriptors and their bearings.
+  // Released once the keyframe's own loop query is done (and the vocabulary
+  // trained): the odometry's compactMap.
   cv::Mat orb_descriptors;
   std::vector<Eigen::Vector3d> orb_bearings;
 };
