@@ -18,6 +18,7 @@ struct OdometryArgs {
   std::string dataset;
   std::string config;
   std::string tum;
+  std::string map;
   std::string camera;
   int threads = 1;
   long long seed = -1;
@@ -48,6 +49,7 @@ int runOdometryCommand(const OdometryArgs& args) {
   if (args.seed >= 0) options.odometry.seed = static_cast<std::uint32_t>(args.seed);
   if (args.no_loop_closure) options.odometry.loop_closure = false;
   options.tum_out = args.tum;
+  options.map_out = args.map;
   options.out = args.out;
   options.overwrite = args.overwrite;
   options.write_dataset = !args.dry_run;
@@ -68,7 +70,14 @@ int runOdometryCommand(const OdometryArgs& args) {
               << formatFixed(st.mean_inliers, 1) << " pose inliers per frame\n";
     std::cout << "  loops:       " << st.loop_closures << " closed\n";
     std::cout << "  tracking:    " << st.tracking_losses << " losses, " << st.relocalisations
-              << " relocalisations, " << st.segments << " segments\n";
+              << " relocalisations, " << st.segments << " segments (" << st.segments_at_end
+              << " at the end)\n";
+    std::cout << "  map memory:  " << formatFixed(static_cast<double>(st.map_bytes) / 1024.0, 1)
+              << " KiB at the end ("
+              << formatFixed(static_cast<double>(st.map_bytes) / 1024.0 /
+                                 std::max<double>(1, static_cast<double>(st.keyframes)),
+                             2)
+              << " KiB per keyframe)\n";
     for (const std::string& e : st.events) std::cout << "  event:       " << e << "\n";
     const double n = std::max<double>(1, static_cast<double>(st.frames));
     std::cout << "  time (CPU):  decode " << formatFixed(s.decode_seconds, 2)
@@ -88,6 +97,8 @@ int runOdometryCommand(const OdometryArgs& args) {
       std::cout << "wrote " << s.records_written << " poses (trajectory 'vo', up to scale) to "
                 << s.dataset_written.string() << "\n";
     if (!args.tum.empty()) std::cout << "wrote " << args.tum << "\n";
+    if (!args.map.empty())
+      std::cout << "wrote " << s.result.landmarks.size() << " landmarks to " << args.map << "\n";
     return 0;
   } catch (const StopRequested&) {
     std::cerr << "lookboth: stopped; the dataset is unchanged and nothing was written\n";
@@ -109,9 +120,12 @@ void registerOdometryCommand(CLI::App& app, const std::function<void(CommandBody
                   "YAML configuration (section 'odometry:'; default: the shipped default.yaml)");
   cmd->add_option("--out", args->out,
                   "Write the dataset with the trajectory here instead of replacing the input");
-  cmd->add_flag("--overwrite", args->overwrite, "Replace an existing --out or --tum");
+  cmd->add_flag("--overwrite", args->overwrite, "Replace an existing --out, --tum or --map");
   cmd->add_flag("--dry-run", args->dry_run, "Leave the dataset as it is (statistics, --tum only)");
   cmd->add_option("--tum", args->tum, "Also write the trajectory (world_from_fisheye) as TUM");
+  cmd->add_option("--map", args->map,
+                  "Also write the landmark map (world of the trajectory, VO units): FILE.ply (PLY "
+                  "point cloud) or FILE.txt (MRPT CSimplePointsMap text)");
   cmd->add_option("--camera", args->camera,
                   "The fisheye's label (default: the manifest's fisheye)");
   cmd->add_option("--threads", args->threads, "Solver threads")

@@ -169,8 +169,13 @@ int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& f
         ++removed;
       }
     }
-    landmark.observations = kept;
-    if (landmark.observations.size() < 2) landmark.valid = false;
+    if (kept.size() < 2) {
+      // Invalid for good: nothing of it is kept but its slot.
+      landmark.valid = false;
+      kept.clear();
+      kept.shrink_to_fit();
+    }
+    landmark.observations.swap(kept);
   }
   return removed;
 }

@@ -20,6 +20,12 @@ constexpr int kPatch = 31;
 constexpr int kPad = 32;
 /// Matches of fresh ORB corners to landmarks: RANSAC bound x this.
 constexpr double kLooseThreshold = 3.0;  // ORB skips keypoints closer than its patch to the border.
+/// Guided matching of loops: the largest Hamming distance accepted [bits of 256].
+constexpr int kMaxGuidedDistance = 64;
+/// Loop verification: keyframes either side of the candidate whose landmarks
+/// are matched by descriptor (ratio test), and those guided matching uses.
+constexpr int kVerifyNeighbours = 4;
+constexpr int kGuidedNeighbours = 10;
 
 cv::Ptr<cv::ORB> makeOrb(int features) {
   return cv::ORB::create(features, 1.2f, 1, kPatch, 0, 2, cv::ORB::HARRIS_SCORE, kPatch, 12);
@@ -212,8 +218,15 @@ std::map<int, double> LoopCloser::wordsOf(const cv::Mat& descriptors) const {
 }
 
 void LoopCloser::insert(int k, const std::map<int, double>& words) {
-  database_[k] = words;
   for (const auto& [w, x] : words) inverted_[size_t(w)].emplace_back(k, x);
+}
+
+std::size_t LoopCloser::memoryBytes() const {
+  std::size_t bytes =
+      vocabulary_.total() * vocabulary_.elemSize() + idf_.capacity() * sizeof(double);
+  for (const auto& postings : inverted_)
+    bytes += sizeof(postings) + postings.capacity() * sizeof(std::pair<int, double>);
+  return bytes;
 }
 
 std::optional<LoopClosure> LoopCloser::detect(const Map& map, int k, const RansacOptions& ransac) {
@@ -259,24 +272,34 @@ std::optional<LoopClosure> LoopCloser::verify(const Map& map, int k, int candida
   std::set<int> seen;
   const std::set<int> current_set(current.landmarks.begin(), current.landmarks.end());
   const int segment = map.keyframes[size_t(candidate)].segment;
-  for (int j = std::max(0, candidate - 4);
-       j <= std::min<int>(candidate + 4, static_cast<int>(map.keyframes.size()) - 1); ++j) {
-    const Keyframe& kf = map.keyframes[size_t(j)];
-    if (kf.segment != segment || j > k - options_.loop_min_keyframe_gap) continue;
-    for (int i = 0; i < kf.descriptors.rows; ++i) {
-      const int l = kf.descriptor_landmarks[size_t(i)];
-      if (!map.landmarks[size_t(l)].valid || current_set.count(l) || !seen.insert(l).second)
-        continue;
-      old_landmarks.push_back(l);
-      old_descriptors.push_back(kf.descriptors.row(i));
+  // The candidate's neighbours within kVerifyNeighbours give the ratio-test
+  // matches (rows [0, near) of old_descriptors); guided matching also uses
+  // the landmarks of those up to kGuidedNeighbours away.
+  int near = 0;
+  for (const int reach : {kVerifyNeighbours, kGuidedNeighbours}) {
+    for (int j = std::max(0, candidate - reach);
+         j <= std::min<int>(candidate + reach, static_cast<int>(map.keyframes.size()) - 1); ++j) {
+      const Keyframe& kf = map.keyframes[size_t(j)];
+      if (kf.segment != segment || j > k - options_.loop_min_keyframe_gap) continue;
+      for (int i = 0; i < kf.descriptors.rows; ++i) {
+        const int l = kf.descriptor_landmarks[size_t(i)];
+        if (!map.landmarks[size_t(l)].valid || current_set.count(l) || !seen.insert(l).second)
+          continue;
+        old_landmarks.push_back(l);
+        old_descriptors.push_back(kf.descriptors.row(i));
+      }
     }
+    if (reach == kVerifyNeighbours) near = old_descriptors.rows;
   }
-  if (old_descriptors.rows < options_.loop_min_inliers) return std::nullopt;
-  const auto matches = matchDescriptors(current.orb_descriptors, old_descriptors);
+  if (near < options_.loop_min_inliers) return std::nullopt;
+  const auto matches = matchDescriptors(current.orb_descriptors, old_descriptors.rowRange(0, near));
   if (std::getenv("LOOKBOTH_VO_DEBUG"))
     std::fprintf(stderr, "  verify %d-%d: %d vs %d descriptors, %zu matches\n", k, candidate,
                  current.orb_descriptors.rows, old_descriptors.rows, matches.size());
-  if (static_cast<int>(matches.size()) < options_.loop_min_inliers) return std::nullopt;
+  // A first pose from the ratio-test matches needs fewer inliers than the
+  // loop itself: guided matching then gathers the rest (or does not).
+  const int min_initial = std::max(8, (options_.loop_min_inliers * 3) / 5);
+  if (static_cast<int>(matches.size()) < min_initial) return std::nullopt;
   Bearings bearings;
   std::vector<Eigen::Vector3d> points;
   for (const auto& [qi, ti] : matches) {
@@ -287,21 +310,80 @@ std::optional<LoopClosure> LoopCloser::verify(const Map& map, int k, int candida
   // were made of: a wider bound than for tracking.
   RansacOptions loose = ransac;
   loose.threshold_rad *= kLooseThreshold;
+  const auto initial = estimateAbsolutePose(bearings, points, loose);
+  if (std::getenv("LOOKBOTH_VO_DEBUG"))
+    std::fprintf(stderr, "  p3p inliers %d\n", initial ? initial->num_inliers : 0);
+  if (!initial || initial->num_inliers < min_initial) return std::nullopt;
+
+  // Guided matching: every landmark of the candidate's neighbourhood,
+  // projected with the first pose, is matched to the nearest-in-descriptor
+  // feature of the current keyframe within the loose bound of its predicted
+  // bearing. Features: the fresh ORB corners and the keyframe's own landmark
+  // observations (tracked FAST corners, the kind the old landmarks were made
+  // of: the same corner seen again is found there more often).
+  Bearings feature_bearings = current.orb_bearings;
+  cv::Mat feature_descriptors = current.orb_descriptors.clone();
+  for (int i = 0; i < current.descriptors.rows; ++i) {
+    const Landmark& l = map.landmarks[size_t(current.descriptor_landmarks[size_t(i)])];
+    for (const Observation& o : l.observations) {
+      if (o.keyframe != k) continue;
+      feature_bearings.push_back(o.bearing);
+      feature_descriptors.push_back(current.descriptors.row(i));
+      break;
+    }
+  }
+  std::vector<std::pair<int, int>> guided;  // (feature, index into old_landmarks)
+  {
+    const Rigid3d camera_from_world = initial->world_from_camera.inverse();
+    const double cos_radius = std::cos(loose.threshold_rad);
+    std::vector<int> best_distance(feature_bearings.size(), kMaxGuidedDistance + 1);
+    std::vector<int> best_landmark(feature_bearings.size(), -1);
+    for (size_t j = 0; j < old_landmarks.size(); ++j) {
+      const Eigen::Vector3d predicted =
+          (camera_from_world * map.landmarks[size_t(old_landmarks[j])].p_in_world).normalized();
+      int best = kMaxGuidedDistance + 1, best_i = -1;
+      for (size_t i = 0; i < feature_bearings.size(); ++i) {
+        if (feature_bearings[i].dot(predicted) < cos_radius) continue;
+        const int d = popcount256(feature_descriptors.ptr<uchar>(static_cast<int>(i)),
+                                  old_descriptors.ptr<uchar>(static_cast<int>(j)));
+        if (d < best) {
+          best = d;
+          best_i = static_cast<int>(i);
+        }
+      }
+      if (best_i >= 0 && best < best_distance[size_t(best_i)]) {
+        best_distance[size_t(best_i)] = best;
+        best_landmark[size_t(best_i)] = static_cast<int>(j);
+      }
+    }
+    for (size_t i = 0; i < best_landmark.size(); ++i) {
+      if (best_landmark[i] >= 0) guided.emplace_back(static_cast<int>(i), best_landmark[i]);
+    }
+  }
+  bearings.clear();
+  points.clear();
+  for (const auto& [qi, ti] : guided) {
+    bearings.push_back(feature_bearings[size_t(qi)]);
+    points.push_back(map.landmarks[size_t(old_landmarks[size_t(ti)])].p_in_world);
+  }
   const auto pose = estimateAbsolutePose(bearings, points, loose);
   if (std::getenv("LOOKBOTH_VO_DEBUG"))
-    std::fprintf(stderr, "  p3p inliers %d\n", pose ? pose->num_inliers : 0);
+    std::fprintf(stderr, "  guided: %zu matches, %d inliers\n", guided.size(),
+                 pose ? pose->num_inliers : 0);
   if (!pose || pose->num_inliers < options_.loop_min_inliers) return std::nullopt;
+  const auto& matches_final = guided;
 
   // Scale between the maps: depths of the same ceiling seen from the same
   // place, in old units (verified landmarks from the verified pose) over
   // current units (the current keyframe's median depth).
   std::vector<double> depths;
   LoopClosure closure;
-  for (size_t i = 0; i < matches.size(); ++i) {
+  for (size_t i = 0; i < matches_final.size(); ++i) {
     if (!pose->inliers[i]) continue;
     depths.push_back((points[i] - pose->world_from_camera.translation).norm());
-    closure.observations.emplace_back(old_landmarks[size_t(matches[i].second)], bearings[i]);
+    closure.observations.emplace_back(old_landmarks[size_t(matches_final[i].second)], bearings[i]);
   }
+  closure.initial_inliers = initial->num_inliers;
   std::nth_element(depths.begin(), depths.begin() + static_cast<long>(depths.size() / 2),
                    depths.end());
   const double scale = depths[depths.size() / 2] / std::max(current.median_depth, 1e-12);

@@ -27,6 +27,9 @@ struct LoopClosure {
   Sim3d old_from_current;
   /// Verified matches: old landmarks seen in the current keyframe, with their bearings there.
   std::vector<std::pair<int, Eigen::Vector3d>> observations;
+  /// Inliers of the first pose (ratio-test ORB matches), before guided
+  /// matching gathered `observations` (its inliers) with that pose.
+  int initial_inliers = 0;
 };
 
 struct Relocalisation {
@@ -52,6 +55,13 @@ class LoopCloser {
   /// candidates, then adds k to the database.
   std::optional<LoopClosure> detect(const Map& map, int k, const RansacOptions& ransac);
 
+  /// True once the vocabulary is trained: from then on a keyframe's fresh
+  /// ORB features are not needed after its own query (detect()).
+  bool trained() const { return trained_; }
+
+  /// Approximate heap bytes held (vocabulary and inverted index).
+  std::size_t memoryBytes() const;
+
   /// Pose of a frame from ORB matches against the landmarks of `keyframes`.
   std::optional<Relocalisation> relocalise(
       const Map& map, const std::vector<int>& keyframes, const cv::Mat& image, const cv::Mat& mask,
@@ -70,7 +80,6 @@ class LoopCloser {
   cv::Mat vocabulary_;                                         ///< One ORB descriptor per word.
   std::vector<double> idf_;                                    ///< Per word.
   std::vector<std::vector<std::pair<int, double>>> inverted_;  ///< Word -> (keyframe, weight).
-  std::map<int, std::map<int, double>> database_;              ///< Keyframe -> words.
   int last_closure_ = -1000000;
 };
 

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstddef>
 #include <map>
 #include <opencv2/core.hpp>
 #include <set>
@@ -38,6 +39,8 @@ struct Keyframe {
   std::vector<int> descriptor_landmarks;
   // ORB features detected afresh in the keyframe (for place recognition and
   // the 2D-3D verification of loops): descriptors and their bearings.
+  // Released once the keyframe's own loop query is done (and the vocabulary
+  // trained): the odometry's compactMap.
   cv::Mat orb_descriptors;
   std::vector<Eigen::Vector3d> orb_bearings;
 };
@@ -61,6 +64,21 @@ struct Map {
     }
     l.observations.push_back({keyframe, bearing});
     keyframes[keyframe].landmarks.push_back(landmark);
+  }
+
+  /// Approximate heap bytes held by the map (the capacity of its containers).
+  std::size_t memoryBytes() const {
+    std::size_t bytes =
+        keyframes.capacity() * sizeof(Keyframe) + landmarks.capacity() * sizeof(Landmark);
+    for (const Keyframe& kf : keyframes) {
+      bytes += kf.landmarks.capacity() * sizeof(int) +
+               kf.descriptor_landmarks.capacity() * sizeof(int) +
+               kf.descriptors.total() * kf.descriptors.elemSize() +
+               kf.orb_descriptors.total() * kf.orb_descriptors.elemSize() +
+               kf.orb_bearings.capacity() * sizeof(Eigen::Vector3d);
+    }
+    for (const Landmark& l : landmarks) bytes += l.observations.capacity() * sizeof(Observation);
+    return bytes;
   }
 };
 

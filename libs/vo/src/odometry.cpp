@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <iterator>
 #include <numeric>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -450,6 +451,40 @@ struct VisualOdometry::Impl {
         }
       }
     }
+    compactMap(k);
+  }
+
+  /// Keeps the map's memory growing only weakly with the keyframes: the
+  /// fresh ORB features of a keyframe (only its own loop query uses them,
+  /// and the vocabulary's training) are released once queried; a keyframe
+  /// leaving the local window keeps only its valid landmarks and their
+  /// descriptors (what loop verification, relocalisation and the global
+  /// adjustment use).
+  void compactMap(int k) {
+    if (!options.loop_closure || loop->trained()) {
+      for (; fresh_released < k + 1; ++fresh_released) {
+        Keyframe& kf = map.keyframes[size_t(fresh_released)];
+        kf.orb_descriptors.release();
+        std::vector<Eigen::Vector3d>().swap(kf.orb_bearings);
+      }
+    }
+    for (; compacted < k + 1 - options.local_window; ++compacted) {
+      Keyframe& kf = map.keyframes[size_t(compacted)];
+      auto valid = [this](int l) { return map.landmarks[size_t(l)].valid; };
+      std::vector<int> landmarks;
+      std::copy_if(kf.landmarks.begin(), kf.landmarks.end(), std::back_inserter(landmarks), valid);
+      kf.landmarks.swap(landmarks);
+      kf.landmarks.shrink_to_fit();
+      cv::Mat descriptors;
+      std::vector<int> descriptor_landmarks;
+      for (size_t i = 0; i < kf.descriptor_landmarks.size(); ++i) {
+        if (!valid(kf.descriptor_landmarks[i])) continue;
+        descriptors.push_back(kf.descriptors.row(static_cast<int>(i)));
+        descriptor_landmarks.push_back(kf.descriptor_landmarks[i]);
+      }
+      kf.descriptors = descriptors;
+      kf.descriptor_landmarks.swap(descriptor_landmarks);
+    }
   }
 
   void localAdjustment(int k) {
@@ -556,10 +591,11 @@ struct VisualOdometry::Impl {
     ++stats.loop_closures;
     stats.loops.emplace_back(map.keyframes[size_t(k)].t,
                              map.keyframes[size_t(closure.old_keyframe)].t);
-    stats.events.push_back("loop closed: keyframe " + std::to_string(k) + " with keyframe " +
-                           std::to_string(closure.old_keyframe) + " (" +
-                           std::to_string(closure.observations.size()) + " matches, scale " +
-                           std::to_string(closure.old_from_current.scale) + ")");
+    stats.events.push_back(
+        "loop closed: keyframe " + std::to_string(k) + " with keyframe " +
+        std::to_string(closure.old_keyframe) + " (" + std::to_string(closure.initial_inliers) +
+        " inliers of the ORB matches, " + std::to_string(closure.observations.size()) +
+        " after guided matching, scale " + std::to_string(closure.old_from_current.scale) + ")");
   }
 
   // ---- per frame -------------------------------------------------------------
@@ -724,8 +760,22 @@ struct VisualOdometry::Impl {
       result.trajectory = result.keyframes;
     }
     stats.landmarks = 0;
-    for (const Landmark& l : map.landmarks) stats.landmarks += l.valid ? 1 : 0;
+    for (const Landmark& l : map.landmarks) {
+      if (!l.valid) continue;
+      ++stats.landmarks;
+      MapPoint p;
+      p.p_in_world = l.p_in_world;
+      p.observations = static_cast<int>(l.observations.size());
+      p.first_seen = map.keyframes[size_t(l.reference_keyframe)].t;
+      result.landmarks.push_back(p);
+    }
     stats.segments = segment_count;
+    {
+      std::set<int> segments;
+      for (const Keyframe& kf : map.keyframes) segments.insert(kf.segment);
+      stats.segments_at_end = static_cast<std::int64_t>(segments.size());
+    }
+    stats.map_bytes = static_cast<std::int64_t>(map.memoryBytes() + loop->memoryBytes());
     if (stats.tracked_frames > 0) {
       stats.mean_inliers = sum_inliers / static_cast<double>(stats.tracked_frames);
       stats.mean_tracked_features = sum_tracked / static_cast<double>(stats.tracked_frames);
@@ -759,6 +809,8 @@ struct VisualOdometry::Impl {
   double last_median_depth = 1.0;
   int segment_count = 0;
   int lost_frames = 0;
+  int fresh_released = 0;  ///< Keyframes below this have released their fresh ORB features.
+  int compacted = 0;       ///< Keyframes below this are compacted (compactMap).
 
   OdometryStatistics stats;
   double sum_inliers = 0, sum_tracked = 0;

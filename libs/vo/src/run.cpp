@@ -16,6 +16,7 @@
 #include "lookboth/dataset/dataset_io.h"
 #include "lookboth/geometry/time.h"
 #include "lookboth/geometry/tum.h"
+#include "lookboth/vo/landmark_map.h"
 
 namespace lookboth::vo {
 namespace {
@@ -103,6 +104,11 @@ OdometryRunSummary runOdometry(const OdometryRunOptions& options,
   const Clock::time_point start = Clock::now();
   if (!options.tum_out.empty() && !options.overwrite && std::filesystem::exists(options.tum_out))
     throw Error(options.tum_out.string() + ": already exists (use --overwrite)");
+  if (!options.map_out.empty()) {
+    landmarkMapFormatOf(options.map_out);  // An unknown extension fails now, not after the run.
+    if (!options.overwrite && std::filesystem::exists(options.map_out))
+      throw Error(options.map_out.string() + ": already exists (use --overwrite)");
+  }
   if (options.write_dataset && !options.out.empty() && !options.overwrite &&
       std::filesystem::exists(options.out))
     throw Error(options.out.string() + ": already exists (use --overwrite)");
@@ -242,6 +248,7 @@ OdometryRunSummary runOdometry(const OdometryRunOptions& options,
     summary.dataset_written = written.output;
   }
   if (!options.tum_out.empty()) writeTumFile(options.tum_out, summary.result.trajectory);
+  if (!options.map_out.empty()) writeLandmarkMap(options.map_out, summary.result.landmarks);
   summary.wall_seconds = seconds(Clock::now() - start);
   return summary;
 }

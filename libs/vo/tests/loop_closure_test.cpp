@@ -1,85 +1,39 @@
-// The odometry end to end on rendered scenarios (generated here, a few
-// seconds each): a loop found when a place is revisited in the opposite
-// direction, and what it brings.
+// The odometry end to end on a rendered aisle (generated once here): a loop
+// found when a place is revisited in the opposite direction, what it brings,
+// and a second map segment (after a loss relocalisation cannot fix) joined
+// to the first by a later loop.
 #include "lookboth/vo/odometry.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <fstream>
+#include <opencv2/imgcodecs.hpp>
 
 #include "lookboth/core/progress.h"
 #include "lookboth/dataset/dataset_io.h"
 #include "lookboth/geometry/lie.h"
-#include "lookboth/sim/simulate.h"
 #include "lookboth/vo/run.h"
+#include "vo_test_scenes.h"
 
 namespace lookboth::vo {
 namespace {
 
-namespace fs = std::filesystem;
-
-fs::path testDirectory(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("lookboth_vo_test_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-fs::path simulateScenario(const std::string& scenario, const fs::path& dir, double seconds) {
-  sim::SimulateOptions options;
-  options.scenario = scenario;
-  options.out = dir / "data.rawlog";
-  options.max_duration_s = seconds;
-  options.overwrite = true;
-  sim::simulate(options, ProgressReporter());
-  return options.out;
-}
-
-/// Writes a scenario: `small`'s room, loop and cameras' calibration, with a
-/// single environment camera that the robot barely passes (the test needs
-/// the fisheye frames; environment frames would only cost rendering time).
-fs::path writeScenario(const fs::path& dir, const std::string& name, const std::string& loop,
-                       double wait_s) {
-  const fs::path path = dir / (name + ".yaml");
-  std::ofstream(path) << "name: " << name << R"(
-description: odometry test
-seed: 7
-world: {length_m: 12, width_m: 8, ceiling_min_m: 3.0, ceiling_max_m: 4.0, slab_size_m: 4, beams: 3, ducts: 1, light_panels: 10, cable_trays: 1, vents: 6}
-robot:
-  loop: )" << loop << R"(
-  corner_radius_m: 0.5
-  max_speed_mps: 1.0
-  max_acceleration_mps2: 0.5
-  laps: 1
-  wait_s: )" << wait_s << R"(
-  fisheye: {calibration: fisheye_640x360_calib_results.txt, rate_hz: 10}
-marker: {dictionary: DICT_4X4_50, id: 7, size_m: 0.2}
-cameras: {count: 1, calibration: ceiling_camera_640x360_ros.yaml, rate_hz: 10, store_radius_m: 0.3, lateral_offset_max_m: 0.1}
-render: {fisheye_supersampling: 1, env_supersampling: 1}
-)";
-  return path;
-}
-
-Trajectory groundTruth(const fs::path& dataset) {
-  auto reader = DatasetReader::open(dataset);
-  Trajectory truth;
-  while (auto record = reader->next()) {
-    if (const auto* p = std::get_if<PoseSample>(&*record)) {
-      if (p->label == "ground_truth" && (truth.empty() || p->t > truth.endTime()))
-        truth.append(p->t, p->world_from_body);
-    }
-  }
-  return truth;
-}
+using scenes::groundTruth;
+using scenes::renderedScene;
+using scenes::Scene;
 
 // An aisle driven out along one lane and back along the other, 1.2 m apart:
 // the second pass sees the ceiling rotated by 180 deg about the optical axis.
+Scene aisle() {
+  Scene scene;
+  scene.name = "aisle";
+  scene.loop = "[[3, 3], [8, 3], [8, 4.2], [3, 4.2]]";
+  scene.wait_s = 0.5;
+  return scene;
+}
+
 TEST(OdometryTest, LoopClosedWhenRevisitedInTheOppositeDirection) {
-  const fs::path dir = testDirectory("revisit");
-  const fs::path scenario =
-      writeScenario(dir, "aisle", "[[2, 3], [9, 3], [9, 4.2], [2, 4.2]]", 0.5);
-  const fs::path dataset = simulateScenario(scenario.string(), dir, 0);
+  const auto dataset = renderedScene(aisle());
   const Trajectory truth = groundTruth(dataset);
   OdometryRunOptions options;
   options.dataset = dataset;
@@ -106,6 +60,61 @@ TEST(OdometryTest, LoopClosedWhenRevisitedInTheOppositeDirection) {
   ASSERT_TRUE(without.ate);
   EXPECT_EQ(without.result.statistics.loop_closures, 0);
   EXPECT_LT(with_loops.ate->rmse, without.ate->rmse);
+}
+
+// Blank frames (a lens cap) for longer than relocalisation is tried: the
+// odometry starts a second segment after them; on the way back along the
+// other lane a loop to a keyframe of the first segment joins the two into
+// one map, in one frame and at one scale.
+TEST(OdometryTest, NewSegmentIsJoinedToTheOldMapByALaterLoop) {
+  const auto dataset = renderedScene(aisle());
+  const Trajectory truth = groundTruth(dataset);
+  auto reader = DatasetReader::open(dataset);
+  const Camera camera = *reader->manifest().fisheye()->camera;
+  const OdometryOptions options;
+  const int blank_frames = options.max_lost_frames + 5;
+  VisualOdometry odometry(camera, options);
+  const int factor = VisualOdometry::downscaleFactor(camera.width(), options);
+  int index = 0, first_blank = -1;
+  TimeNs blank_begin = 0, blank_end = 0;
+  while (auto record = reader->next()) {
+    const auto* frame = std::get_if<ImageFrame>(&*record);
+    if (!frame || frame->sensor != "fisheye") continue;
+    cv::Mat image = cv::imread(frame->image_file.string(), cv::IMREAD_GRAYSCALE);
+    ASSERT_FALSE(image.empty());
+    image = VisualOdometry::prepareImage(image, factor);
+    if (first_blank < 0 && odometry.statistics().keyframes >= 15) {
+      first_blank = index;
+      blank_begin = frame->t;
+    }
+    if (first_blank >= 0 && index >= first_blank && index < first_blank + blank_frames) {
+      image.setTo(cv::Scalar(128));
+      blank_end = frame->t;
+    }
+    odometry.processFrame(frame->t, image);
+    ++index;
+    // Once a loop has joined the segments, the rest of the clip adds nothing.
+    bool joined = false;
+    for (const auto& [t_current, t_old] : odometry.statistics().loops)
+      joined |= first_blank >= 0 && t_old < blank_begin && t_current > blank_end;
+    if (joined) break;
+  }
+  ASSERT_GE(first_blank, 0);
+  const OdometryResult result = odometry.finish();
+  const OdometryStatistics& s = result.statistics;
+  EXPECT_GE(s.tracking_losses, 1);
+  EXPECT_EQ(s.segments, 2) << "relocalisation should not have recovered from blank frames";
+  EXPECT_EQ(s.segments_at_end, 1) << "the second segment was not joined";
+  // A loop from after the blank frames to before them.
+  bool joined = false;
+  for (const auto& [t_current, t_old] : s.loops)
+    joined |= t_old < blank_begin && t_current > blank_end;
+  EXPECT_TRUE(joined);
+  // One frame and one scale for both segments: a single Sim(3) aligns the
+  // whole trajectory to the truth.
+  const auto ate = absoluteTrajectoryError(result.trajectory, truth);
+  ASSERT_TRUE(ate);
+  EXPECT_LT(ate->percent(), 1.0) << "ATE " << ate->rmse << " m over " << ate->path_length << " m";
 }
 
 }  // namespace

@@ -13,9 +13,11 @@
 // options (seed) and frames.
 #pragma once
 
+#include <Eigen/Core>
 #include <map>
 #include <memory>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,6 +37,12 @@ struct OdometryStatistics {
   std::int64_t tracking_losses = 0;  ///< Times tracking was lost (after initialisation).
   std::int64_t relocalisations = 0;  ///< Losses recovered against the map.
   std::int64_t segments = 0;         ///< Maps started (1 + losses not relocalised).
+  /// Segments left at the end: a later segment joined to an earlier one by
+  /// a loop closure is no longer counted.
+  std::int64_t segments_at_end = 0;
+  /// Heap bytes held by the map and the place-recognition index at the end
+  /// (capacity of their containers; grows with the keyframes).
+  std::int64_t map_bytes = 0;
   double mean_tracked_features = 0;  ///< Per tracked frame.
   double mean_inliers = 0;           ///< Pose inliers per tracked frame.
   /// CPU seconds (of the tracking thread) spent per stage: "klt", "pose", "keyframe", "local_ba",
@@ -45,6 +53,13 @@ struct OdometryStatistics {
   std::vector<std::pair<TimeNs, TimeNs>> loops;
 };
 
+/// A landmark of the final map.
+struct MapPoint {
+  Eigen::Vector3d p_in_world = Eigen::Vector3d::Zero();  ///< World = first keyframe, VO units.
+  int observations = 0;                                  ///< Keyframes that observe it.
+  TimeNs first_seen = 0;  ///< Time of the keyframe where it was triangulated (its reference).
+};
+
 struct OdometryResult {
   /// world_from_fisheye of every tracked frame (or of the keyframes, option
   /// all_frames), after the final global adjustment.
@@ -53,6 +68,9 @@ struct OdometryResult {
   /// The same frames before any loop closure and global adjustment (to
   /// report what loop closure brings).
   Trajectory trajectory_before_loop_closure;
+  /// The valid landmarks after the final global adjustment (same frame as
+  /// the trajectories).
+  std::vector<MapPoint> landmarks;
   OdometryStatistics statistics;
 };
 

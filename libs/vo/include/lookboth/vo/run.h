@@ -25,9 +25,11 @@ struct OdometryRunOptions {
   /// Where the augmented dataset goes; empty = replace the input.
   std::filesystem::path out;
   std::filesystem::path tum_out;  ///< Trajectory in TUM format; empty = none.
-  bool overwrite = false;         ///< Replace an existing `out` or `tum_out`.
-  std::string camera;             ///< The fisheye's label; empty = the manifest's fisheye.
-  double max_duration_s = 0;      ///< Only the first seconds of frames [s]; 0 = all.
+  /// Landmark map (.ply or .txt, see landmark_map.h); empty = none.
+  std::filesystem::path map_out;
+  bool overwrite = false;     ///< Replace an existing `out`, `tum_out` or `map_out`.
+  std::string camera;         ///< The fisheye's label; empty = the manifest's fisheye.
+  double max_duration_s = 0;  ///< Only the first seconds of frames [s]; 0 = all.
   std::string check() const;
 };
 
