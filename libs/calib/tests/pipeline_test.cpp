@@ -234,6 +234,71 @@ TEST(StageRegistry, NewStagesRegisterBesideThePapers) {
             (std::vector<std::string>{"associate", "fixed_mount", "look_down"}));
 }
 
+// The desktop app runs the stages one at a time on a kept problem: the result
+// after the last stage is the one run() gives, and each stage adds its part.
+TEST(Controller, RunsOneStageAtATimeLikeRun) {
+  const testing::SyntheticScene scene = testing::makeSyntheticScene({});
+  const RegistrationController controller(loadRegistrationConfig(std::nullopt));
+  const RegistrationRun whole = controller.run(scene.input, ProgressReporter());
+
+  RegistrationSession session = controller.prepare(scene.input);
+  ASSERT_EQ(session.stageCount(), controller.config().pipeline.size());
+  EXPECT_EQ(session.stagesRun(), 0u);
+  EXPECT_TRUE(session.current().registration.pipeline.empty());
+  bool registered_before_end = false;
+  for (std::size_t i = 0; i < session.stageCount(); ++i) {
+    EXPECT_FALSE(session.finished());
+    EXPECT_EQ(session.stageName(i), controller.config().pipeline[i]);
+    session.runNext(ProgressReporter());
+    EXPECT_EQ(session.stagesRun(), i + 1);
+    const RegistrationRun now = session.current();
+    ASSERT_EQ(now.registration.pipeline.size(), i + 1);
+    EXPECT_EQ(now.registration.pipeline.back(), controller.config().pipeline[i]);
+    if (controller.config().pipeline[i] == "associate") {
+      EXPECT_TRUE(session.problem().associated);
+      EXPECT_EQ(now.registration.registeredCount(), 0);
+    }
+    if (controller.config().pipeline[i] == "look_down") {
+      EXPECT_EQ(now.registration.registeredCount(), 6);
+      EXPECT_FALSE(now.rays.empty());
+      registered_before_end = i + 1 < session.stageCount();
+    }
+  }
+  EXPECT_TRUE(session.finished());
+  EXPECT_TRUE(registered_before_end) << "look_down should come before the last stage";
+  EXPECT_THROW(session.runNext(ProgressReporter()), Error);
+
+  const RegistrationRun last = session.current();
+  EXPECT_EQ(last.registration.pipeline, whole.registration.pipeline);
+  EXPECT_EQ(last.registration.scale, whole.registration.scale);
+  EXPECT_EQ(last.rays.size(), whole.rays.size());
+  ASSERT_EQ(last.registration.cameras.size(), whole.registration.cameras.size());
+  for (std::size_t i = 0; i < last.registration.cameras.size(); ++i) {
+    const CameraRegistration& a = last.registration.cameras[i];
+    const CameraRegistration& b = whole.registration.cameras[i];
+    EXPECT_EQ(a.label, b.label);
+    EXPECT_EQ(a.status, b.status);
+    EXPECT_LT((a.world_from_camera.translation - b.world_from_camera.translation).norm(), 1e-9);
+  }
+  // Noise-free input: the stage-by-stage result is the truth.
+  const auto accuracy = testing::accuracyAgainst(last.registration, scene.world_from_camera);
+  EXPECT_EQ(accuracy.compared, 6);
+  EXPECT_LT(accuracy.position_max_m, 1e-6);
+}
+
+TEST(Controller, StopBetweenStagesKeepsTheStagesRun) {
+  const testing::SyntheticScene scene = testing::makeSyntheticScene({});
+  const RegistrationController controller(loadRegistrationConfig(std::nullopt));
+  RegistrationSession session = controller.prepare(scene.input);
+  session.runNext(ProgressReporter());
+  ProgressReporter stopped;
+  stopped.requestStop();
+  EXPECT_THROW(session.runNext(stopped), StopRequested);
+  EXPECT_EQ(session.stagesRun(), 1u);
+  session.runNext(ProgressReporter());
+  EXPECT_EQ(session.stagesRun(), 2u);
+}
+
 TEST(Controller, StopsWhenAsked) {
   const testing::SyntheticScene scene = testing::makeSyntheticScene({});
   const RegistrationController controller(loadRegistrationConfig(std::nullopt));
