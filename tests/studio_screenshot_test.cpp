@@ -154,4 +154,30 @@ TEST_F(StudioScreenshotTest, RunsTheStagesOneByOne) {
   EXPECT_GT(countColour(fisheye, {0, 128, 255}, 30), 10) << "no camera projected";
 }
 
+// The fisheye overlay toggle: "before" shows the cameras where looking down
+// put them (red crosses) and not the refined ones (blue discs); "after" the
+// opposite. The legend is the same in both, so the differences are the overlay.
+TEST_F(StudioScreenshotTest, OverlayShowsBeforeOrAfterRefinement) {
+  const std::string common = " --run-all --trajectory metric --select cam01 --exit";
+  ASSERT_EQ(runStudio("--simulate small --detections-only --duration 30 --simulate-out " +
+                      (dir_ / "small.rawlog").string() + common + " --overlay before" +
+                      " --screenshot " + (dir_ / "before.png").string()),
+            0)
+      << "see " << (dir_ / "studio.log");
+  ASSERT_EQ(runStudio((dir_ / "small.rawlog").string() + common + " --overlay after" +
+                      " --screenshot " + (dir_ / "after.png").string()),
+            0)
+      << "see " << (dir_ / "studio.log");
+  const cv::Mat before = cv::imread((dir_ / "before-fisheye.png").string(), cv::IMREAD_COLOR);
+  const cv::Mat after = cv::imread((dir_ / "after-fisheye.png").string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(before.empty());
+  ASSERT_FALSE(after.empty());
+  const cv::Vec3b red{255, 0, 0};
+  const cv::Vec3b blue{0, 128, 255};
+  EXPECT_GT(countColour(before, red, 30), countColour(after, red, 30) + 10)
+      << "'before' shows no more red crosses than 'after'";
+  EXPECT_GT(countColour(after, blue, 30), countColour(before, blue, 30) + 10)
+      << "'after' shows no more blue discs than 'before'";
+}
+
 }  // namespace

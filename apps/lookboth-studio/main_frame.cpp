@@ -1708,11 +1708,11 @@ void MainFrame::continueStartup() {
       ++startup_step_;
       [[fallthrough]];
     case 2:
-      if (!actions_.select.empty()) selectCamera(actions_.select);
       if (actions_.overlay == "after") overlay_mode_ = 1;
       if (actions_.overlay == "before") overlay_mode_ = 2;
-      if (overlay_mode_ != 0) overlay_choice_->SetSelection(overlay_mode_);
-      if (actions_.frame >= 0) showFisheyeFrame(actions_.frame);
+      overlay_choice_->SetSelection(overlay_mode_);
+      if (!actions_.select.empty()) selectCamera(actions_.select);
+      showFisheyeFrame(actions_.frame >= 0 ? actions_.frame : frame_slider_->GetValue());
       if (!actions_.export_registration.empty()) exportRegistration(actions_.export_registration);
       if (!actions_.export_report.empty()) {
         exportReport(actions_.export_report, [this] { continueStartup(); });
