@@ -459,13 +459,16 @@ wxWindow* MainFrame::buildSetupPanel(wxWindow* parent) {
   run_row->Add(run_next_, 1, wxRIGHT, 4);
   run_row->Add(run_all_, 1);
   run_box->Add(run_row, 0, wxALL | wxEXPAND, 4);
-  stage_text_ = new wxStaticText(run_box->GetStaticBox(), wxID_ANY, "Idle");
+  stage_text_ = new wxStaticText(run_box->GetStaticBox(), wxID_ANY, "Idle", wxDefaultPosition,
+                                 wxDefaultSize, wxST_ELLIPSIZE_END);
   run_box->Add(stage_text_, 0, wxALL | wxEXPAND, 4);
+  auto* progress_row = new wxBoxSizer(wxHORIZONTAL);
   gauge_ = new wxGauge(run_box->GetStaticBox(), wxID_ANY, 1000);
-  run_box->Add(gauge_, 0, wxALL | wxEXPAND, 4);
+  progress_row->Add(gauge_, 1, wxALIGN_CENTER_VERTICAL | wxRIGHT, 6);
   cancel_ = new wxButton(run_box->GetStaticBox(), wxID_ANY, "Cancel (Esc)");
   cancel_->Disable();
-  run_box->Add(cancel_, 0, wxALL | wxEXPAND, 4);
+  progress_row->Add(cancel_, 0);
+  run_box->Add(progress_row, 0, wxALL | wxEXPAND, 4);
   sizer->Add(run_box, 0, wxALL | wxEXPAND, 6);
   sizer->AddStretchSpacer();
   panel->SetSizer(sizer);
@@ -494,8 +497,8 @@ wxWindow* MainFrame::buildViews(wxWindow* parent) {
   scene_sizer->Add(scene_, 1, wxEXPAND);
   auto* scene_hint = new wxStaticText(
       scene_panel, wxID_ANY,
-      "3-D: drag to rotate, wheel to zoom, shift+drag to pan, click a camera to select it. "
-      "Ctrl+1 top, Ctrl+2 side, Ctrl+0 fit.");
+      "Drag: rotate, wheel: zoom, shift+drag: pan, click: select. Ctrl+1 top, Ctrl+2 side, "
+      "Ctrl+0 fit");
   scene_sizer->Add(scene_hint, 0, wxALL, 3);
   scene_panel->SetSizer(scene_sizer);
   scene_->setOnSelect([this](const std::string& label) { selectCamera(label); });
@@ -547,7 +550,7 @@ wxWindow* MainFrame::buildBottom(wxWindow* parent) {
                           wxLC_REPORT | wxLC_SINGLE_SEL | wxLC_HRULES);
   const char* columns[] = {"Camera",          "Detections",        "Status",       "Residual [mm]",
                            "Sigma pos. [mm]", "Reprojection [px]", "Position [m]", "Warnings"};
-  const int widths[] = {80, 90, 100, 95, 110, 130, 190, 320};
+  const int widths[] = {75, 85, 95, 105, 120, 125, 175, 320};
   for (int i = 0; i < 8; ++i) table_->AppendColumn(columns[i], wxLIST_FORMAT_LEFT, widths[i]);
   table_->Bind(wxEVT_LIST_ITEM_SELECTED, [this](wxListEvent& e) {
     const long row = e.GetIndex();
@@ -1086,12 +1089,19 @@ void MainFrame::datasetLoaded(std::shared_ptr<const studio::DatasetIndex> index)
   validateSettings();
   refreshTable();
   refreshScene();
-  // The frame with the most blobs: the most cameras in view.
+  // The frame with the most blobs associated with cameras once looking up has
+  // run (the most cameras verified), else with the most blobs.
   int best = 0;
   size_t most = 0;
+  std::map<TimeNs, size_t> associated;
+  if (const auto* view = static_cast<const report::RegistrationView*>(registration_view_.get()))
+    for (const auto& row : view->blob_associations) ++associated[row.t];
   for (size_t i = 0; i < index_->blobs().size(); ++i) {
-    if (index_->blobs()[i].blobs.size() > most) {
-      most = index_->blobs()[i].blobs.size();
+    const auto it = associated.find(index_->blobs()[i].t);
+    const size_t n = associated.empty() ? index_->blobs()[i].blobs.size()
+                                        : (it == associated.end() ? 0 : it->second);
+    if (n > most) {
+      most = n;
       best = static_cast<int>(i);
     }
   }
@@ -1324,12 +1334,11 @@ void MainFrame::showFisheyeFrame(int i) {
     frame_text_->SetLabel(wxString::Format("frame %d / %zu   %.2f s", i + 1, count, check.seconds));
     fisheye_view_->setImage(
         toWxImage(drawn),
-        wxString::Format("registration: %d cameras in view, %d associated blobs; showing %s; "
-                         "amber ring: selected camera",
+        wxString::Format("%d cameras in view, %d with their blob; %s; amber ring: selected",
                          static_cast<int>(check.cameras.size()), check.associated(),
-                         overlay_mode_ == 0   ? "before (red) and after (blue) refinement"
-                         : overlay_mode_ == 1 ? "after refinement (blue)"
-                                              : "before refinement (red)"));
+                         overlay_mode_ == 0   ? "red: before, blue: after refinement"
+                         : overlay_mode_ == 1 ? "blue: after refinement"
+                                              : "red: before refinement"));
     showCameraView();
     return;
   }
@@ -1409,6 +1418,11 @@ void MainFrame::showCameraView() {
     camera_view_->setImage(wxImage());
     return;
   }
+  // Times as in the fisheye view: seconds since the first fisheye frame (or blobs).
+  TimeNs t0 = frame_t;
+  if (!fisheye.empty()) t0 = fisheye.front().t;
+  if (fisheye.empty() && !index_->blobs().empty()) t0 = index_->blobs().front().t;
+  const std::string when = formatFixed(static_cast<double>(frame_t - t0) * 1e-9, 2) + " s";
   const auto* view = static_cast<const report::RegistrationView*>(registration_view_.get());
   if (view && sensor && sensor->camera) {
     report::EnvCameraView env;
@@ -1430,14 +1444,13 @@ void MainFrame::showCameraView() {
         env, *sensor->camera, frames.empty() ? cv::Mat() : canvas, canvas.size());
     camera_view_->setImage(
         toWxImage(drawn),
-        wxString::FromUTF8(
-            selected_ + "  t=" + formatSeconds(frame_t) +
-            " s   yellow: detected marker, magenta: where the registration puts it"));
+        wxString::FromUTF8(selected_ + "  " + when +
+                           "   yellow: detected marker, magenta: where the registration puts it"));
     return;
   }
   if (canvas.channels() == 1) cv::cvtColor(canvas, canvas, cv::COLOR_GRAY2BGR);
   // The marker detection nearest in time (within 100 ms), with its axes.
-  wxString caption = wxString::FromUTF8(selected_ + "  t=" + formatSeconds(frame_t) + " s");
+  wxString caption = wxString::FromUTF8(selected_ + "  " + when);
   const MarkerObservation* nearest = nullptr;
   for (const auto& m : markers)
     if (std::llabs(m.t - frame_t) < 100'000'000 &&
@@ -1519,13 +1532,20 @@ void MainFrame::saveScreenshot(const std::string& path) {
   const std::pair<wxWindow*, const char*> views[] = {
       {scene_, "scene"}, {fisheye_view_, "fisheye"}, {camera_view_, "camera"}, {table_, "table"}};
   for (const auto& [view, name] : views) {
+    const fs::path part =
+        target.parent_path() / (target.stem().string() + "-" + name + target.extension().string());
+    // The image views draw themselves off screen (the hidden tab too).
+    if (view == fisheye_view_ || view == camera_view_) {
+      const wxImage image =
+          static_cast<ImageView*>(view)->render(image_tabs_->GetCurrentPage()->GetClientSize());
+      if (image.IsOk()) image.SaveFile(wxString::FromUTF8(part.string()), wxBITMAP_TYPE_PNG);
+      continue;
+    }
     if (!view->IsShownOnScreen()) continue;
     wxRect r = view->GetScreenRect();
     r.Offset(-rect.x, -rect.y);
     r.Intersect(wxRect(0, 0, rect.width, rect.height));
     if (r.IsEmpty()) continue;
-    const fs::path part =
-        target.parent_path() / (target.stem().string() + "-" + name + target.extension().string());
     bitmap.GetSubBitmap(r).ConvertToImage().SaveFile(wxString::FromUTF8(part.string()),
                                                      wxBITMAP_TYPE_PNG);
   }
@@ -1550,17 +1570,23 @@ void MainFrame::saveViewScreenshot(int view) {
   if (dialog.ShowModal() != wxID_OK) return;
   Raise();
   Update();
-  const wxRect r = window->GetScreenRect();
-  wxBitmap bitmap(r.width, r.height);
-  {
-    wxScreenDC screen;
-    wxMemoryDC memory(bitmap);
-    memory.Blit(0, 0, r.width, r.height, &screen, r.x, r.y);
+  wxImage image;
+  if (window == fisheye_view_ || window == camera_view_) {
+    image = static_cast<ImageView*>(window)->render();
+  } else {
+    const wxRect r = window->GetScreenRect();
+    wxBitmap bitmap(r.width, r.height);
+    {
+      wxScreenDC screen;
+      wxMemoryDC memory(bitmap);
+      memory.Blit(0, 0, r.width, r.height, &screen, r.x, r.y);
+    }
+    image = bitmap.ConvertToImage();
   }
   const fs::path target(dialog.GetPath().ToStdString());
   const fs::path temporary = target.parent_path() / (target.filename().string() + ".tmp.png");
   std::error_code ec;
-  if (bitmap.ConvertToImage().SaveFile(wxString::FromUTF8(temporary.string()), wxBITMAP_TYPE_PNG))
+  if (image.IsOk() && image.SaveFile(wxString::FromUTF8(temporary.string()), wxBITMAP_TYPE_PNG))
     fs::rename(temporary, target, ec);
   else
     ec = std::make_error_code(std::errc::io_error);

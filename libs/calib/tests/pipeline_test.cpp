@@ -7,6 +7,7 @@
 
 #include <filesystem>
 
+#include "lookboth/calib/full_pipeline.h"
 #include "lookboth/calib/pipeline.h"
 #include "lookboth/calib/stages.h"
 #include "lookboth/core/error.h"
@@ -107,6 +108,33 @@ TEST_F(PipelineTest, SmallVisualSynthesisedOdometry) {
   EXPECT_EQ(a.compared, 6);
   EXPECT_LT(a.position_rmse_m, 0.04);
   EXPECT_LT(a.rotation_rmse_deg, 3.0);
+}
+
+// The steps before the registration, one at a time (as the desktop app runs
+// them): on a detections-only dataset detection is not needed, odometry is
+// not needed in metric mode and cannot run in visual mode.
+TEST_F(PipelineTest, StepsBeforeRegistrationSayWhyTheyAreSkipped) {
+  FullPipelineOptions options;
+  options.dataset = dataset("small");
+  options.mode = TrajectoryMode::kMetric;
+  options.trajectory_label = "odometry";
+  const DatasetContents contents = inspectDataset(options.dataset, ProgressReporter());
+  EXPECT_EQ(contents.fisheye_frames, 0);
+  EXPECT_GT(contents.markers, 0);
+  const StepOutcome detect = runDetectStep(options, contents, ProgressReporter());
+  EXPECT_FALSE(detect.ran);
+  EXPECT_EQ(detect.summary, "detect: skipped (no frames: detections-only dataset)");
+  const StepOutcome odometry = runOdometryStep(options, contents, ProgressReporter());
+  EXPECT_FALSE(odometry.ran);
+  EXPECT_EQ(odometry.summary, "odometry: skipped (metric trajectory)");
+  options.mode = TrajectoryMode::kVisual;
+  options.trajectory_label.clear();
+  try {
+    runOdometryStep(options, contents, ProgressReporter());
+    ADD_FAILURE() << "visual odometry without fisheye frames did not fail";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no fisheye frames"), std::string::npos) << e.what();
+  }
 }
 
 TEST_F(PipelineTest, FaultsCompleteWithFaultsReported) {
