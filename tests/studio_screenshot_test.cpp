@@ -180,4 +180,29 @@ TEST_F(StudioScreenshotTest, OverlayShowsBeforeOrAfterRefinement) {
       << "'after' shows no more blue discs than 'before'";
 }
 
+// File > Load camera calibration through --calibration: a calibration file is
+// loaded into the dataset's manifest; a bad file or an unknown camera fails
+// with a message naming the file or the camera (exit status 1).
+TEST_F(StudioScreenshotTest, LoadsCameraCalibrations) {
+  const std::string good = LOOKBOTH_TEST_DATA_DIR "/cameras/opencv_pinhole.yaml";
+  ASSERT_EQ(
+      runStudio("--simulate small --detections-only --duration 5 --simulate-out " +
+                (dir_ / "small.rawlog").string() + " --calibration cam05=" + good + " --exit"),
+      0)
+      << "see " << (dir_ / "studio.log");
+  EXPECT_NE(readText(dir_ / "studio.log").find("cam05: calibration from " + good),
+            std::string::npos);
+  // The manifest (small.yaml beside the rawlog) now holds the pinhole model for cam05.
+  const std::string manifest = readText(dir_ / "small.yaml");
+  EXPECT_NE(manifest.find("pinhole"), std::string::npos) << manifest;
+
+  EXPECT_NE(runStudio((dir_ / "small.rawlog").string() + " --calibration cam04=" +
+                      LOOKBOTH_TEST_DATA_DIR "/cameras/lookboth_bad_number.yaml" +
+                      " --calibration cam99=" + good + " --exit"),
+            0);
+  const std::string log = readText(dir_ / "studio.log");
+  EXPECT_NE(log.find("lookboth_bad_number.yaml:"), std::string::npos) << log;
+  EXPECT_NE(log.find("no camera 'cam99'"), std::string::npos) << log;
+}
+
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <wx/aboutdlg.h>
 #include <wx/button.h>
+#include <wx/choicdlg.h>
 #include <wx/choice.h>
 #include <wx/config.h>
 #include <wx/dcscreen.h>
@@ -45,6 +46,7 @@
 #include "lookboth/report/snapshot.h"
 #include "lookboth/sim/scenario.h"
 #include "lookboth/sim/simulate.h"
+#include "lookboth/studio/dataset_edit.h"
 #include "scene_view.h"
 
 namespace lookboth::studio_app {
@@ -71,6 +73,7 @@ enum MenuId {
   kIdViewShotFirst,  // one per view: scene, fisheye, camera, table
   kIdViewShotLast = kIdViewShotFirst + 3,
   kIdCycleOverlay,
+  kIdLoadCalibration,
   kIdStepFirst,  // one per pipeline step
   kIdStepLast = kIdStepFirst + 30,
 };
@@ -237,6 +240,10 @@ void MainFrame::buildMenus() {
   history_.UseMenu(recent);
   file->AppendSubMenu(recent, "&Recent datasets");
   file->AppendSeparator();
+  file->Append(kIdLoadCalibration, "Load camera &calibration...\tCtrl+L",
+               "Give a camera of the dataset the model in a calibration file (lookboth, "
+               "OpenCV, Kalibr, ROS...)");
+  file->AppendSeparator();
   file->Append(kIdExportReport, "Export &report...\tCtrl+E",
                "Write the HTML report of the finished registration (one file to hand over)");
   file->Append(kIdExportRegistration, "Export re&gistration...\tCtrl+Shift+E",
@@ -336,6 +343,8 @@ void MainFrame::buildMenus() {
       kIdViewShotFirst, kIdViewShotLast);
   Bind(
       wxEVT_MENU, [this](wxCommandEvent&) { cycleOverlay(); }, kIdCycleOverlay);
+  Bind(
+      wxEVT_MENU, [this](wxCommandEvent&) { loadCalibration(); }, kIdLoadCalibration);
   Bind(
       wxEVT_MENU, [this](wxCommandEvent&) { cancelJob(); }, kIdCancel);
   Bind(
@@ -1607,6 +1616,61 @@ void MainFrame::cycleOverlay() {
   showFisheyeFrame(frame_slider_->GetValue());
 }
 
+// ---- camera models ----
+
+void MainFrame::loadCalibration() {
+  if (!index_) {
+    wxMessageBox("Open a dataset first (File menu).", "lookboth studio", wxOK | wxICON_INFORMATION,
+                 this);
+    return;
+  }
+  wxArrayString labels;
+  int preselected = 0;
+  for (const CameraSensor& c : index_->manifest().cameras) {
+    if (c.label == selected_) preselected = static_cast<int>(labels.size());
+    labels.Add(wxString::FromUTF8(c.label + (c.camera ? "" : "  (no calibration)")));
+  }
+  if (labels.empty()) return;
+  wxSingleChoiceDialog choose(this, "Camera whose calibration to load:", "Load camera calibration",
+                              labels);
+  choose.SetSelection(preselected);
+  if (choose.ShowModal() != wxID_OK) return;
+  const std::string label =
+      index_->manifest().cameras[static_cast<size_t>(choose.GetSelection())].label;
+  wxFileDialog file_dialog(this, wxString::FromUTF8("Calibration file for " + label), "", "",
+                           "Calibrations (*.yaml;*.yml;*.xml;*.json;*.txt)|"
+                           "*.yaml;*.yml;*.xml;*.json;*.txt|All files|*",
+                           wxFD_OPEN | wxFD_FILE_MUST_EXIST);
+  if (file_dialog.ShowModal() != wxID_OK) return;
+  loadCalibrationFor(label, file_dialog.GetPath().ToStdString(), {});
+}
+
+void MainFrame::loadCalibrationFor(const std::string& label, const std::string& file, Then then) {
+  if (!index_) return;
+  const fs::path dataset = index_->path();
+  auto index = std::make_shared<std::shared_ptr<const studio::DatasetIndex>>();
+  startJob(
+      "load calibration of " + label,
+      [dataset, label, file, index](const ProgressReporter& progress) {
+        studio::setCameraCalibration(dataset, label, file, progress);
+        *index = std::make_shared<const studio::DatasetIndex>(
+            studio::DatasetIndex::build(dataset, progress));
+      },
+      [this, label, file, index, then] {
+        // The input changed: what ran on it runs again.
+        registration_.reset();
+        registration_view_.reset();
+        rays_.clear();
+        registration_dir_.clear();
+        resetSteps(false);
+        log(wxString::FromUTF8("  " + label + ": calibration from " + file +
+                               "; detections made with the old model stay until detection "
+                               "runs again (lookboth detect)"));
+        datasetLoaded(*index);
+        if (then) then();
+      });
+}
+
 // ---- export ----
 
 void MainFrame::exportRegistration(const std::string& dir) {
@@ -1717,6 +1781,13 @@ void MainFrame::continueStartup() {
       }
       [[fallthrough]];
     case 1:
+      // --calibration LABEL=FILE, one job each, before running anything.
+      if (calibrations_done_ < actions_.calibrations.size() && index_) {
+        const auto& [label, file] = actions_.calibrations[calibrations_done_++];
+        --startup_step_;
+        loadCalibrationFor(label, file, [this] { continueStartup(); });
+        return;
+      }
       if ((actions_.run_all || !actions_.run_until.empty()) && index_) {
         int last = static_cast<int>(steps_.size()) - 1;
         if (!actions_.run_all) last = stepIndex(actions_.run_until);

@@ -43,10 +43,12 @@ struct StartupActions {
   std::string open;      ///< Dataset to open.
   std::string simulate;  ///< Built-in scenario to simulate (then open).
   bool detections_only = false;
-  std::string simulate_out;   ///< Where the simulation goes (default: a temporary folder).
-  double duration_s = 0;      ///< Simulate only the first seconds (0 = all).
-  bool run_all = false;       ///< Run the whole pipeline once the dataset is open.
-  std::string run_until;      ///< Run the steps up to this one ("detect", "look_down"...).
+  std::string simulate_out;  ///< Where the simulation goes (default: a temporary folder).
+  double duration_s = 0;     ///< Simulate only the first seconds (0 = all).
+  bool run_all = false;      ///< Run the whole pipeline once the dataset is open.
+  std::string run_until;     ///< Run the steps up to this one ("detect", "look_down"...).
+  /// Calibration files to load first (camera label, file), as File > Load camera calibration.
+  std::vector<std::pair<std::string, std::string>> calibrations;
   std::string trajectory;     ///< "visual" or "metric" (default: visual when there are frames).
   std::string select;         ///< Camera to select.
   int frame = -1;             ///< Fisheye frame to show (-1: automatic).
@@ -98,6 +100,8 @@ class MainFrame : public wxFrame {
   void chooseAndExportRegistration();
   void saveViewScreenshot(int view);
   void cycleOverlay();
+  void loadCalibration();
+  void loadCalibrationFor(const std::string& label, const std::string& file, Then then);
   void cancelJob();
   void saveScreenshot(const std::string& path);
   void chooseAndSaveScreenshot();
@@ -123,6 +127,7 @@ class MainFrame : public wxFrame {
 
   StartupActions actions_;
   int startup_step_ = 0;
+  size_t calibrations_done_ = 0;
   int exit_status_ = 0;
 
   studio::JobRunner runner_;

@@ -61,6 +61,10 @@ class StudioApp : public wxApp {
                      "visual (fisheye odometry) or metric (the dataset's odometry)");
     parser.AddOption("", "select", "select this camera");
     parser.AddOption("", "frame", "show this fisheye frame (0-based)", wxCMD_LINE_VAL_NUMBER);
+    parser.AddOption("", "calibration",
+                     "LABEL=FILE: load this camera's calibration into the dataset first "
+                     "(repeatable)",
+                     wxCMD_LINE_VAL_STRING, wxCMD_LINE_PARAM_MULTIPLE);
     parser.AddOption("", "overlay", "fisheye overlay: both (default), before or after");
     parser.AddOption("", "export-registration", "write the registration files into this folder");
     parser.AddOption("", "export-report",
@@ -80,6 +84,16 @@ class StudioApp : public wxApp {
     if (parser.Found("duration", &duration)) actions_.duration_s = duration;
     actions_.run_all = parser.Found("run-all");
     if (parser.Found("run-until", &text)) actions_.run_until = text.ToStdString();
+    for (const wxCmdLineArg& arg : parser.GetArguments()) {
+      if (arg.GetKind() != wxCMD_LINE_OPTION || arg.GetLongName() != "calibration") continue;
+      const std::string value = arg.GetStrVal().ToStdString();
+      const size_t eq = value.find('=');
+      if (eq == std::string::npos || eq == 0 || eq + 1 == value.size()) {
+        wxLogError("--calibration: expected LABEL=FILE, got '%s'", arg.GetStrVal());
+        return false;
+      }
+      actions_.calibrations.emplace_back(value.substr(0, eq), value.substr(eq + 1));
+    }
     if (parser.Found("overlay", &text)) {
       actions_.overlay = text.ToStdString();
       if (actions_.overlay != "both" && actions_.overlay != "before" &&
