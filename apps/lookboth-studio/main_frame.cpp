@@ -397,10 +397,19 @@ wxWindow* MainFrame::buildSetupPanel(wxWindow* parent) {
   grid->Add(marker_id_, 1, wxEXPAND);
   grid->Add(new wxStaticText(mb, wxID_ANY, "Size [m]"), 0, wxALIGN_CENTER_VERTICAL);
   marker_size_ = new wxTextCtrl(mb, wxID_ANY, "0.2");
-  grid->Add(marker_size_, 1, wxEXPAND);
+  auto* size_row = new wxBoxSizer(wxHORIZONTAL);
+  size_row->Add(marker_size_, 1, wxALIGN_CENTER_VERTICAL | wxRIGHT, 4);
+  marker_apply_ =
+      new wxButton(mb, wxID_ANY, "Apply", wxDefaultPosition, wxDefaultSize, wxBU_EXACTFIT);
+  size_row->Add(marker_apply_, 0, wxALIGN_CENTER_VERTICAL);
+  grid->Add(size_row, 1, wxEXPAND);
   marker_box->Add(grid, 0, wxALL | wxEXPAND, 4);
   marker_msg_ = new wxStaticText(mb, wxID_ANY, "");
   marker_box->Add(marker_msg_, 0, wxLEFT | wxRIGHT | wxEXPAND, 4);
+  marker_apply_->SetToolTip(
+      "Write this marker into the dataset's manifest (detection then looks for it)");
+  marker_apply_->Disable();
+  marker_apply_->Bind(wxEVT_BUTTON, [this](wxCommandEvent&) { applyMarker(); });
   sizer->Add(marker_box, 0, wxLEFT | wxRIGHT | wxEXPAND, 6);
 
   auto* traj_box = new wxStaticBoxSizer(wxVERTICAL, panel, "Trajectory");
@@ -623,7 +632,8 @@ void MainFrame::validateSettings() {
          std::abs(marker.size_m - m.marker.size_m) > 1e-9))
       marker_problems.push_back("Differs from the dataset's marker (" + m.marker.dictionary +
                                 " id " + std::to_string(m.marker.id) + ", " +
-                                formatDouble(m.marker.size_m) + " m): the dataset's is used.");
+                                formatDouble(m.marker.size_m) +
+                                " m), which is used until you apply this one.");
     const CameraSensor* fisheye = m.fisheye();
     if (!fisheye || !fisheye->camera)
       dataset_problems.push_back("The fisheye has no calibration: looking up cannot run.");
@@ -648,6 +658,8 @@ void MainFrame::validateSettings() {
   show(validation_, dataset_problems);
   // The marker message about the dataset's marker and the cameras' notes are warnings only.
   const bool marker_blocking = !marker.check().empty();
+  marker_apply_->Enable(index_ && !marker_blocking && !marker_problems.empty() &&
+                        !runner_.running());
   settings_ok_ = !marker_blocking && trajectory_problems.empty() && loss_problems.empty();
   refreshSteps();
   setup_panel_->Layout();
@@ -1614,6 +1626,37 @@ void MainFrame::cycleOverlay() {
   overlay_choice_->SetSelection(overlay_mode_);
   image_tabs_->SetSelection(0);
   showFisheyeFrame(frame_slider_->GetValue());
+}
+
+// ---- the marker ----
+
+void MainFrame::applyMarker() {
+  if (!index_) return;
+  MarkerSpec marker;
+  marker.dictionary = dictionary_->GetStringSelection().ToStdString();
+  marker.id = marker_id_->GetValue();
+  marker.size_m = parseDouble(marker_size_->GetValue().ToStdString()).value_or(-1);
+  const fs::path dataset = index_->path();
+  auto index = std::make_shared<std::shared_ptr<const studio::DatasetIndex>>();
+  startJob(
+      "apply the marker",
+      [dataset, marker, index](const ProgressReporter& progress) {
+        studio::setMarker(dataset, marker, progress);
+        *index = std::make_shared<const studio::DatasetIndex>(
+            studio::DatasetIndex::build(dataset, progress));
+      },
+      [this, marker, index] {
+        registration_.reset();
+        registration_view_.reset();
+        rays_.clear();
+        registration_dir_.clear();
+        resetSteps(false);
+        log(wxString::FromUTF8("  marker " + marker.dictionary + " id " +
+                               std::to_string(marker.id) + ", " + formatDouble(marker.size_m) +
+                               " m written into the dataset; detections made for the old "
+                               "marker stay until detection runs again (lookboth detect)"));
+        datasetLoaded(*index);
+      });
 }
 
 // ---- camera models ----

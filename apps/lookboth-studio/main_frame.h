@@ -101,6 +101,7 @@ class MainFrame : public wxFrame {
   void saveViewScreenshot(int view);
   void cycleOverlay();
   void loadCalibration();
+  void applyMarker();
   void loadCalibrationFor(const std::string& label, const std::string& file, Then then);
   void cancelJob();
   void saveScreenshot(const std::string& path);
@@ -184,6 +185,7 @@ class MainFrame : public wxFrame {
   int running_step_ = -1;
   wxButton* run_all_ = nullptr;
   wxButton* run_next_ = nullptr;
+  wxButton* marker_apply_ = nullptr;
   wxChoice* overlay_choice_ = nullptr;
   wxMenu* pipeline_menu_ = nullptr;
   wxButton* cancel_ = nullptr;

@@ -33,4 +33,18 @@ Camera setCameraCalibration(const std::filesystem::path& dataset, const std::str
   return camera;
 }
 
+void setMarker(const std::filesystem::path& dataset, const MarkerSpec& marker,
+               const ProgressReporter& progress) {
+  if (const std::string why = marker.check(); !why.empty())
+    throw Error(ErrorContext{dataset.string(), 0, "marker", ""}, why);
+  DatasetReadOptions read_options;
+  read_options.check_images = false;
+  Manifest manifest = DatasetReader::open(dataset, read_options)->manifest();
+  manifest.marker = marker;
+  AugmentOptions options;
+  options.input = dataset;
+  options.manifest = manifest;
+  augmentDataset(options, {}, progress);
+}
+
 }  // namespace lookboth::studio

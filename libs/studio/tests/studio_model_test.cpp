@@ -195,5 +195,31 @@ TEST(DatasetEditTest, SetsACameraCalibrationAndKeepsTheRecords) {
             cameraToYaml(*before.manifest().findCamera("cam01")->camera));
 }
 
+TEST(DatasetEditTest, SetsTheMarkerAndRefusesAnInvalidOne) {
+  TempDir dir;
+  sim::SimulateOptions options;
+  options.scenario = "small";
+  options.out = dir.path() / "small.rawlog";
+  options.detections_only = true;
+  options.max_duration_s = 5;
+  sim::simulate(options, ProgressReporter());
+  const DatasetIndex before = DatasetIndex::build(options.out);
+  MarkerSpec marker;
+  marker.dictionary = "DICT_5X5_100";
+  marker.id = 42;
+  marker.size_m = 0.15;
+  ASSERT_NE(before.manifest().marker.id, 42);
+  setMarker(options.out, marker, ProgressReporter());
+  const DatasetIndex after = DatasetIndex::build(options.out);
+  EXPECT_EQ(after.manifest().marker.dictionary, "DICT_5X5_100");
+  EXPECT_EQ(after.manifest().marker.id, 42);
+  EXPECT_DOUBLE_EQ(after.manifest().marker.size_m, 0.15);
+  EXPECT_EQ(after.recordCounts(), before.recordCounts());
+  MarkerSpec bad = marker;
+  bad.size_m = -1;
+  EXPECT_THROW(setMarker(options.out, bad, ProgressReporter()), Error);
+  EXPECT_EQ(DatasetIndex::build(options.out).manifest().marker.id, 42);
+}
+
 }  // namespace
 }  // namespace lookboth::studio

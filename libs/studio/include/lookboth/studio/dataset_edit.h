@@ -8,6 +8,7 @@
 
 #include "lookboth/cameras/camera.h"
 #include "lookboth/core/progress.h"
+#include "lookboth/dataset/manifest.h"
 
 namespace lookboth::studio {
 
@@ -22,5 +23,12 @@ namespace lookboth::studio {
 Camera setCameraCalibration(const std::filesystem::path& dataset, const std::string& label,
                             const std::filesystem::path& calibration_file,
                             const ProgressReporter& progress, const std::string& camera_name = "");
+
+/// Sets the dataset's marker (dictionary, id, size). Records are kept: marker
+/// detections made for another marker stay until detection runs again. Throws
+/// lookboth::Error naming the field when `marker` is not valid (the dataset is
+/// then untouched), StopRequested when stopped.
+void setMarker(const std::filesystem::path& dataset, const MarkerSpec& marker,
+               const ProgressReporter& progress);
 
 }  // namespace lookboth::studio
