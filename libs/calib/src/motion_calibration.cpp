@@ -130,9 +130,46 @@ Eigen::Matrix3d rotationAbout(const Eigen::Vector3d& n, double gamma) {
   return Eigen::AngleAxisd(gamma, n).toRotationMatrix();
 }
 
-// Linear initialisation; throws when the motion cannot determine the rotation.
+// Linear initialisation with the rotation known: (R_A - I) t_X [+ s t_A] = R t_B
+// [- t_A in metric mode], least squares (minimum norm along what the motion
+// leaves free; the nonlinear step's priors then fix those directions).
+Rigid3d initialisationWithRotation(const std::vector<MotionPair>& pairs, bool scale_free,
+                                   const Eigen::Quaterniond& rotation, double* scale) {
+  const int ny = scale_free ? 4 : 3;
+  const Eigen::Index rows = 3 * static_cast<Eigen::Index>(pairs.size());
+  Eigen::MatrixXd My(rows, ny);
+  Eigen::VectorXd rhs(rows);
+  const Eigen::Matrix3d R = rotation.normalized().toRotationMatrix();
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    const MotionPair& p = pairs[k];
+    const Eigen::Index r = 3 * static_cast<Eigen::Index>(k);
+    My.block(r, 0, 3, 3) = p.a_unscaled.rotation.toRotationMatrix() - Eigen::Matrix3d::Identity();
+    if (scale_free) My.block(r, 3, 3, 1) = p.a_unscaled.translation;
+    rhs.segment(r, 3) =
+        R * p.b.translation -
+        (scale_free ? Eigen::Vector3d::Zero() : Eigen::Vector3d(p.a_unscaled.translation));
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(My, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  svd.setThreshold(1e-6);
+  const Eigen::VectorXd y = svd.solve(rhs);
+  if (scale_free) {
+    *scale = y[3];
+    if (!(*scale > 0)) {
+      throw Error("motion_calibration: the linear initialisation gives a non-positive scale (" +
+                  formatDouble(*scale) +
+                  "): the relative motions seen by the cameras are inconsistent");
+    }
+  }
+  return Rigid3d(rotation.normalized(), y.head<3>());
+}
+
+// Linear initialisation. When the motion cannot determine the rotation (the
+// robot never turned while seen), the configured prior rotation is the start;
+// without one it throws.
 Rigid3d linearInitialisation(const std::vector<MotionPair>& pairs, bool scale_free,
-                             double min_rotation, double* scale) {
+                             double min_rotation,
+                             const std::optional<Eigen::Quaterniond>& prior_rotation,
+                             double* scale) {
   Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();  // sum w a b^T
   Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
   int axis_pairs = 0;
@@ -147,9 +184,12 @@ Rigid3d linearInitialisation(const std::vector<MotionPair>& pairs, bool scale_fr
     ++axis_pairs;
   }
   if (axis_pairs == 0) {
+    if (prior_rotation)
+      return initialisationWithRotation(pairs, scale_free, *prior_rotation, scale);
     throw Error(
         "motion_calibration: the robot never turned by more than min_rotation_for_axis_deg while "
-        "a camera saw its marker: the rotation between fisheye and marker is not determined");
+        "a camera saw its marker: the rotation between fisheye and marker is not determined; "
+        "drive a turn under a camera, or set prior_rotation_xyzw to the measured mount");
   }
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
@@ -294,8 +334,8 @@ void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationO
   }
 
   double scale = 1.0;
-  Rigid3d X =
-      linearInitialisation(pairs, scale_free, options.min_rotation_for_axis_deg * kDeg, &scale);
+  Rigid3d X = linearInitialisation(pairs, scale_free, options.min_rotation_for_axis_deg * kDeg,
+                                   options.prior_rotation, &scale);
   progress.report("motion_calibration", 1, 3);
   progress.checkStop();
 
@@ -398,6 +438,10 @@ void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationO
     ceres::Solver::Options solver;
     solver.linear_solver_type = ceres::DENSE_QR;
     solver.max_num_iterations = options.max_iterations;
+    // Converge fully (a start from a measured mount can be a degree off; the
+    // default relative cost tolerance of 1e-6 would stop ~1e-5 rad short).
+    solver.function_tolerance = 1e-12;
+    solver.parameter_tolerance = 1e-12;
     solver.num_threads = 1;
     ceres::Solver::Summary summary;
     ceres::Solve(solver, &ceres_problem, &summary);
@@ -416,7 +460,9 @@ void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationO
     return Eigen::MatrixXd(J.transpose() * J);
   };
 
-  // Two rounds: the whitening depends on R_X.
+  // Two rounds: the whitening (and, with translation_from_camera_orientation,
+  // t_B itself) depends on R_X. Iterating this to a fixed point is unstable
+  // with noisy detections (measured on small_det: 0.2 m), so it stays at two.
   solve(false);
   progress.checkStop();
   information = solve(false);

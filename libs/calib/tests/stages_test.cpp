@@ -157,6 +157,52 @@ TEST(MotionCalibration, WithoutPriorSaysTheHeightIsArbitrary) {
   EXPECT_TRUE(warned);
 }
 
+// A robot that never turns enough while seen (here: the threshold for a turn
+// set above any turn) cannot start the rotation from the motion: without a
+// prior the stage says what to do; with a measured mount it starts from it.
+TEST(MotionCalibration, NoTurnStartsFromThePriorRotationOrSaysWhatToDo) {
+  SyntheticScene scene = makeSyntheticScene({});
+  std::vector<StampedPose> vo = scene.truth;
+  makeVisualOdometry(vo, 1.8, 0, 0, 1);
+  scene.input.trajectory = Trajectory(vo);
+  scene.input.mode = TrajectoryMode::kVisual;
+  MotionCalibrationOptions options = exactPrior(scene);
+  options.min_rotation_for_axis_deg = 1000;
+  {
+    RegistrationProblem problem = problemFor(scene);
+    runAssociate(problem, {}, ProgressReporter());
+    try {
+      runMotionCalibration(problem, options, ProgressReporter());
+      ADD_FAILURE() << "expected an error";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("prior_rotation_xyzw"), std::string::npos) << e.what();
+    }
+  }
+  // A measured mount 1 deg off: the start; the loop's turns then determine the
+  // rotation. With the paper's relative motions the noise-free solution is
+  // exact from any start; with translation_from_camera_orientation (t_B
+  // mapped by the orientation predicted from X) the two rounds of the stage
+  // leave the start's error reduced ~600x.
+  options.prior_rotation =
+      scene.fisheye_from_marker.rotation *
+      Eigen::Quaterniond(Eigen::AngleAxisd(1.0 * kDeg, Eigen::Vector3d(1, 2, 3).normalized()));
+  for (const bool camera_orientation : {false, true}) {
+    options.translation_from_camera_orientation = camera_orientation;
+    const double bound = camera_orientation ? 1e-4 : 1e-6;
+    RegistrationProblem problem = problemFor(scene);
+    runAssociate(problem, {}, ProgressReporter());
+    runMotionCalibration(problem, options, ProgressReporter());
+    ASSERT_TRUE(problem.fisheye_from_marker);
+    EXPECT_NEAR(problem.scale, 1.8, bound * 1.8);
+    EXPECT_LT(
+        rotationError(problem.fisheye_from_marker->rotation, scene.fisheye_from_marker.rotation),
+        bound);
+    EXPECT_LT(
+        (problem.fisheye_from_marker->translation - scene.fisheye_from_marker.translation).norm(),
+        bound);
+  }
+}
+
 TEST(MotionCalibration, NoisyWithinBounds) {
   SyntheticOptions o;
   o.cameras = 10;
