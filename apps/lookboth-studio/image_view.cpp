@@ -1,6 +1,7 @@
 #include "image_view.h"
 
 #include <wx/dcbuffer.h>
+#include <wx/dcmemory.h>
 #include <wx/settings.h>
 
 #include <algorithm>
@@ -30,8 +31,9 @@ void ImageView::setPlaceholder(const wxString& text) {
   Refresh();
 }
 
-wxRect ImageView::imageRect() const {
-  const wxSize area = GetClientSize();
+wxRect ImageView::imageRect() const { return imageRect(GetClientSize()); }
+
+wxRect ImageView::imageRect(const wxSize& area) const {
   if (!image_.IsOk() || area.x <= 0 || area.y <= 0) return wxRect();
   const double scale = std::min(static_cast<double>(area.x) / image_.GetWidth(),
                                 static_cast<double>(area.y - 18) / image_.GetHeight());
@@ -49,22 +51,37 @@ wxRealPoint ImageView::toImage(const wxPoint& p) const {
 
 void ImageView::onPaint(wxPaintEvent&) {
   wxAutoBufferedPaintDC dc(this);
+  draw(dc, GetClientSize());
+}
+
+void ImageView::draw(wxDC& dc, const wxSize& area) {
   dc.SetBackground(wxBrush(wxColour(32, 32, 36)));
   dc.Clear();
-  const wxSize area = GetClientSize();
+  dc.SetFont(GetFont());
   dc.SetTextForeground(wxColour(220, 220, 220));
   if (!image_.IsOk()) {
     const wxSize text = dc.GetMultiLineTextExtent(placeholder_);
     dc.DrawText(placeholder_, (area.x - text.x) / 2, (area.y - text.y) / 2);
     return;
   }
-  const wxRect r = imageRect();
+  const wxRect r = imageRect(area);
   if (!scaled_.IsOk() || scaled_for_ != r.GetSize()) {
     scaled_ = wxBitmap(image_.Scale(r.width, r.height, wxIMAGE_QUALITY_BILINEAR));
     scaled_for_ = r.GetSize();
   }
   dc.DrawBitmap(scaled_, r.x, r.y);
   dc.DrawText(caption_, 4, area.y - 17);
+}
+
+wxImage ImageView::render(const wxSize& size) {
+  const wxSize area = size.x > 0 && size.y > 0 ? size : GetClientSize();
+  if (area.x <= 0 || area.y <= 0) return wxImage();
+  wxBitmap bitmap(area.x, area.y);
+  {
+    wxMemoryDC dc(bitmap);
+    draw(dc, area);
+  }
+  return bitmap.ConvertToImage();
 }
 
 }  // namespace lookboth::studio_app

@@ -18,10 +18,15 @@ class ImageView : public wxPanel {
   void setPlaceholder(const wxString& text);
   /// Maps a position in the panel to image pixel coordinates (-1,-1 outside).
   wxRealPoint toImage(const wxPoint& panel_point) const;
+  /// What the panel shows, drawn off screen at `size` (default: the panel's
+  /// size), whether or not it is on screen (a hidden tab, for screenshots).
+  wxImage render(const wxSize& size = wxSize());
 
  private:
   void onPaint(wxPaintEvent& event);
   wxRect imageRect() const;
+  wxRect imageRect(const wxSize& area) const;
+  void draw(wxDC& dc, const wxSize& area);
 
   wxImage image_;
   wxBitmap scaled_;

@@ -2,6 +2,7 @@
 
 #include <wx/aboutdlg.h>
 #include <wx/button.h>
+#include <wx/choicdlg.h>
 #include <wx/choice.h>
 #include <wx/config.h>
 #include <wx/dcscreen.h>
@@ -14,6 +15,7 @@
 #include <wx/notebook.h>
 #include <wx/panel.h>
 #include <wx/radiobox.h>
+#include <wx/scrolwin.h>
 #include <wx/sizer.h>
 #include <wx/slider.h>
 #include <wx/spinctrl.h>
@@ -28,6 +30,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -39,9 +42,11 @@
 #include "lookboth/core/version.h"
 #include "lookboth/dataset/rosbag_import.h"
 #include "lookboth/report/draw.h"
+#include "lookboth/report/report.h"
 #include "lookboth/report/snapshot.h"
 #include "lookboth/sim/scenario.h"
 #include "lookboth/sim/simulate.h"
+#include "lookboth/studio/dataset_edit.h"
 #include "scene_view.h"
 
 namespace lookboth::studio_app {
@@ -62,7 +67,57 @@ enum MenuId {
   kIdPrevFrame,
   kIdOpenFolder,
   kIdImportBag,
+  kIdRunNext,
+  kIdExportReport,
+  kIdExportRegistration,
+  kIdViewShotFirst,  // one per view: scene, fisheye, camera, table
+  kIdViewShotLast = kIdViewShotFirst + 3,
+  kIdCycleOverlay,
+  kIdLoadCalibration,
+  kIdStepFirst,  // one per pipeline step
+  kIdStepLast = kIdStepFirst + 30,
 };
+
+// What a technician reads for each step (the stage's name when not listed).
+std::string stepTitle(const std::string& name) {
+  static const std::map<std::string, std::string> titles = {
+      {"detect", "Detect markers and blobs"},
+      {"odometry", "Visual odometry"},
+      {"associate", "Associate detections"},
+      {"motion_calibration", "Calibrate (marker on robot)"},
+      {"fixed_mount", "Marker mount (fixed)"},
+      {"look_down", "Look down (camera poses)"},
+      {"look_up", "Look up (refine)"},
+      {"joint", "Joint refinement"}};
+  const auto it = titles.find(name);
+  return it == titles.end() ? name : it->second;
+}
+
+const char* kViewNames[] = {"scene", "fisheye", "camera", "table"};
+
+// One line saying what a registration stage gave, from what it wrote.
+std::string stageSummary(const std::string& name, const RegistrationProblem& problem,
+                         const Registration& r) {
+  const std::string cameras = std::to_string(r.registeredCount()) + " of " +
+                              std::to_string(r.cameras.size()) + " cameras registered";
+  if (name == "associate")
+    return std::to_string(problem.associations.size()) + " of " +
+           std::to_string(problem.input.markers.size()) +
+           " marker detections associated with the trajectory";
+  if (name == "motion_calibration" || name == "fixed_mount") {
+    std::string line = "scale " + formatFixed(problem.scale, 4);
+    if (problem.fisheye_from_marker) {
+      const Eigen::Vector3d t = problem.fisheye_from_marker->translation;
+      line += ", marker at [" + formatFixed(t.x(), 3) + ", " + formatFixed(t.y(), 3) + ", " +
+              formatFixed(t.z(), 3) + "] m from the fisheye";
+    }
+    return line;
+  }
+  if (name == "look_up" && r.reprojection)
+    return cameras + ", fisheye reprojection RMS " + formatFixed(r.reprojection->rms_px_before, 2) +
+           " -> " + formatFixed(r.reprojection->rms_px_after, 2) + " px";
+  return cameras;
+}
 
 wxImage toWxImage(const cv::Mat& image) {
   cv::Mat rgb;
@@ -96,6 +151,22 @@ MainFrame::MainFrame(const StartupActions& actions)
     : wxFrame(nullptr, wxID_ANY, "lookboth studio", wxDefaultPosition, wxSize(1500, 950)),
       actions_(actions),
       history_(9) {
+  // The steps: detect and odometry, then the configured registration stages.
+  auto add_step = [this](const std::string& name) {
+    Step step;
+    step.name = name;
+    step.title = stepTitle(name);
+    steps_.push_back(step);
+  };
+  add_step("detect");
+  add_step("odometry");
+  std::string config_error;
+  try {
+    for (const std::string& name : loadRegistrationConfig(std::nullopt).pipeline) add_step(name);
+  } catch (const Error& e) {
+    config_error = e.what();
+  }
+  for (size_t i = 0; i < steps_.size(); ++i) steps_[i].menu_id = kIdStepFirst + static_cast<int>(i);
   buildMenus();
   CreateStatusBar(2);
   SetStatusText("No dataset open. File > Open (Ctrl+O) or File > Simulate.", 0);
@@ -133,12 +204,15 @@ MainFrame::MainFrame(const StartupActions& actions)
     event.Skip();
   });
   validateSettings();
+  if (!config_error.empty())
+    log("error: the registration configuration cannot be read: " +
+        wxString::FromUTF8(config_error) + "\nReinstall lookboth or fix the file named above.");
   // Sash positions need the window's real size: set them once it is shown.
   CallAfter([this, outer, right] {
     outer->SetSashPosition(300);
     right->SetSashPosition(std::max(300, right->GetClientSize().y - 250));
-    views_split_->SetSashPosition(views_split_->GetClientSize().x * 45 / 100);
-    bottom_split_->SetSashPosition(bottom_split_->GetClientSize().x * 55 / 100);
+    views_split_->SetSashPosition(views_split_->GetClientSize().x * 42 / 100);
+    bottom_split_->SetSashPosition(bottom_split_->GetClientSize().x * 64 / 100);
     continueStartup();
   });
 }
@@ -166,12 +240,39 @@ void MainFrame::buildMenus() {
   history_.UseMenu(recent);
   file->AppendSubMenu(recent, "&Recent datasets");
   file->AppendSeparator();
-  file->Append(kIdScreenshot, "Save &screenshot...\tCtrl+Shift+S", "Save a PNG of the window");
+  file->Append(kIdLoadCalibration, "Load camera &calibration...\tCtrl+L",
+               "Give a camera of the dataset the model in a calibration file (lookboth, "
+               "OpenCV, Kalibr, ROS...)");
+  file->AppendSeparator();
+  file->Append(kIdExportReport, "Export &report...\tCtrl+E",
+               "Write the HTML report of the finished registration (one file to hand over)");
+  file->Append(kIdExportRegistration, "Export re&gistration...\tCtrl+Shift+E",
+               "Write the registration files (cameras.csv, registration.yaml...) into a folder");
+  file->AppendSeparator();
+  file->Append(kIdScreenshot, "Save &screenshot of the window...\tCtrl+Shift+S",
+               "Save a PNG of the window");
+  auto* view_shots = new wxMenu;
+  const char* view_titles[] = {"&3-D scene...\tCtrl+Alt+1", "&Fisheye verification...\tCtrl+Alt+2",
+                               "&Environment camera...\tCtrl+Alt+3",
+                               "Camera &table...\tCtrl+Alt+4"};
+  for (int v = 0; v < 4; ++v) view_shots->Append(kIdViewShotFirst + v, view_titles[v]);
+  file->AppendSubMenu(view_shots, "Save screenshot of a &view");
   file->AppendSeparator();
   file->Append(wxID_EXIT, "&Quit\tCtrl+Q");
 
   auto* pipeline = new wxMenu;
-  pipeline->Append(kIdRunAll, "Run &all stages\tF5");
+  pipeline_menu_ = pipeline;
+  pipeline->Append(kIdRunAll, "Run &all stages\tF5", "Run every step not run yet");
+  pipeline->Append(kIdRunNext, "Run &next stage\tF6", "Run the first step not run yet");
+  pipeline->AppendSeparator();
+  for (size_t i = 0; i < steps_.size(); ++i) {
+    wxString item = wxString::Format("&%zu %s", i + 1, wxString::FromUTF8(steps_[i].title));
+    if (i < 9) item += wxString::Format("\tAlt+%zu", i + 1);
+    pipeline->Append(steps_[i].menu_id, item,
+                     wxString::FromUTF8("Run the step '" + steps_[i].name +
+                                        "' (once the steps before it have run)"));
+  }
+  pipeline->AppendSeparator();
   pipeline->Append(kIdCancel, "&Cancel\tEsc");
 
   auto* view = new wxMenu;
@@ -181,6 +282,8 @@ void MainFrame::buildMenus() {
   view->AppendSeparator();
   view->Append(kIdNextFrame, "&Next frame\tCtrl+Right");
   view->Append(kIdPrevFrame, "&Previous frame\tCtrl+Left");
+  view->Append(kIdCycleOverlay, "Fisheye &overlay: before / after / both\tCtrl+B",
+               "Show the cameras projected before, after the looking-up refinement, or both");
 
   auto* help = new wxMenu;
   help->Append(wxID_ABOUT, "&About lookboth studio");
@@ -222,6 +325,27 @@ void MainFrame::buildMenus() {
   Bind(
       wxEVT_MENU, [this](wxCommandEvent&) { runAll(); }, kIdRunAll);
   Bind(
+      wxEVT_MENU, [this](wxCommandEvent&) { runNext(); }, kIdRunNext);
+  Bind(
+      wxEVT_MENU,
+      [this](wxCommandEvent& e) {
+        const int step = e.GetId() - kIdStepFirst;
+        if (step >= 0 && step < static_cast<int>(steps_.size())) runStep(step, {});
+      },
+      kIdStepFirst, kIdStepLast);
+  Bind(
+      wxEVT_MENU, [this](wxCommandEvent&) { chooseAndExportReport(); }, kIdExportReport);
+  Bind(
+      wxEVT_MENU, [this](wxCommandEvent&) { chooseAndExportRegistration(); },
+      kIdExportRegistration);
+  Bind(
+      wxEVT_MENU, [this](wxCommandEvent& e) { saveViewScreenshot(e.GetId() - kIdViewShotFirst); },
+      kIdViewShotFirst, kIdViewShotLast);
+  Bind(
+      wxEVT_MENU, [this](wxCommandEvent&) { cycleOverlay(); }, kIdCycleOverlay);
+  Bind(
+      wxEVT_MENU, [this](wxCommandEvent&) { loadCalibration(); }, kIdLoadCalibration);
+  Bind(
       wxEVT_MENU, [this](wxCommandEvent&) { cancelJob(); }, kIdCancel);
   Bind(
       wxEVT_MENU, [this](wxCommandEvent&) { scene_->topView(); }, kIdTopView);
@@ -247,7 +371,9 @@ void MainFrame::buildMenus() {
 }
 
 wxWindow* MainFrame::buildSetupPanel(wxWindow* parent) {
-  auto* panel = new wxPanel(parent);
+  // Scrolls when the window is too short for every box.
+  auto* panel = new wxScrolledWindow(parent, wxID_ANY, wxDefaultPosition, wxDefaultSize, wxVSCROLL);
+  panel->SetScrollRate(0, 12);
   setup_panel_ = panel;
   auto* sizer = new wxBoxSizer(wxVERTICAL);
 
@@ -271,8 +397,19 @@ wxWindow* MainFrame::buildSetupPanel(wxWindow* parent) {
   grid->Add(marker_id_, 1, wxEXPAND);
   grid->Add(new wxStaticText(mb, wxID_ANY, "Size [m]"), 0, wxALIGN_CENTER_VERTICAL);
   marker_size_ = new wxTextCtrl(mb, wxID_ANY, "0.2");
-  grid->Add(marker_size_, 1, wxEXPAND);
+  auto* size_row = new wxBoxSizer(wxHORIZONTAL);
+  size_row->Add(marker_size_, 1, wxALIGN_CENTER_VERTICAL | wxRIGHT, 4);
+  marker_apply_ =
+      new wxButton(mb, wxID_ANY, "Apply", wxDefaultPosition, wxDefaultSize, wxBU_EXACTFIT);
+  size_row->Add(marker_apply_, 0, wxALIGN_CENTER_VERTICAL);
+  grid->Add(size_row, 1, wxEXPAND);
   marker_box->Add(grid, 0, wxALL | wxEXPAND, 4);
+  marker_msg_ = new wxStaticText(mb, wxID_ANY, "");
+  marker_box->Add(marker_msg_, 0, wxLEFT | wxRIGHT | wxEXPAND, 4);
+  marker_apply_->SetToolTip(
+      "Write this marker into the dataset's manifest (detection then looks for it)");
+  marker_apply_->Disable();
+  marker_apply_->Bind(wxEVT_BUTTON, [this](wxCommandEvent&) { applyMarker(); });
   sizer->Add(marker_box, 0, wxLEFT | wxRIGHT | wxEXPAND, 6);
 
   auto* traj_box = new wxStaticBoxSizer(wxVERTICAL, panel, "Trajectory");
@@ -286,6 +423,8 @@ wxWindow* MainFrame::buildSetupPanel(wxWindow* parent) {
   trajectory_label_ = new wxChoice(traj_box->GetStaticBox(), wxID_ANY);
   label_row->Add(trajectory_label_, 1, wxEXPAND);
   traj_box->Add(label_row, 0, wxALL | wxEXPAND, 4);
+  trajectory_msg_ = new wxStaticText(traj_box->GetStaticBox(), wxID_ANY, "");
+  traj_box->Add(trajectory_msg_, 0, wxLEFT | wxRIGHT | wxEXPAND, 4);
   sizer->Add(traj_box, 0, wxALL | wxEXPAND, 6);
 
   auto* loss_box = new wxStaticBoxSizer(wxVERTICAL, panel, "Robust losses");
@@ -303,27 +442,57 @@ wxWindow* MainFrame::buildSetupPanel(wxWindow* parent) {
   gate_ = new wxTextCtrl(lb, wxID_ANY, "25");
   lgrid->Add(gate_, 1, wxEXPAND);
   loss_box->Add(lgrid, 0, wxALL | wxEXPAND, 4);
+  loss_msg_ = new wxStaticText(lb, wxID_ANY, "");
+  loss_box->Add(loss_msg_, 0, wxLEFT | wxRIGHT | wxEXPAND, 4);
   sizer->Add(loss_box, 0, wxLEFT | wxRIGHT | wxEXPAND, 6);
 
-  validation_ = new wxStaticText(panel, wxID_ANY, "");
+  for (wxStaticText* m : {marker_msg_, trajectory_msg_, loss_msg_})
+    m->SetForegroundColour(wxColour(200, 30, 30));
+  validation_ = new wxStaticText(data_box->GetStaticBox(), wxID_ANY, "");
   validation_->SetForegroundColour(wxColour(200, 30, 30));
-  sizer->Add(validation_, 0, wxALL | wxEXPAND, 8);
+  data_box->Add(validation_, 0, wxLEFT | wxRIGHT | wxEXPAND, 4);
 
-  auto* run_box = new wxStaticBoxSizer(wxVERTICAL, panel, "Pipeline");
-  run_all_ = new wxButton(run_box->GetStaticBox(), wxID_ANY, "Run all stages (F5)");
-  run_box->Add(run_all_, 0, wxALL | wxEXPAND, 4);
-  stage_text_ = new wxStaticText(run_box->GetStaticBox(), wxID_ANY, "Idle");
+  auto* run_box = new wxStaticBoxSizer(wxVERTICAL, panel, "Pipeline (one step at a time, or all)");
+  wxWindow* rb = run_box->GetStaticBox();
+  auto* steps_grid = new wxFlexGridSizer(2, 2, 6);
+  steps_grid->AddGrowableCol(1);
+  for (size_t i = 0; i < steps_.size(); ++i) {
+    Step& step = steps_[i];
+    step.button = new wxButton(rb, wxID_ANY,
+                               wxString::Format("%zu  %s", i + 1, wxString::FromUTF8(step.title)),
+                               wxDefaultPosition, wxDefaultSize, wxBU_LEFT);
+    step.button->SetToolTip(
+        wxString::FromUTF8("Run the step '" + step.name + "' (Alt+" + std::to_string(i + 1) + ")"));
+    step.status =
+        new wxStaticText(rb, wxID_ANY, "", wxDefaultPosition, wxSize(70, -1), wxST_ELLIPSIZE_END);
+    steps_grid->Add(step.button, 0, wxEXPAND);
+    steps_grid->Add(step.status, 1, wxALIGN_CENTER_VERTICAL | wxEXPAND);
+    const int index = static_cast<int>(i);
+    step.button->Bind(wxEVT_BUTTON, [this, index](wxCommandEvent&) { runStep(index, {}); });
+  }
+  run_box->Add(steps_grid, 0, wxALL | wxEXPAND, 4);
+  auto* run_row = new wxBoxSizer(wxHORIZONTAL);
+  run_next_ = new wxButton(rb, wxID_ANY, "Run next (F6)");
+  run_all_ = new wxButton(rb, wxID_ANY, "Run all (F5)");
+  run_row->Add(run_next_, 1, wxRIGHT, 4);
+  run_row->Add(run_all_, 1);
+  run_box->Add(run_row, 0, wxALL | wxEXPAND, 4);
+  stage_text_ = new wxStaticText(run_box->GetStaticBox(), wxID_ANY, "Idle", wxDefaultPosition,
+                                 wxDefaultSize, wxST_ELLIPSIZE_END);
   run_box->Add(stage_text_, 0, wxALL | wxEXPAND, 4);
+  auto* progress_row = new wxBoxSizer(wxHORIZONTAL);
   gauge_ = new wxGauge(run_box->GetStaticBox(), wxID_ANY, 1000);
-  run_box->Add(gauge_, 0, wxALL | wxEXPAND, 4);
+  progress_row->Add(gauge_, 1, wxALIGN_CENTER_VERTICAL | wxRIGHT, 6);
   cancel_ = new wxButton(run_box->GetStaticBox(), wxID_ANY, "Cancel (Esc)");
   cancel_->Disable();
-  run_box->Add(cancel_, 0, wxALL | wxEXPAND, 4);
+  progress_row->Add(cancel_, 0);
+  run_box->Add(progress_row, 0, wxALL | wxEXPAND, 4);
   sizer->Add(run_box, 0, wxALL | wxEXPAND, 6);
   sizer->AddStretchSpacer();
   panel->SetSizer(sizer);
 
   run_all_->Bind(wxEVT_BUTTON, [this](wxCommandEvent&) { runAll(); });
+  run_next_->Bind(wxEVT_BUTTON, [this](wxCommandEvent&) { runNext(); });
   cancel_->Bind(wxEVT_BUTTON, [this](wxCommandEvent&) { cancelJob(); });
   auto revalidate = [this](wxCommandEvent& e) {
     validateSettings();
@@ -346,8 +515,8 @@ wxWindow* MainFrame::buildViews(wxWindow* parent) {
   scene_sizer->Add(scene_, 1, wxEXPAND);
   auto* scene_hint = new wxStaticText(
       scene_panel, wxID_ANY,
-      "3-D: drag to rotate, wheel to zoom, shift+drag to pan, click a camera to select it. "
-      "Ctrl+1 top, Ctrl+2 side, Ctrl+0 fit.");
+      "Drag: rotate, wheel: zoom, shift+drag: pan, click: select. Ctrl+1 top, Ctrl+2 side, "
+      "Ctrl+0 fit");
   scene_sizer->Add(scene_hint, 0, wxALL, 3);
   scene_panel->SetSizer(scene_sizer);
   scene_->setOnSelect([this](const std::string& label) { selectCamera(label); });
@@ -366,6 +535,20 @@ wxWindow* MainFrame::buildViews(wxWindow* parent) {
       new wxStaticText(image_panel, wxID_ANY, "frame -", wxDefaultPosition, wxSize(170, -1));
   slider_row->Add(frame_slider_, 1, wxEXPAND);
   slider_row->Add(frame_text_, 0, wxALIGN_CENTER_VERTICAL | wxLEFT, 6);
+  const wxString overlays[] = {"before + after", "after refinement", "before refinement"};
+  overlay_choice_ =
+      new wxChoice(image_panel, wxID_ANY, wxDefaultPosition, wxDefaultSize, 3, overlays);
+  overlay_choice_->SetSelection(0);
+  overlay_choice_->SetToolTip(
+      "Cameras projected into the fisheye: before and/or after the "
+      "looking-up refinement (Ctrl+B cycles)");
+  overlay_choice_->Bind(wxEVT_CHOICE, [this](wxCommandEvent&) {
+    overlay_mode_ = overlay_choice_->GetSelection();
+    showFisheyeFrame(frame_slider_->GetValue());
+  });
+  slider_row->Add(new wxStaticText(image_panel, wxID_ANY, "Overlay"), 0,
+                  wxALIGN_CENTER_VERTICAL | wxLEFT, 8);
+  slider_row->Add(overlay_choice_, 0, wxALIGN_CENTER_VERTICAL | wxLEFT, 4);
   image_sizer->Add(slider_row, 0, wxALL | wxEXPAND, 3);
   image_panel->SetSizer(image_sizer);
   frame_slider_->Bind(wxEVT_SLIDER,
@@ -385,7 +568,7 @@ wxWindow* MainFrame::buildBottom(wxWindow* parent) {
                           wxLC_REPORT | wxLC_SINGLE_SEL | wxLC_HRULES);
   const char* columns[] = {"Camera",          "Detections",        "Status",       "Residual [mm]",
                            "Sigma pos. [mm]", "Reprojection [px]", "Position [m]", "Warnings"};
-  const int widths[] = {80, 90, 100, 95, 110, 130, 190, 320};
+  const int widths[] = {75, 85, 95, 105, 120, 125, 175, 320};
   for (int i = 0; i < 8; ++i) table_->AppendColumn(columns[i], wxLIST_FORMAT_LEFT, widths[i]);
   table_->Bind(wxEVT_LIST_ITEM_SELECTED, [this](wxListEvent& e) {
     const long row = e.GetIndex();
@@ -417,28 +600,70 @@ void MainFrame::log(const wxString& line) {
 }
 
 void MainFrame::validateSettings() {
-  std::vector<std::string> problems;
+  // Each message goes next to its field; the step buttons wait until all are clear.
+  std::vector<std::string> marker_problems, trajectory_problems, loss_problems, dataset_problems;
   MarkerSpec marker;
   marker.dictionary = dictionary_->GetStringSelection().ToStdString();
   marker.id = marker_id_->GetValue();
-  marker.size_m = parseDouble(marker_size_->GetValue().ToStdString()).value_or(-1);
-  if (const std::string m = marker.check(); !m.empty()) problems.push_back("Marker: " + m);
+  const auto size = parseDouble(marker_size_->GetValue().ToStdString());
+  marker.size_m = size.value_or(-1);
+  if (const std::string m = marker.check(); !m.empty()) marker_problems.push_back(m);
+  marker_size_->SetBackgroundColour(size && *size > 0 ? wxNullColour : wxColour(255, 220, 220));
+  marker_size_->Refresh();
   const std::pair<wxTextCtrl*, const char*> positives[] = {
       {huber_, "Huber scale"}, {cauchy_, "Cauchy scale"}, {gate_, "Blob gate"}};
   for (const auto& [ctrl, name] : positives) {
     const double v = parseDouble(ctrl->GetValue().ToStdString()).value_or(-1);
-    if (!(v > 0)) problems.push_back(std::string(name) + ": must be a positive number");
+    if (!(v > 0))
+      loss_problems.push_back(std::string(name) + ": type a positive number (decimal point)");
     ctrl->SetBackgroundColour(v > 0 ? wxNullColour : wxColour(255, 220, 220));
     ctrl->Refresh();
   }
-  if (trajectory_mode_->GetSelection() == 1 && trajectory_label_->GetCount() == 0)
-    problems.push_back("Trajectory: the dataset has no metric trajectory; choose visual");
-  wxString text;
-  for (const auto& p : problems) text += wxString::FromUTF8(p) + "\n";
-  validation_->SetLabel(text);
-  validation_->Wrap(260);
-  run_all_->Enable(problems.empty() && index_ && !runner_.running());
+  const bool metric = trajectory_mode_->GetSelection() == 1;
+  if (metric && trajectory_label_->GetCount() == 0)
+    trajectory_problems.push_back("The dataset has no metric trajectory: choose visual.");
+  if (index_) {
+    const Manifest& m = index_->manifest();
+    if (!metric && index_->fisheyeFrames().empty() && !index_->trajectory("vo"))
+      trajectory_problems.push_back(
+          "Visual odometry needs fisheye frames; this dataset has none: choose metric.");
+    if (marker_problems.empty() &&
+        (marker.dictionary != m.marker.dictionary || marker.id != m.marker.id ||
+         std::abs(marker.size_m - m.marker.size_m) > 1e-9))
+      marker_problems.push_back("Differs from the dataset's marker (" + m.marker.dictionary +
+                                " id " + std::to_string(m.marker.id) + ", " +
+                                formatDouble(m.marker.size_m) +
+                                " m), which is used until you apply this one.");
+    const CameraSensor* fisheye = m.fisheye();
+    if (!fisheye || !fisheye->camera)
+      dataset_problems.push_back("The fisheye has no calibration: looking up cannot run.");
+    std::string uncalibrated;
+    for (const auto& summary : index_->cameraSummaries())
+      if (!summary.has_calibration)
+        uncalibrated += (uncalibrated.empty() ? "" : ", ") + summary.label;
+    if (!uncalibrated.empty())
+      dataset_problems.push_back("No camera model for " + uncalibrated +
+                                 ": their frames cannot be detected (add the calibration to "
+                                 "the dataset's manifest, doc/formats.md).");
+  }
+  auto show = [](wxStaticText* text, const std::vector<std::string>& problems) {
+    std::string joined;
+    for (const auto& p : problems) joined += (joined.empty() ? "" : "\n") + p;
+    text->SetLabel(wxString::FromUTF8(joined));
+    text->Wrap(250);
+  };
+  show(marker_msg_, marker_problems);
+  show(trajectory_msg_, trajectory_problems);
+  show(loss_msg_, loss_problems);
+  show(validation_, dataset_problems);
+  // The marker message about the dataset's marker and the cameras' notes are warnings only.
+  const bool marker_blocking = !marker.check().empty();
+  marker_apply_->Enable(index_ && !marker_blocking && !marker_problems.empty() &&
+                        !runner_.running());
+  settings_ok_ = !marker_blocking && trajectory_problems.empty() && loss_problems.empty();
+  refreshSteps();
   setup_panel_->Layout();
+  setup_panel_->FitInside();
 }
 
 bool MainFrame::startJob(const std::string& name, studio::JobRunner::Job job, Then then) {
@@ -453,13 +678,14 @@ bool MainFrame::startJob(const std::string& name, studio::JobRunner::Job job, Th
   gauge_->SetValue(0);
   stage_text_->SetLabel(wxString::FromUTF8(name));
   cancel_->Enable();
-  run_all_->Disable();
-  return runner_.start(
+  const bool started = runner_.start(
       name, std::move(job),
       [this](const ProgressEvent& e) { CallAfter([this, e] { onJobProgress(e); }); },
       [this, then](const studio::JobResult& r) {
         CallAfter([this, r, then] { onJobDone(r, then); });
       });
+  refreshSteps();
+  return started;
 }
 
 void MainFrame::onJobProgress(const ProgressEvent& e) {
@@ -488,6 +714,17 @@ void MainFrame::onJobDone(const studio::JobResult& r, const Then& then) {
                                             studio::jobStatusName(r.status), r.seconds);
   stage_text_->SetLabel(summary);
   log("  " + summary);
+  const int step = running_step_;
+  running_step_ = -1;
+  if (r.status != studio::JobStatus::kSucceeded) {
+    chain_running_ = false;
+    // A registration stage that failed or stopped may have left part of its
+    // work in the kept problem: the registration stages start over.
+    if (step >= 2 && session_) {
+      resetSteps(true);
+      log("  the registration stages will start again from the first one");
+    }
+  }
   validateSettings();
   if (r.status == studio::JobStatus::kFailed) {
     exit_status_ = 1;
@@ -573,19 +810,88 @@ void MainFrame::importBag() {
       [this, out] { openDataset(out); });
 }
 
-void MainFrame::runAll() {
-  if (!index_) {
-    wxMessageBox("Open or simulate a dataset first (File menu).", "lookboth studio",
-                 wxOK | wxICON_INFORMATION, this);
-    return;
+// ---- the pipeline, step by step ----
+
+int MainFrame::firstPendingStep() const {
+  for (size_t i = 0; i < steps_.size(); ++i)
+    if (steps_[i].state == Step::State::kPending) return static_cast<int>(i);
+  return -1;
+}
+
+int MainFrame::stepIndex(const std::string& name) const {
+  for (size_t i = 0; i < steps_.size(); ++i)
+    if (steps_[i].name == name) return static_cast<int>(i);
+  return -1;
+}
+
+void MainFrame::resetSteps(bool keep_preparation) {
+  for (size_t i = keep_preparation ? 2 : 0; i < steps_.size(); ++i) {
+    steps_[i].state = Step::State::kPending;
+    steps_[i].note.clear();
   }
-  validateSettings();
-  if (!validation_->GetLabel().empty()) {
-    wxMessageBox("Fix the settings marked in red first:\n" + validation_->GetLabel(),
-                 "lookboth studio", wxOK | wxICON_WARNING, this);
-    continueStartup();
-    return;
+  session_.reset();
+  refreshSteps();
+}
+
+void MainFrame::refreshSteps() {
+  const bool idle = !runner_.running();
+  const bool ready = index_ && settings_ok_ && idle;
+  const int next = firstPendingStep();
+  for (size_t i = 0; i < steps_.size(); ++i) {
+    Step& step = steps_[i];
+    // A step runs once every step before it has run (or was not needed).
+    const bool enabled = ready && static_cast<int>(i) == next;
+    if (step.button) {
+      step.button->Enable(enabled);
+      wxString status;
+      if (step.state == Step::State::kDone) status = wxString::FromUTF8("\u2714 done");
+      if (step.state == Step::State::kSkipped) status = "not needed";
+      if (step.state == Step::State::kPending && static_cast<int>(i) == running_step_)
+        status = "running...";
+      step.status->SetLabel(status);
+      step.status->SetToolTip(wxString::FromUTF8(step.note));
+      step.status->SetForegroundColour(step.state == Step::State::kDone ? wxColour(20, 130, 40)
+                                                                        : wxColour(90, 90, 90));
+    }
+    if (pipeline_menu_) pipeline_menu_->Enable(step.menu_id, enabled);
   }
+  const bool all_done = next < 0;
+  if (run_all_) {
+    run_all_->Enable(ready);
+    run_all_->SetLabel(all_done && index_ ? "Run again (F5)" : "Run all (F5)");
+    run_next_->Enable(ready && !all_done);
+  }
+  if (pipeline_menu_) {
+    pipeline_menu_->Enable(kIdRunAll, ready);
+    pipeline_menu_->Enable(kIdRunNext, ready && !all_done);
+  }
+  if (GetMenuBar()) {
+    GetMenuBar()->Enable(kIdExportReport, idle && !registration_dir_.empty());
+    GetMenuBar()->Enable(kIdExportRegistration, idle && registration_ != nullptr);
+  }
+}
+
+bool MainFrame::writeSettingsFile(fs::path* file) {
+  // The settings of the panel, as a configuration file over the defaults.
+  const fs::path dataset(index_->path());
+  *file = dataset.parent_path() / (dataset.stem().string() + "_studio.yaml");
+  const std::string yaml =
+      "register:\n  look_down:\n    huber: " + huber_->GetValue().ToStdString() +
+      "\n  look_up:\n    cauchy_px: " + cauchy_->GetValue().ToStdString() +
+      "\n    gate_px: " + gate_->GetValue().ToStdString() + "\n";
+  try {
+    writeFileAtomically(*file, yaml);
+  } catch (const Error& e) {
+    wxMessageBox(wxString::FromUTF8(e.what()) +
+                     "\n\nThe settings are written beside the dataset: copy the dataset to a "
+                     "folder you can write to and open the copy.",
+                 "Cannot write the settings", wxOK | wxICON_ERROR, this);
+    return false;
+  }
+  return true;
+}
+
+FullPipelineOptions MainFrame::pipelineOptions() const {
   FullPipelineOptions options;
   options.dataset = index_->path();
   const fs::path dataset(index_->path());
@@ -595,34 +901,137 @@ void MainFrame::runAll() {
       trajectory_mode_->GetSelection() == 1 ? TrajectoryMode::kMetric : TrajectoryMode::kVisual;
   if (options.mode == TrajectoryMode::kMetric)
     options.trajectory_label = trajectory_label_->GetStringSelection().ToStdString();
-  // The settings of the panel, as a configuration file over the defaults.
-  const fs::path config = options.out.parent_path() / (dataset.stem().string() + "_studio.yaml");
-  const std::string yaml =
-      "register:\n  look_down:\n    huber: " + huber_->GetValue().ToStdString() +
-      "\n  look_up:\n    cauchy_px: " + cauchy_->GetValue().ToStdString() +
-      "\n    gate_px: " + gate_->GetValue().ToStdString() + "\n";
-  try {
-    writeFileAtomically(config, yaml);
-  } catch (const Error& e) {
-    wxMessageBox(wxString::FromUTF8(e.what()), "Cannot write the settings", wxOK | wxICON_ERROR,
-                 this);
+  return options;
+}
+
+void MainFrame::runAll() {
+  if (!index_) {
+    wxMessageBox("Open or simulate a dataset first (File menu).", "lookboth studio",
+                 wxOK | wxICON_INFORMATION, this);
     return;
   }
+  // Everything has run: run the registration stages again (with the current settings).
+  if (firstPendingStep() < 0) resetSteps(true);
+  runThrough(static_cast<int>(steps_.size()) - 1, [this] { continueStartup(); });
+}
+
+void MainFrame::runNext() {
+  const int step = firstPendingStep();
+  if (step >= 0) runStep(step, {});
+}
+
+void MainFrame::runThrough(int last, Then done) {
+  const int next = firstPendingStep();
+  if (next < 0 || next > last) {
+    chain_running_ = false;
+    if (done) done();
+    return;
+  }
+  chain_running_ = true;
+  runStep(next, [this, last, done] { runThrough(last, done); });
+}
+
+void MainFrame::runStep(int step, Then then) {
+  if (!index_) {
+    wxMessageBox("Open or simulate a dataset first (File menu).", "lookboth studio",
+                 wxOK | wxICON_INFORMATION, this);
+    return;
+  }
+  if (step < 0 || step >= static_cast<int>(steps_.size())) return;
+  if (step != firstPendingStep()) {
+    wxMessageBox("Run the steps before it first (Pipeline menu, F6 runs the next one).",
+                 "lookboth studio", wxOK | wxICON_INFORMATION, this);
+    return;
+  }
+  validateSettings();
+  if (!settings_ok_) {
+    const wxString text = "Fix the settings marked in red first.";
+    log("error: " + text);
+    if (!actions_.exit)
+      wxMessageBox(text, "lookboth studio", wxOK | wxICON_WARNING, this);
+    else
+      exit_status_ = 1;
+    chain_running_ = false;
+    if (actions_.exit) CallAfter([this] { continueStartup(); });
+    return;
+  }
+  fs::path config;
+  if (!writeSettingsFile(&config)) return;
+  FullPipelineOptions options = pipelineOptions();
   options.config_file = config;
-  log(wxString::FromUTF8("Settings: " + config.string()));
-  startJob(
-      "run all stages",
-      [this, options](const ProgressReporter& progress) {
-        FullPipelineResult result = runFullPipeline(options, progress);
-        auto index = std::make_shared<const studio::DatasetIndex>(
+  if (step >= 2 && !session_) session_ = std::make_shared<Session>();
+
+  // What the job hands back to the window.
+  struct Output {
+    StepOutcome outcome;
+    std::shared_ptr<const studio::DatasetIndex> index;
+    std::shared_ptr<const Registration> registration;
+    std::vector<DetectionRay> rays;
+    bool written = false;
+  };
+  auto output = std::make_shared<Output>();
+  const std::string name = steps_[static_cast<size_t>(step)].name;
+  std::shared_ptr<Session> session = step >= 2 ? session_ : nullptr;
+  studio::JobRunner::Job job = [options, name, output, session](const ProgressReporter& progress) {
+    if (!session) {
+      // detect or odometry: they add to the dataset; the views read it again.
+      const DatasetContents contents = inspectDataset(options.dataset, progress);
+      output->outcome = name == "detect" ? runDetectStep(options, contents, progress)
+                                         : runOdometryStep(options, contents, progress);
+      if (output->outcome.ran)
+        output->index = std::make_shared<const studio::DatasetIndex>(
             studio::DatasetIndex::build(options.dataset, progress));
-        auto registration = std::make_shared<const Registration>(loadRegistration(options.out));
-        CallAfter(
-            [this, index, registration, rays = result.run.rays, steps = result.steps]() mutable {
-              registrationReady(index, registration, std::move(rays), std::move(steps));
-            });
-      },
-      [this] { continueStartup(); });
+      return;
+    }
+    if (!session->session) {
+      session->controller =
+          std::make_shared<RegistrationController>(loadRegistrationConfig(options.config_file));
+      RegisterOptions input_options;
+      input_options.dataset = options.dataset;
+      input_options.mode = options.mode;
+      input_options.trajectory_label = options.trajectory_label;
+      input_options.trajectory_file = options.trajectory_file;
+      session->session = std::make_shared<RegistrationSession>(
+          session->controller->prepare(loadRegistrationInput(input_options, progress)));
+    }
+    RegistrationSession& s = *session->session;
+    if (s.finished() || s.stageName(s.stagesRun()) != name)
+      throw Error(ErrorContext{"", 0, "register.pipeline", ""},
+                  "the stage '" + name + "' is not the next one of the configured pipeline");
+    s.runNext(progress);
+    RegistrationRun run = s.current();
+    if (s.finished()) {
+      progress.checkStop();
+      writeRegistrationOutput(run, options.out, options.overwrite);
+      output->written = true;
+    }
+    output->outcome.ran = true;
+    output->outcome.summary = name + ": " + stageSummary(name, s.problem(), run.registration) +
+                              (output->written ? "; written to " + options.out.string() : "");
+    output->rays = std::move(run.rays);
+    output->registration = std::make_shared<const Registration>(std::move(run.registration));
+  };
+  running_step_ = step;
+  const bool started =
+      startJob(steps_[static_cast<size_t>(step)].title, std::move(job),
+               [this, step, output, out = options.out, then] {
+                 if (output->index) datasetLoaded(output->index);
+                 if (output->registration) {
+                   if (output->written) registration_dir_ = out;
+                   registrationReady(index_, output->registration, std::move(output->rays), {});
+                 }
+                 stepFinished(step, output->outcome);
+                 if (then) then();
+               });
+  if (!started) running_step_ = -1;
+}
+
+void MainFrame::stepFinished(int step, const StepOutcome& outcome) {
+  Step& s = steps_[static_cast<size_t>(step)];
+  s.state = outcome.ran ? Step::State::kDone : Step::State::kSkipped;
+  s.note = outcome.summary;
+  log("  " + wxString::FromUTF8(outcome.summary));
+  refreshSteps();
 }
 
 void MainFrame::registrationReady(std::shared_ptr<const studio::DatasetIndex> index,
@@ -633,15 +1042,13 @@ void MainFrame::registrationReady(std::shared_ptr<const studio::DatasetIndex> in
   registration_view_ = std::make_shared<const report::RegistrationView>(
       report::viewOfRegistration(*registration_, "registration"));
   rays_ = std::move(rays);
-  for (const auto& w : registration_->warnings) log("  warning: " + wxString::FromUTF8(w));
+  // Stage by stage, the same messages come again: each is logged once.
+  auto once = [this](const std::string& line) {
+    if (logged_.insert(line).second) log("  " + wxString::FromUTF8(line));
+  };
+  for (const auto& w : registration_->warnings) once("warning: " + w);
   if (!registration_->observability.message.empty())
-    log("  observability: " + wxString::FromUTF8(registration_->observability.message));
-  if (registration_->reprojection)
-    log(wxString::Format("  fisheye reprojection RMS: %.2f px before, %.2f px after looking up",
-                         registration_->reprojection->rms_px_before,
-                         registration_->reprojection->rms_px_after));
-  log(wxString::Format("  %d of %zu cameras registered", registration_->registeredCount(),
-                       registration_->cameras.size()));
+    once("observability: " + registration_->observability.message);
   datasetLoaded(std::move(index));
 }
 
@@ -655,6 +1062,15 @@ void MainFrame::cancelJob() {
 void MainFrame::datasetLoaded(std::shared_ptr<const studio::DatasetIndex> index) {
   const bool new_dataset = !index_ || index_->path() != index->path();
   index_ = std::move(index);
+  if (new_dataset) {
+    // Another dataset: nothing has run on it yet.
+    registration_.reset();
+    registration_view_.reset();
+    rays_.clear();
+    registration_dir_.clear();
+    logged_.clear();
+    resetSteps(false);
+  }
   const Manifest& m = index_->manifest();
   const auto& counts = index_->recordCounts();
   auto count = [&](const char* kind) {
@@ -694,12 +1110,19 @@ void MainFrame::datasetLoaded(std::shared_ptr<const studio::DatasetIndex> index)
   validateSettings();
   refreshTable();
   refreshScene();
-  // The frame with the most blobs: the most cameras in view.
+  // The frame with the most blobs associated with cameras once looking up has
+  // run (the most cameras verified), else with the most blobs.
   int best = 0;
   size_t most = 0;
+  std::map<TimeNs, size_t> associated;
+  if (const auto* view = static_cast<const report::RegistrationView*>(registration_view_.get()))
+    for (const auto& row : view->blob_associations) ++associated[row.t];
   for (size_t i = 0; i < index_->blobs().size(); ++i) {
-    if (index_->blobs()[i].blobs.size() > most) {
-      most = index_->blobs()[i].blobs.size();
+    const auto it = associated.find(index_->blobs()[i].t);
+    const size_t n = associated.empty() ? index_->blobs()[i].blobs.size()
+                                        : (it == associated.end() ? 0 : it->second);
+    if (n > most) {
+      most = n;
       best = static_cast<int>(i);
     }
   }
@@ -913,23 +1336,30 @@ void MainFrame::showFisheyeFrame(int i) {
       for (const Blob& b : blobs->blobs) blob_pixels.emplace_back(b.u, b.v);
     report::FisheyeCheck check = report::makeFisheyeCheck(*view, *fisheye->camera, t, blob_pixels);
     check.frame_index = i;
+    // The overlay toggle: cameras projected before, after the refinement, or both.
+    for (auto& c : check.cameras) {
+      if (overlay_mode_ == 1) c.before.reset();
+      if (overlay_mode_ == 2) c.after.reset();
+    }
+    const char* highlighted = overlay_mode_ == 2 ? "before" : "after";
     const TimeNs t0 = has_images ? frames.front().t : index_->blobs().front().t;
     check.seconds = static_cast<double>(t - t0) * 1e-9;
     std::vector<report::OverlayMark> marks;
     const cv::Mat base = has_images ? canvas : cv::Mat();
     cv::Mat drawn = report::drawFisheyeCheck(check, base, canvas.size(), &marks);
     for (const auto& mark : marks) {
-      if (mark.label == selected_ && mark.kind == "after")
+      if (mark.label == selected_ && mark.kind == highlighted)
         cv::circle(drawn, cv::Point(static_cast<int>(mark.at.x), static_cast<int>(mark.at.y)),
                    14 * thickness, kSelectedColour, thickness + 1);
     }
-    frame_text_->SetLabel(wxString::Format("frame %d / %zu  t=%s s", i + 1, count,
-                                           wxString::FromUTF8(formatSeconds(t))));
+    frame_text_->SetLabel(wxString::Format("frame %d / %zu   %.2f s", i + 1, count, check.seconds));
     fisheye_view_->setImage(
         toWxImage(drawn),
-        wxString::Format("registration: %d cameras in view, %d associated blobs; amber ring: "
-                         "selected camera",
-                         static_cast<int>(check.cameras.size()), check.associated()));
+        wxString::Format("%d cameras in view, %d with their blob; %s; amber ring: selected",
+                         static_cast<int>(check.cameras.size()), check.associated(),
+                         overlay_mode_ == 0   ? "red: before, blue: after refinement"
+                         : overlay_mode_ == 1 ? "blue: after refinement"
+                                              : "red: before refinement"));
     showCameraView();
     return;
   }
@@ -955,8 +1385,9 @@ void MainFrame::showFisheyeFrame(int i) {
       }
     }
   }
-  frame_text_->SetLabel(wxString::Format("frame %d / %zu  t=%s s", i + 1, count,
-                                         wxString::FromUTF8(formatSeconds(t))));
+  const TimeNs t0 = has_images ? frames.front().t : index_->blobs().front().t;
+  frame_text_->SetLabel(wxString::Format("frame %d / %zu   %.2f s", i + 1, count,
+                                         static_cast<double>(t - t0) * 1e-9));
   fisheye_view_->setImage(
       toWxImage(canvas),
       wxString::Format("green o: %d blobs detected   blue x: %d cameras projected (truth)   "
@@ -1008,6 +1439,11 @@ void MainFrame::showCameraView() {
     camera_view_->setImage(wxImage());
     return;
   }
+  // Times as in the fisheye view: seconds since the first fisheye frame (or blobs).
+  TimeNs t0 = frame_t;
+  if (!fisheye.empty()) t0 = fisheye.front().t;
+  if (fisheye.empty() && !index_->blobs().empty()) t0 = index_->blobs().front().t;
+  const std::string when = formatFixed(static_cast<double>(frame_t - t0) * 1e-9, 2) + " s";
   const auto* view = static_cast<const report::RegistrationView*>(registration_view_.get());
   if (view && sensor && sensor->camera) {
     report::EnvCameraView env;
@@ -1029,14 +1465,13 @@ void MainFrame::showCameraView() {
         env, *sensor->camera, frames.empty() ? cv::Mat() : canvas, canvas.size());
     camera_view_->setImage(
         toWxImage(drawn),
-        wxString::FromUTF8(
-            selected_ + "  t=" + formatSeconds(frame_t) +
-            " s   yellow: detected marker, magenta: where the registration puts it"));
+        wxString::FromUTF8(selected_ + "  " + when +
+                           "   yellow: detected marker, magenta: where the registration puts it"));
     return;
   }
   if (canvas.channels() == 1) cv::cvtColor(canvas, canvas, cv::COLOR_GRAY2BGR);
   // The marker detection nearest in time (within 100 ms), with its axes.
-  wxString caption = wxString::FromUTF8(selected_ + "  t=" + formatSeconds(frame_t) + " s");
+  wxString caption = wxString::FromUTF8(selected_ + "  " + when);
   const MarkerObservation* nearest = nullptr;
   for (const auto& m : markers)
     if (std::llabs(m.t - frame_t) < 100'000'000 &&
@@ -1118,13 +1553,20 @@ void MainFrame::saveScreenshot(const std::string& path) {
   const std::pair<wxWindow*, const char*> views[] = {
       {scene_, "scene"}, {fisheye_view_, "fisheye"}, {camera_view_, "camera"}, {table_, "table"}};
   for (const auto& [view, name] : views) {
+    const fs::path part =
+        target.parent_path() / (target.stem().string() + "-" + name + target.extension().string());
+    // The image views draw themselves off screen (the hidden tab too).
+    if (view == fisheye_view_ || view == camera_view_) {
+      const wxImage image =
+          static_cast<ImageView*>(view)->render(image_tabs_->GetCurrentPage()->GetClientSize());
+      if (image.IsOk()) image.SaveFile(wxString::FromUTF8(part.string()), wxBITMAP_TYPE_PNG);
+      continue;
+    }
     if (!view->IsShownOnScreen()) continue;
     wxRect r = view->GetScreenRect();
     r.Offset(-rect.x, -rect.y);
     r.Intersect(wxRect(0, 0, rect.width, rect.height));
     if (r.IsEmpty()) continue;
-    const fs::path part =
-        target.parent_path() / (target.stem().string() + "-" + name + target.extension().string());
     bitmap.GetSubBitmap(r).ConvertToImage().SaveFile(wxString::FromUTF8(part.string()),
                                                      wxBITMAP_TYPE_PNG);
   }
@@ -1134,6 +1576,225 @@ void MainFrame::chooseAndSaveScreenshot() {
   wxFileDialog dialog(this, "Save a screenshot", "", "lookboth-studio.png", "PNG (*.png)|*.png",
                       wxFD_SAVE | wxFD_OVERWRITE_PROMPT);
   if (dialog.ShowModal() == wxID_OK) saveScreenshot(dialog.GetPath().ToStdString());
+}
+
+void MainFrame::saveViewScreenshot(int view) {
+  wxWindow* windows[] = {scene_, fisheye_view_, camera_view_, table_};
+  if (view < 0 || view > 3) return;
+  wxWindow* window = windows[view];
+  // The image views live in tabs: show the one asked for.
+  if (window == fisheye_view_) image_tabs_->SetSelection(0);
+  if (window == camera_view_) image_tabs_->SetSelection(1);
+  wxFileDialog dialog(this, "Save a screenshot of a view", "",
+                      wxString("lookboth-") + kViewNames[view] + ".png", "PNG (*.png)|*.png",
+                      wxFD_SAVE | wxFD_OVERWRITE_PROMPT);
+  if (dialog.ShowModal() != wxID_OK) return;
+  Raise();
+  Update();
+  wxImage image;
+  if (window == fisheye_view_ || window == camera_view_) {
+    image = static_cast<ImageView*>(window)->render();
+  } else {
+    const wxRect r = window->GetScreenRect();
+    wxBitmap bitmap(r.width, r.height);
+    {
+      wxScreenDC screen;
+      wxMemoryDC memory(bitmap);
+      memory.Blit(0, 0, r.width, r.height, &screen, r.x, r.y);
+    }
+    image = bitmap.ConvertToImage();
+  }
+  const fs::path target(dialog.GetPath().ToStdString());
+  const fs::path temporary = target.parent_path() / (target.filename().string() + ".tmp.png");
+  std::error_code ec;
+  if (image.IsOk() && image.SaveFile(wxString::FromUTF8(temporary.string()), wxBITMAP_TYPE_PNG))
+    fs::rename(temporary, target, ec);
+  else
+    ec = std::make_error_code(std::errc::io_error);
+  if (ec) {
+    wxMessageBox("Cannot write " + wxString::FromUTF8(target.string()) +
+                     ": choose a folder you can write to.",
+                 "Screenshot not saved", wxOK | wxICON_ERROR, this);
+    return;
+  }
+  log("Screenshot of the " + wxString(kViewNames[view]) +
+      " view saved: " + wxString::FromUTF8(target.string()));
+}
+
+void MainFrame::cycleOverlay() {
+  overlay_mode_ = (overlay_mode_ + 1) % 3;
+  overlay_choice_->SetSelection(overlay_mode_);
+  image_tabs_->SetSelection(0);
+  showFisheyeFrame(frame_slider_->GetValue());
+}
+
+// ---- the marker ----
+
+void MainFrame::applyMarker() {
+  if (!index_) return;
+  MarkerSpec marker;
+  marker.dictionary = dictionary_->GetStringSelection().ToStdString();
+  marker.id = marker_id_->GetValue();
+  marker.size_m = parseDouble(marker_size_->GetValue().ToStdString()).value_or(-1);
+  const fs::path dataset = index_->path();
+  auto index = std::make_shared<std::shared_ptr<const studio::DatasetIndex>>();
+  startJob(
+      "apply the marker",
+      [dataset, marker, index](const ProgressReporter& progress) {
+        studio::setMarker(dataset, marker, progress);
+        *index = std::make_shared<const studio::DatasetIndex>(
+            studio::DatasetIndex::build(dataset, progress));
+      },
+      [this, marker, index] {
+        registration_.reset();
+        registration_view_.reset();
+        rays_.clear();
+        registration_dir_.clear();
+        resetSteps(false);
+        log(wxString::FromUTF8("  marker " + marker.dictionary + " id " +
+                               std::to_string(marker.id) + ", " + formatDouble(marker.size_m) +
+                               " m written into the dataset; detections made for the old "
+                               "marker stay until detection runs again (lookboth detect)"));
+        datasetLoaded(*index);
+      });
+}
+
+// ---- camera models ----
+
+void MainFrame::loadCalibration() {
+  if (!index_) {
+    wxMessageBox("Open a dataset first (File menu).", "lookboth studio", wxOK | wxICON_INFORMATION,
+                 this);
+    return;
+  }
+  wxArrayString labels;
+  int preselected = 0;
+  for (const CameraSensor& c : index_->manifest().cameras) {
+    if (c.label == selected_) preselected = static_cast<int>(labels.size());
+    labels.Add(wxString::FromUTF8(c.label + (c.camera ? "" : "  (no calibration)")));
+  }
+  if (labels.empty()) return;
+  wxSingleChoiceDialog choose(this, "Camera whose calibration to load:", "Load camera calibration",
+                              labels);
+  choose.SetSelection(preselected);
+  if (choose.ShowModal() != wxID_OK) return;
+  const std::string label =
+      index_->manifest().cameras[static_cast<size_t>(choose.GetSelection())].label;
+  wxFileDialog file_dialog(this, wxString::FromUTF8("Calibration file for " + label), "", "",
+                           "Calibrations (*.yaml;*.yml;*.xml;*.json;*.txt)|"
+                           "*.yaml;*.yml;*.xml;*.json;*.txt|All files|*",
+                           wxFD_OPEN | wxFD_FILE_MUST_EXIST);
+  if (file_dialog.ShowModal() != wxID_OK) return;
+  loadCalibrationFor(label, file_dialog.GetPath().ToStdString(), {});
+}
+
+void MainFrame::loadCalibrationFor(const std::string& label, const std::string& file, Then then) {
+  if (!index_) return;
+  const fs::path dataset = index_->path();
+  auto index = std::make_shared<std::shared_ptr<const studio::DatasetIndex>>();
+  startJob(
+      "load calibration of " + label,
+      [dataset, label, file, index](const ProgressReporter& progress) {
+        studio::setCameraCalibration(dataset, label, file, progress);
+        *index = std::make_shared<const studio::DatasetIndex>(
+            studio::DatasetIndex::build(dataset, progress));
+      },
+      [this, label, file, index, then] {
+        // The input changed: what ran on it runs again.
+        registration_.reset();
+        registration_view_.reset();
+        rays_.clear();
+        registration_dir_.clear();
+        resetSteps(false);
+        log(wxString::FromUTF8("  " + label + ": calibration from " + file +
+                               "; detections made with the old model stay until detection "
+                               "runs again (lookboth detect)"));
+        datasetLoaded(*index);
+        if (then) then();
+      });
+}
+
+// ---- export ----
+
+void MainFrame::exportRegistration(const std::string& dir) {
+  if (!registration_) {
+    log("error: no registration to export yet: run the stages first");
+    if (actions_.exit) exit_status_ = 1;
+    return;
+  }
+  RegistrationRun run;
+  run.registration = *registration_;
+  run.rays = rays_;
+  try {
+    writeRegistrationOutput(run, dir, true);
+  } catch (const Error& e) {
+    log("error: " + wxString::FromUTF8(e.what()));
+    if (actions_.exit) {
+      exit_status_ = 1;
+    } else {
+      wxMessageBox(wxString::FromUTF8(e.what()) +
+                       "\n\nChoose a folder whose parent exists and "
+                       "that you can write to.",
+                   "Registration not exported", wxOK | wxICON_ERROR, this);
+    }
+    return;
+  }
+  std::string stages;
+  for (const auto& stage : registration_->pipeline) stages += (stages.empty() ? "" : ", ") + stage;
+  log("Registration written to " + wxString::FromUTF8(dir) +
+      " (stages run: " + wxString::FromUTF8(stages) + ")");
+}
+
+void MainFrame::chooseAndExportRegistration() {
+  if (!registration_) return;
+  wxDirDialog dialog(this, "Folder to write the registration into (created or replaced)");
+  if (dialog.ShowModal() == wxID_OK) exportRegistration(dialog.GetPath().ToStdString());
+}
+
+void MainFrame::exportReport(const std::string& path, Then then) {
+  if (registration_dir_.empty() || !index_) {
+    const wxString text = "The report needs a finished registration: run every stage first (F5).";
+    log("error: " + text);
+    if (actions_.exit)
+      exit_status_ = 1;
+    else
+      wxMessageBox(text, "lookboth studio", wxOK | wxICON_INFORMATION, this);
+    if (then) then();
+    return;
+  }
+  // A folder gets report.html inside it.
+  fs::path file(path);
+  if (file.extension() != ".html") file /= "report.html";
+  report::ReportOptions options;
+  options.out = file;
+  // Simulated datasets carry the truth: the report then compares with it.
+  if (!index_->manifest().ground_truth.world_from_camera.empty())
+    options.ground_truth = index_->path();
+  const fs::path dataset = index_->path();
+  const fs::path registration = registration_dir_;
+  auto summary = std::make_shared<report::ReportSummary>();
+  startJob(
+      "export report",
+      [options, dataset, registration, summary](const ProgressReporter& progress) {
+        std::error_code ec;
+        if (!options.out.parent_path().empty())
+          fs::create_directories(options.out.parent_path(), ec);
+        *summary = report::writeReport(dataset, registration, options, progress);
+      },
+      [this, file, summary, then] {
+        log(wxString::FromUTF8(
+            "  report written: " + file.string() + " (" + std::to_string(summary->pictures) +
+            " pictures, verdict: " + report::verdictName(summary->verdict) + ")"));
+        for (const auto& reason : summary->reasons) log("  verdict: " + wxString::FromUTF8(reason));
+        if (then) then();
+      });
+}
+
+void MainFrame::chooseAndExportReport() {
+  if (registration_dir_.empty()) return;
+  wxFileDialog dialog(this, "Export the HTML report", "", "lookboth-report.html",
+                      "HTML (*.html)|*.html", wxFD_SAVE | wxFD_OVERWRITE_PROMPT);
+  if (dialog.ShowModal() == wxID_OK) exportReport(dialog.GetPath().ToStdString(), {});
 }
 
 void MainFrame::showAbout() {
@@ -1163,15 +1824,43 @@ void MainFrame::continueStartup() {
       }
       [[fallthrough]];
     case 1:
-      if (actions_.run_all && index_) {
-        runAll();
+      // --calibration LABEL=FILE, one job each, before running anything.
+      if (calibrations_done_ < actions_.calibrations.size() && index_) {
+        const auto& [label, file] = actions_.calibrations[calibrations_done_++];
+        --startup_step_;
+        loadCalibrationFor(label, file, [this] { continueStartup(); });
+        return;
+      }
+      if ((actions_.run_all || !actions_.run_until.empty()) && index_) {
+        int last = static_cast<int>(steps_.size()) - 1;
+        if (!actions_.run_all) last = stepIndex(actions_.run_until);
+        if (last < 0) {
+          std::string names;
+          for (const auto& step : steps_) names += (names.empty() ? "" : ", ") + step.name;
+          log(wxString::FromUTF8("error: --run-until: no step '" + actions_.run_until +
+                                 "' (steps: " + names + ")"));
+          exit_status_ = 1;
+        } else {
+          runThrough(last, [this] { continueStartup(); });
+          return;
+        }
+      }
+      ++startup_step_;
+      [[fallthrough]];
+    case 2:
+      if (actions_.overlay == "after") overlay_mode_ = 1;
+      if (actions_.overlay == "before") overlay_mode_ = 2;
+      overlay_choice_->SetSelection(overlay_mode_);
+      if (!actions_.select.empty()) selectCamera(actions_.select);
+      showFisheyeFrame(actions_.frame >= 0 ? actions_.frame : frame_slider_->GetValue());
+      if (!actions_.export_registration.empty()) exportRegistration(actions_.export_registration);
+      if (!actions_.export_report.empty()) {
+        exportReport(actions_.export_report, [this] { continueStartup(); });
         return;
       }
       ++startup_step_;
       [[fallthrough]];
-    case 2: {
-      if (!actions_.select.empty()) selectCamera(actions_.select);
-      if (actions_.frame >= 0) showFisheyeFrame(actions_.frame);
+    case 3: {
       if (actions_.screenshot.empty() && !actions_.exit) return;
       // Let the views (the OpenGL one in particular) draw before capturing.
       auto* timer = new wxTimer();

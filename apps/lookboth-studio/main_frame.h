@@ -6,12 +6,15 @@
 #include <wx/filehistory.h>
 #include <wx/frame.h>
 
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
+#include "lookboth/calib/full_pipeline.h"
 #include "lookboth/calib/pipeline.h"
 #include "lookboth/studio/dataset_index.h"
 #include "lookboth/studio/job_runner.h"
@@ -28,6 +31,7 @@ class wxStaticText;
 class wxTextCtrl;
 class wxButton;
 class wxNotebook;
+class wxMenu;
 
 namespace lookboth::studio_app {
 
@@ -42,17 +46,24 @@ struct StartupActions {
   std::string simulate_out;  ///< Where the simulation goes (default: a temporary folder).
   double duration_s = 0;     ///< Simulate only the first seconds (0 = all).
   bool run_all = false;      ///< Run the whole pipeline once the dataset is open.
-  std::string trajectory;    ///< "visual" or "metric" (default: visual when there are frames).
-  std::string select;        ///< Camera to select.
-  int frame = -1;            ///< Fisheye frame to show (-1: automatic).
-  std::string screenshot;    ///< Save a screenshot of the window here when done.
-  bool exit = false;         ///< Quit when done (exit status 1 if a job failed).
+  std::string run_until;     ///< Run the steps up to this one ("detect", "look_down"...).
+  /// Calibration files to load first (camera label, file), as File > Load camera calibration.
+  std::vector<std::pair<std::string, std::string>> calibrations;
+  std::string trajectory;     ///< "visual" or "metric" (default: visual when there are frames).
+  std::string select;         ///< Camera to select.
+  int frame = -1;             ///< Fisheye frame to show (-1: automatic).
+  std::string overlay;        ///< Fisheye overlay: "both" (default), "before" or "after".
+  std::string export_report;  ///< Write the HTML report here (.html file or folder).
+  std::string export_registration;  ///< Write the registration files into this folder.
+  std::string screenshot;           ///< Save a screenshot of the window here when done.
+  bool exit = false;                ///< Quit when done (exit status 1 if a job failed).
   /// Receives the exit status (0, or 1 when a job failed) when the window closes.
   std::function<void(int)> on_close;
 };
 
 class MainFrame : public wxFrame {
  public:
+  using Then = std::function<void()>;
   explicit MainFrame(const StartupActions& actions);
   ~MainFrame() override;
   /// Exit status for --exit: 0, or 1 when a job failed.
@@ -71,13 +82,32 @@ class MainFrame : public wxFrame {
                         double duration_s);
   void importBag();
   void runAll();
+  void runNext();
+  /// Runs the pipeline steps from the first pending one through step `last`
+  /// (one job each, results shown as each ends), then `done`.
+  void runThrough(int last, Then done);
+  void runStep(int step, Then then);
+  void stepFinished(int step, const StepOutcome& outcome);
+  void resetSteps(bool keep_preparation);
+  void refreshSteps();
+  int firstPendingStep() const;
+  int stepIndex(const std::string& name) const;
+  FullPipelineOptions pipelineOptions() const;
+  bool writeSettingsFile(std::filesystem::path* file);
+  void exportReport(const std::string& path, Then then);
+  void chooseAndExportReport();
+  void exportRegistration(const std::string& dir);
+  void chooseAndExportRegistration();
+  void saveViewScreenshot(int view);
+  void cycleOverlay();
+  void loadCalibration();
+  void applyMarker();
+  void loadCalibrationFor(const std::string& label, const std::string& file, Then then);
   void cancelJob();
   void saveScreenshot(const std::string& path);
   void chooseAndSaveScreenshot();
   void showAbout();
 
-  // Jobs.
-  using Then = std::function<void()>;
   bool startJob(const std::string& name, studio::JobRunner::Job job, Then then);
   void onJobProgress(const ProgressEvent& event);
   void onJobDone(const studio::JobResult& result, const Then& then);
@@ -98,12 +128,36 @@ class MainFrame : public wxFrame {
 
   StartupActions actions_;
   int startup_step_ = 0;
+  size_t calibrations_done_ = 0;
   int exit_status_ = 0;
 
   studio::JobRunner runner_;
   std::shared_ptr<const studio::DatasetIndex> index_;
   std::shared_ptr<const Registration> registration_;
   std::shared_ptr<const void> registration_view_;  ///< report::RegistrationView (opaque here).
+  std::filesystem::path registration_dir_;         ///< Where the finished registration was written.
+
+  /// The pipeline's steps: detect, odometry, then the configured registration stages.
+  struct Step {
+    std::string name;   ///< "detect", "odometry", or the stage name ("look_down"...).
+    std::string title;  ///< For buttons and menus.
+    enum class State { kPending, kDone, kSkipped } state = State::kPending;
+    std::string note;  ///< What it did or why it was skipped.
+    wxButton* button = nullptr;
+    wxStaticText* status = nullptr;
+    int menu_id = 0;
+  };
+  std::vector<Step> steps_;
+  /// The registration being run stage by stage (kept between the stages' jobs;
+  /// only the running job touches it).
+  struct Session {
+    std::shared_ptr<RegistrationController> controller;
+    std::shared_ptr<RegistrationSession> session;
+  };
+  std::shared_ptr<Session> session_;
+  bool chain_running_ = false;
+  std::set<std::string> logged_;  ///< Messages logged once per dataset (warnings...).
+  int overlay_mode_ = 0;          ///< 0: before and after, 1: after only, 2: before only.
   std::vector<DetectionRay> rays_;
   std::string selected_;
   std::string last_stage_;
@@ -123,8 +177,17 @@ class MainFrame : public wxFrame {
   wxTextCtrl* huber_ = nullptr;
   wxTextCtrl* cauchy_ = nullptr;
   wxTextCtrl* gate_ = nullptr;
-  wxStaticText* validation_ = nullptr;
+  wxStaticText* validation_ = nullptr;  ///< Problems of the dataset itself (cameras).
+  wxStaticText* marker_msg_ = nullptr;  ///< Validation messages next to their fields.
+  wxStaticText* trajectory_msg_ = nullptr;
+  wxStaticText* loss_msg_ = nullptr;
+  bool settings_ok_ = false;
+  int running_step_ = -1;
   wxButton* run_all_ = nullptr;
+  wxButton* run_next_ = nullptr;
+  wxButton* marker_apply_ = nullptr;
+  wxChoice* overlay_choice_ = nullptr;
+  wxMenu* pipeline_menu_ = nullptr;
   wxButton* cancel_ = nullptr;
   wxGauge* gauge_ = nullptr;
   wxStaticText* stage_text_ = nullptr;

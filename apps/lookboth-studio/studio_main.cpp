@@ -1,6 +1,8 @@
 // lookboth-studio: the desktop app for calibration technicians. Usage:
-//   lookboth-studio [dataset] [--simulate small] [--run-all] [--select cam03]
-//                   [--frame N] [--screenshot out.png] [--exit]
+//   lookboth-studio [dataset] [--simulate small] [--run-all | --run-until look_down]
+//                   [--select cam03] [--frame N] [--overlay before|after|both]
+//                   [--export-registration dir] [--export-report report.html]
+//                   [--screenshot out.png] [--exit]
 // The options let tests and demos drive the same code paths a click uses.
 #include <wx/app.h>
 #include <wx/cmdline.h>
@@ -52,10 +54,21 @@ class StudioApp : public wxApp {
     parser.AddOption("", "duration", "with --simulate: only the first SECONDS",
                      wxCMD_LINE_VAL_DOUBLE);
     parser.AddSwitch("", "run-all", "run the whole pipeline once the dataset is open");
+    parser.AddOption("", "run-until",
+                     "run the steps one by one up to this one (detect, odometry, associate, "
+                     "motion_calibration, look_down, look_up... as configured)");
     parser.AddOption("", "trajectory",
                      "visual (fisheye odometry) or metric (the dataset's odometry)");
     parser.AddOption("", "select", "select this camera");
     parser.AddOption("", "frame", "show this fisheye frame (0-based)", wxCMD_LINE_VAL_NUMBER);
+    parser.AddOption("", "calibration",
+                     "LABEL=FILE: load this camera's calibration into the dataset first "
+                     "(repeatable)",
+                     wxCMD_LINE_VAL_STRING, wxCMD_LINE_PARAM_MULTIPLE);
+    parser.AddOption("", "overlay", "fisheye overlay: both (default), before or after");
+    parser.AddOption("", "export-registration", "write the registration files into this folder");
+    parser.AddOption("", "export-report",
+                     "write the HTML report (a .html file, or report.html in this folder)");
     parser.AddOption("", "screenshot", "save a PNG of the main window when done");
     parser.AddSwitch("", "exit", "quit when done (exit status 1 if a job failed)");
   }
@@ -70,6 +83,28 @@ class StudioApp : public wxApp {
     double duration = 0;
     if (parser.Found("duration", &duration)) actions_.duration_s = duration;
     actions_.run_all = parser.Found("run-all");
+    if (parser.Found("run-until", &text)) actions_.run_until = text.ToStdString();
+    for (const wxCmdLineArg& arg : parser.GetArguments()) {
+      if (arg.GetKind() != wxCMD_LINE_OPTION || arg.GetLongName() != "calibration") continue;
+      const std::string value = arg.GetStrVal().ToStdString();
+      const size_t eq = value.find('=');
+      if (eq == std::string::npos || eq == 0 || eq + 1 == value.size()) {
+        wxLogError("--calibration: expected LABEL=FILE, got '%s'", arg.GetStrVal());
+        return false;
+      }
+      actions_.calibrations.emplace_back(value.substr(0, eq), value.substr(eq + 1));
+    }
+    if (parser.Found("overlay", &text)) {
+      actions_.overlay = text.ToStdString();
+      if (actions_.overlay != "both" && actions_.overlay != "before" &&
+          actions_.overlay != "after") {
+        wxLogError("--overlay: expected 'both', 'before' or 'after', got '%s'", text);
+        return false;
+      }
+    }
+    if (parser.Found("export-registration", &text))
+      actions_.export_registration = text.ToStdString();
+    if (parser.Found("export-report", &text)) actions_.export_report = text.ToStdString();
     if (parser.Found("trajectory", &text)) {
       actions_.trajectory = text.ToStdString();
       if (actions_.trajectory != "visual" && actions_.trajectory != "metric") {

@@ -60,16 +60,9 @@ std::filesystem::path defaultConfigFile() { return shareDirectory() / "config" /
 
 }  // namespace
 
-FullPipelineResult runFullPipeline(const FullPipelineOptions& options,
-                                   const ProgressReporter& progress) {
-  if (const std::string problem = options.check(); !problem.empty()) throw Error(problem);
-  FullPipelineResult result;
-  // Check the registration configuration first: a typo fails in a second, not after detection.
-  RegistrationController controller(loadRegistrationConfig(options.config_file));
-
-  DatasetContents contents = inspectDataset(options.dataset, progress);
-
-  // 1. Detection.
+StepOutcome runDetectStep(const FullPipelineOptions& options, const DatasetContents& contents,
+                          const ProgressReporter& progress) {
+  StepOutcome outcome;
   const bool need_markers = contents.camera_frames > 0 && contents.markers == 0;
   const bool need_blobs = contents.fisheye_frames > 0 && contents.blob_records == 0;
   if (options.auto_detect && (need_markers || need_blobs)) {
@@ -85,18 +78,22 @@ FullPipelineResult runFullPipeline(const FullPipelineOptions& options,
     std::int64_t blobs = 0;
     for (const auto& camera : summary.cameras)
       (camera.fisheye ? blobs : markers) += camera.detections;
-    result.steps.push_back("detect: " + std::to_string(markers) + " marker detections, " +
-                           std::to_string(blobs) + " fisheye frames with blobs added");
+    outcome.ran = true;
+    outcome.summary = "detect: " + std::to_string(markers) + " marker detections, " +
+                      std::to_string(blobs) + " fisheye frames with blobs added";
   } else {
-    result.steps.push_back(
-        "detect: skipped (" +
-        std::string(contents.camera_frames + contents.fisheye_frames == 0
-                        ? "no frames: detections-only dataset"
-                        : (options.auto_detect ? "detections present" : "disabled")) +
-        ")");
+    outcome.summary = "detect: skipped (" +
+                      std::string(contents.camera_frames + contents.fisheye_frames == 0
+                                      ? "no frames: detections-only dataset"
+                                      : (options.auto_detect ? "detections present" : "disabled")) +
+                      ")";
   }
+  return outcome;
+}
 
-  // 2. Visual odometry.
+StepOutcome runOdometryStep(const FullPipelineOptions& options, const DatasetContents& contents,
+                            const ProgressReporter& progress) {
+  StepOutcome outcome;
   const std::string vo_label = options.trajectory_label.empty() ? "vo" : options.trajectory_label;
   if (options.mode == TrajectoryMode::kVisual && options.trajectory_file.empty() &&
       !contents.hasTrajectory(vo_label)) {
@@ -119,17 +116,31 @@ FullPipelineResult runFullPipeline(const FullPipelineOptions& options,
     const vo::OdometryRunSummary summary = vo::runOdometry(odometry, progress);
     if (summary.result.trajectory.empty())
       throw Error(options.dataset.string() + ": the visual odometry tracked no frame");
-    result.steps.push_back("odometry: " + std::to_string(summary.records_written) +
-                           " poses added as trajectory '" + vo_label + "' (" +
-                           std::to_string(summary.result.statistics.loop_closures) +
-                           " loop closures)");
+    outcome.ran = true;
+    outcome.summary = "odometry: " + std::to_string(summary.records_written) +
+                      " poses added as trajectory '" + vo_label + "' (" +
+                      std::to_string(summary.result.statistics.loop_closures) + " loop closures)";
   } else {
-    result.steps.push_back("odometry: skipped (" +
-                           std::string(options.mode == TrajectoryMode::kMetric
-                                           ? "metric trajectory"
-                                           : "trajectory present") +
-                           ")");
+    outcome.summary = "odometry: skipped (" +
+                      std::string(options.mode == TrajectoryMode::kMetric ? "metric trajectory"
+                                                                          : "trajectory present") +
+                      ")";
   }
+  return outcome;
+}
+
+FullPipelineResult runFullPipeline(const FullPipelineOptions& options,
+                                   const ProgressReporter& progress) {
+  if (const std::string problem = options.check(); !problem.empty()) throw Error(problem);
+  FullPipelineResult result;
+  // Check the registration configuration first: a typo fails in a second, not after detection.
+  RegistrationController controller(loadRegistrationConfig(options.config_file));
+
+  DatasetContents contents = inspectDataset(options.dataset, progress);
+  // 1. Detection.
+  result.steps.push_back(runDetectStep(options, contents, progress).summary);
+  // 2. Visual odometry (on the contents before detection: detection adds no trajectory).
+  result.steps.push_back(runOdometryStep(options, contents, progress).summary);
 
   // 3-4. Registration and its output.
   RegisterOptions register_options;

@@ -223,12 +223,12 @@ std::string utcNow() {
 
 }  // namespace
 
-RegistrationRun RegistrationController::run(RegistrationInput input,
-                                            const ProgressReporter& progress) const {
-  RegistrationProblem problem;
-  problem.input = std::move(input);
-  Registration& r = problem.result;
-  r.dataset = problem.input.dataset.string();
+RegistrationSession::RegistrationSession(const RegistrationController& controller,
+                                         RegistrationInput input)
+    : controller_(&controller) {
+  problem_.input = std::move(input);
+  Registration& r = problem_.result;
+  r.dataset = problem_.input.dataset.string();
   r.created = utcNow();
   r.versions = {{"lookboth", versionString()},
                 {"mrpt", std::to_string((MRPT_VERSION >> 8) & 0xF) + "." +
@@ -236,37 +236,67 @@ RegistrationRun RegistrationController::run(RegistrationInput input,
                              std::to_string(MRPT_VERSION & 0xF)},
                 {"opencv", CV_VERSION},
                 {"ceres", CERES_VERSION_STRING}};
-  r.trajectory_mode = problem.input.mode;
-  r.trajectory_label = problem.input.trajectory_label;
-  r.config_yaml = config_.mergedYaml();
-  for (const auto& stage : stages_) {
-    progress.checkStop();
-    const auto start = std::chrono::steady_clock::now();
-    stage->run(problem, progress);
-    r.pipeline.push_back(stage->name());
-    r.statistics.seconds_per_stage[stage->name()] =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  r.trajectory_mode = problem_.input.mode;
+  r.trajectory_label = problem_.input.trajectory_label;
+  r.config_yaml = controller.config_.mergedYaml();
+}
+
+std::size_t RegistrationSession::stageCount() const { return controller_->stages_.size(); }
+
+const std::string& RegistrationSession::stageName(std::size_t i) const {
+  return controller_->config_.pipeline.at(i);
+}
+
+void RegistrationSession::runNext(const ProgressReporter& progress) {
+  if (finished()) {
+    throw Error(ErrorContext{"", 0, "register.pipeline", ""},
+                "every configured stage has run already");
   }
-  r.scale = problem.scale;
-  if (problem.input.mode == TrajectoryMode::kMetric) r.scale_sigma = 0;
-  for (const StampedPose& p : problem.input.trajectory.samples()) {
-    r.trajectory.push_back({p.t, problem.metricWorldFromFisheye(p.world_from_body)});
+  progress.checkStop();
+  RegistrationStage& stage = *controller_->stages_[next_];
+  const auto start = std::chrono::steady_clock::now();
+  stage.run(problem_, progress);
+  Registration& r = problem_.result;
+  r.pipeline.push_back(stage.name());
+  r.statistics.seconds_per_stage[stage.name()] =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ++next_;
+}
+
+RegistrationRun RegistrationSession::current() const {
+  RegistrationRun run;
+  run.registration = problem_.result;
+  Registration& r = run.registration;
+  r.scale = problem_.scale;
+  if (problem_.input.mode == TrajectoryMode::kMetric) r.scale_sigma = 0;
+  r.trajectory.clear();
+  for (const StampedPose& p : problem_.input.trajectory.samples()) {
+    r.trajectory.push_back({p.t, problem_.metricWorldFromFisheye(p.world_from_body)});
   }
   std::sort(
       r.cameras.begin(), r.cameras.end(),
       [](const CameraRegistration& a, const CameraRegistration& b) { return a.label < b.label; });
-  RegistrationRun run;
-  for (const auto& [label, indices] : problem.inliers_by_camera) {
+  for (const auto& [label, indices] : problem_.inliers_by_camera) {
     const CameraRegistration* camera = r.findCamera(label);
     if (!camera || camera->status == CameraStatus::kUnregistered) continue;
     for (std::size_t a : indices) {
       const Rigid3d marker =
-          camera->world_from_camera * problem.marker(problem.associations[a]).camera_from_marker;
+          camera->world_from_camera * problem_.marker(problem_.associations[a]).camera_from_marker;
       run.rays.push_back({camera->world_from_camera.translation, marker.translation});
     }
   }
-  run.registration = std::move(r);
   return run;
+}
+
+RegistrationSession RegistrationController::prepare(RegistrationInput input) const {
+  return RegistrationSession(*this, std::move(input));
+}
+
+RegistrationRun RegistrationController::run(RegistrationInput input,
+                                            const ProgressReporter& progress) const {
+  RegistrationSession session = prepare(std::move(input));
+  while (!session.finished()) session.runNext(progress);
+  return session.current();
 }
 
 // ---- output ----

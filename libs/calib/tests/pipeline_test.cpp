@@ -7,6 +7,7 @@
 
 #include <filesystem>
 
+#include "lookboth/calib/full_pipeline.h"
 #include "lookboth/calib/pipeline.h"
 #include "lookboth/calib/stages.h"
 #include "lookboth/core/error.h"
@@ -107,6 +108,33 @@ TEST_F(PipelineTest, SmallVisualSynthesisedOdometry) {
   EXPECT_EQ(a.compared, 6);
   EXPECT_LT(a.position_rmse_m, 0.04);
   EXPECT_LT(a.rotation_rmse_deg, 3.0);
+}
+
+// The steps before the registration, one at a time (as the desktop app runs
+// them): on a detections-only dataset detection is not needed, odometry is
+// not needed in metric mode and cannot run in visual mode.
+TEST_F(PipelineTest, StepsBeforeRegistrationSayWhyTheyAreSkipped) {
+  FullPipelineOptions options;
+  options.dataset = dataset("small");
+  options.mode = TrajectoryMode::kMetric;
+  options.trajectory_label = "odometry";
+  const DatasetContents contents = inspectDataset(options.dataset, ProgressReporter());
+  EXPECT_EQ(contents.fisheye_frames, 0);
+  EXPECT_GT(contents.markers, 0);
+  const StepOutcome detect = runDetectStep(options, contents, ProgressReporter());
+  EXPECT_FALSE(detect.ran);
+  EXPECT_EQ(detect.summary, "detect: skipped (no frames: detections-only dataset)");
+  const StepOutcome odometry = runOdometryStep(options, contents, ProgressReporter());
+  EXPECT_FALSE(odometry.ran);
+  EXPECT_EQ(odometry.summary, "odometry: skipped (metric trajectory)");
+  options.mode = TrajectoryMode::kVisual;
+  options.trajectory_label.clear();
+  try {
+    runOdometryStep(options, contents, ProgressReporter());
+    ADD_FAILURE() << "visual odometry without fisheye frames did not fail";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no fisheye frames"), std::string::npos) << e.what();
+  }
 }
 
 TEST_F(PipelineTest, FaultsCompleteWithFaultsReported) {
@@ -232,6 +260,71 @@ TEST(StageRegistry, NewStagesRegisterBesideThePapers) {
   EXPECT_LT(a.position_max_m, 1e-6);
   EXPECT_EQ(run.registration.pipeline,
             (std::vector<std::string>{"associate", "fixed_mount", "look_down"}));
+}
+
+// The desktop app runs the stages one at a time on a kept problem: the result
+// after the last stage is the one run() gives, and each stage adds its part.
+TEST(Controller, RunsOneStageAtATimeLikeRun) {
+  const testing::SyntheticScene scene = testing::makeSyntheticScene({});
+  const RegistrationController controller(loadRegistrationConfig(std::nullopt));
+  const RegistrationRun whole = controller.run(scene.input, ProgressReporter());
+
+  RegistrationSession session = controller.prepare(scene.input);
+  ASSERT_EQ(session.stageCount(), controller.config().pipeline.size());
+  EXPECT_EQ(session.stagesRun(), 0u);
+  EXPECT_TRUE(session.current().registration.pipeline.empty());
+  bool registered_before_end = false;
+  for (std::size_t i = 0; i < session.stageCount(); ++i) {
+    EXPECT_FALSE(session.finished());
+    EXPECT_EQ(session.stageName(i), controller.config().pipeline[i]);
+    session.runNext(ProgressReporter());
+    EXPECT_EQ(session.stagesRun(), i + 1);
+    const RegistrationRun now = session.current();
+    ASSERT_EQ(now.registration.pipeline.size(), i + 1);
+    EXPECT_EQ(now.registration.pipeline.back(), controller.config().pipeline[i]);
+    if (controller.config().pipeline[i] == "associate") {
+      EXPECT_TRUE(session.problem().associated);
+      EXPECT_EQ(now.registration.registeredCount(), 0);
+    }
+    if (controller.config().pipeline[i] == "look_down") {
+      EXPECT_EQ(now.registration.registeredCount(), 6);
+      EXPECT_FALSE(now.rays.empty());
+      registered_before_end = i + 1 < session.stageCount();
+    }
+  }
+  EXPECT_TRUE(session.finished());
+  EXPECT_TRUE(registered_before_end) << "look_down should come before the last stage";
+  EXPECT_THROW(session.runNext(ProgressReporter()), Error);
+
+  const RegistrationRun last = session.current();
+  EXPECT_EQ(last.registration.pipeline, whole.registration.pipeline);
+  EXPECT_EQ(last.registration.scale, whole.registration.scale);
+  EXPECT_EQ(last.rays.size(), whole.rays.size());
+  ASSERT_EQ(last.registration.cameras.size(), whole.registration.cameras.size());
+  for (std::size_t i = 0; i < last.registration.cameras.size(); ++i) {
+    const CameraRegistration& a = last.registration.cameras[i];
+    const CameraRegistration& b = whole.registration.cameras[i];
+    EXPECT_EQ(a.label, b.label);
+    EXPECT_EQ(a.status, b.status);
+    EXPECT_LT((a.world_from_camera.translation - b.world_from_camera.translation).norm(), 1e-9);
+  }
+  // Noise-free input: the stage-by-stage result is the truth.
+  const auto accuracy = testing::accuracyAgainst(last.registration, scene.world_from_camera);
+  EXPECT_EQ(accuracy.compared, 6);
+  EXPECT_LT(accuracy.position_max_m, 1e-6);
+}
+
+TEST(Controller, StopBetweenStagesKeepsTheStagesRun) {
+  const testing::SyntheticScene scene = testing::makeSyntheticScene({});
+  const RegistrationController controller(loadRegistrationConfig(std::nullopt));
+  RegistrationSession session = controller.prepare(scene.input);
+  session.runNext(ProgressReporter());
+  ProgressReporter stopped;
+  stopped.requestStop();
+  EXPECT_THROW(session.runNext(stopped), StopRequested);
+  EXPECT_EQ(session.stagesRun(), 1u);
+  session.runNext(ProgressReporter());
+  EXPECT_EQ(session.stagesRun(), 2u);
 }
 
 TEST(Controller, StopsWhenAsked) {

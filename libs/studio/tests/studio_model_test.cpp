@@ -3,10 +3,14 @@
 #include <chrono>
 #include <condition_variable>
 #include <filesystem>
+#include <fstream>
 #include <mutex>
 
+#include "lookboth/cameras/camera_io.h"
 #include "lookboth/core/error.h"
+#include "lookboth/dataset/dataset_io.h"
 #include "lookboth/sim/simulate.h"
+#include "lookboth/studio/dataset_edit.h"
 #include "lookboth/studio/dataset_index.h"
 #include "lookboth/studio/job_runner.h"
 
@@ -143,6 +147,78 @@ TEST(JobRunnerTest, StopRequestEndsALongJobAsStoppedAndRefusesASecondJob) {
   EXPECT_EQ(done.get().status, JobStatus::kStopped);
   runner.wait();
   EXPECT_FALSE(runner.running());
+}
+
+// File > Load camera calibration: the manifest gets the new model, the
+// records stay; a bad file or an unknown camera changes nothing.
+TEST(DatasetEditTest, SetsACameraCalibrationAndKeepsTheRecords) {
+  TempDir dir;
+  sim::SimulateOptions options;
+  options.scenario = "small";
+  options.out = dir.path() / "small.rawlog";
+  options.detections_only = true;
+  options.max_duration_s = 5;
+  sim::simulate(options, ProgressReporter());
+  const DatasetIndex before = DatasetIndex::build(options.out);
+  const CameraSensor* fisheye = before.manifest().fisheye();
+  ASSERT_TRUE(fisheye && fisheye->camera);
+  const CameraSensor* cam00 = before.manifest().findCamera("cam00");
+  ASSERT_TRUE(cam00 && cam00->camera);
+  ASSERT_NE(cameraToYaml(*fisheye->camera), cameraToYaml(*cam00->camera));
+  // cam00 gets the fisheye's model: different from its own, easy to recognise.
+  const fs::path file = dir.path() / "calibration.yaml";
+  saveCamera(*fisheye->camera, file);
+  const Camera set = setCameraCalibration(options.out, "cam00", file, ProgressReporter());
+  EXPECT_EQ(cameraToYaml(set), cameraToYaml(*fisheye->camera));
+
+  const DatasetIndex after = DatasetIndex::build(options.out);
+  const CameraSensor* changed = after.manifest().findCamera("cam00");
+  ASSERT_TRUE(changed && changed->camera);
+  EXPECT_EQ(cameraToYaml(*changed->camera), cameraToYaml(*fisheye->camera));
+  EXPECT_EQ(cameraToYaml(*after.manifest().findCamera("cam01")->camera),
+            cameraToYaml(*before.manifest().findCamera("cam01")->camera));
+  EXPECT_EQ(after.recordCounts(), before.recordCounts());
+
+  EXPECT_THROW(setCameraCalibration(options.out, "cam99", file, ProgressReporter()), Error);
+  const fs::path bad = dir.path() / "bad.yaml";
+  {
+    std::ofstream out(bad);
+    out << "not: a calibration\n";
+  }
+  try {
+    setCameraCalibration(options.out, "cam01", bad, ProgressReporter());
+    ADD_FAILURE() << "a file that is no calibration was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.yaml"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(cameraToYaml(*DatasetIndex::build(options.out).manifest().findCamera("cam01")->camera),
+            cameraToYaml(*before.manifest().findCamera("cam01")->camera));
+}
+
+TEST(DatasetEditTest, SetsTheMarkerAndRefusesAnInvalidOne) {
+  TempDir dir;
+  sim::SimulateOptions options;
+  options.scenario = "small";
+  options.out = dir.path() / "small.rawlog";
+  options.detections_only = true;
+  options.max_duration_s = 5;
+  sim::simulate(options, ProgressReporter());
+  const DatasetIndex before = DatasetIndex::build(options.out);
+  MarkerSpec marker;
+  marker.dictionary = "DICT_5X5_100";
+  marker.id = 42;
+  marker.size_m = 0.15;
+  ASSERT_NE(before.manifest().marker.id, 42);
+  setMarker(options.out, marker, ProgressReporter());
+  const DatasetIndex after = DatasetIndex::build(options.out);
+  EXPECT_EQ(after.manifest().marker.dictionary, "DICT_5X5_100");
+  EXPECT_EQ(after.manifest().marker.id, 42);
+  EXPECT_DOUBLE_EQ(after.manifest().marker.size_m, 0.15);
+  EXPECT_EQ(after.recordCounts(), before.recordCounts());
+  MarkerSpec bad = marker;
+  bad.size_m = -1;
+  EXPECT_THROW(setMarker(options.out, bad, ProgressReporter()), Error);
+  EXPECT_EQ(DatasetIndex::build(options.out).manifest().marker.id, 42);
 }
 
 }  // namespace

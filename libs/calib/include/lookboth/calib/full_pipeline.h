@@ -46,6 +46,24 @@ struct DatasetContents {
 DatasetContents inspectDataset(const std::filesystem::path& dataset,
                                const ProgressReporter& progress);
 
+/// What one step did: whether it ran, and a line saying what it did or why
+/// it was skipped ("detect: 120 marker detections, ...").
+struct StepOutcome {
+  bool ran = false;
+  std::string summary;
+};
+
+/// Step 1 alone: detection when `contents` (of options.dataset) shows frames
+/// without their detections and options.auto_detect is set; else skipped.
+/// (options.out is not used.)
+StepOutcome runDetectStep(const FullPipelineOptions& options, const DatasetContents& contents,
+                          const ProgressReporter& progress);
+/// Step 2 alone: visual odometry in visual mode when the dataset has no VO
+/// trajectory; else skipped. Throws lookboth::Error when it is needed but
+/// cannot run (no fisheye frames, auto_odometry off, another label).
+StepOutcome runOdometryStep(const FullPipelineOptions& options, const DatasetContents& contents,
+                            const ProgressReporter& progress);
+
 struct FullPipelineResult {
   std::vector<std::string> steps;  ///< One line per step run or skipped, and why.
   RegistrationRun run;

@@ -61,6 +61,36 @@ struct RegistrationRun {
   std::vector<DetectionRay> rays;  ///< For the scene (inliers of look_down).
 };
 
+class RegistrationController;
+
+/// A registration run one stage at a time (the desktop app's "run stage"
+/// buttons; RegistrationController::run uses it too). Made by
+/// RegistrationController::prepare; the controller must outlive it.
+class RegistrationSession {
+ public:
+  /// The configured stages, in order.
+  std::size_t stageCount() const;
+  const std::string& stageName(std::size_t i) const;
+  /// How many stages have run (the index of the next one).
+  std::size_t stagesRun() const { return next_; }
+  bool finished() const { return next_ >= stageCount(); }
+  /// Runs the next stage. Throws lookboth::Error when all have run, or from
+  /// the stage; StopRequested when stopped (the stage then counts as not run
+  /// and the problem may hold part of its work: prepare again to redo it).
+  void runNext(const ProgressReporter& progress);
+  /// The registration as it stands after the stages run so far (after the
+  /// last one: what RegistrationController::run returns).
+  RegistrationRun current() const;
+  const RegistrationProblem& problem() const { return problem_; }
+
+ private:
+  friend class RegistrationController;
+  RegistrationSession(const RegistrationController& controller, RegistrationInput input);
+  const RegistrationController* controller_;
+  RegistrationProblem problem_;
+  std::size_t next_ = 0;
+};
+
 class RegistrationController {
  public:
   explicit RegistrationController(RegistrationConfig config,
@@ -70,8 +100,11 @@ class RegistrationController {
   /// Runs the pipeline. Throws StopRequested when stopped, lookboth::Error on
   /// input no stage can work with.
   RegistrationRun run(RegistrationInput input, const ProgressReporter& progress) const;
+  /// The same, one stage at a time: nothing runs until RegistrationSession::runNext.
+  RegistrationSession prepare(RegistrationInput input) const;
 
  private:
+  friend class RegistrationSession;
   RegistrationConfig config_;
   std::vector<std::unique_ptr<RegistrationStage>> stages_;
 };
