@@ -1352,7 +1352,8 @@ void MainFrame::showFisheyeFrame(int i) {
         cv::circle(drawn, cv::Point(static_cast<int>(mark.at.x), static_cast<int>(mark.at.y)),
                    14 * thickness, kSelectedColour, thickness + 1);
     }
-    frame_text_->SetLabel(wxString::Format("frame %d / %zu   %.2f s", i + 1, count, check.seconds));
+    frame_text_->SetLabel(
+        wxString::Format("frame %d (0-%zu)   %.2f s", i, count - 1, check.seconds));
     fisheye_view_->setImage(
         toWxImage(drawn),
         wxString::Format("%d cameras in view, %d with their blob; %s; amber ring: selected",
@@ -1386,7 +1387,7 @@ void MainFrame::showFisheyeFrame(int i) {
     }
   }
   const TimeNs t0 = has_images ? frames.front().t : index_->blobs().front().t;
-  frame_text_->SetLabel(wxString::Format("frame %d / %zu   %.2f s", i + 1, count,
+  frame_text_->SetLabel(wxString::Format("frame %d (0-%zu)   %.2f s", i, count - 1,
                                          static_cast<double>(t - t0) * 1e-9));
   fisheye_view_->setImage(
       toWxImage(canvas),
