@@ -249,8 +249,12 @@ RegistrationRun RegistrationController::run(RegistrationInput input,
   }
   r.scale = problem.scale;
   if (problem.input.mode == TrajectoryMode::kMetric) r.scale_sigma = 0;
-  for (const StampedPose& p : problem.input.trajectory.samples()) {
-    r.trajectory.push_back({p.t, problem.metricWorldFromFisheye(p.world_from_body)});
+  if (problem.metric_trajectory) {
+    r.trajectory = *problem.metric_trajectory;
+  } else {
+    for (const StampedPose& p : problem.input.trajectory.samples()) {
+      r.trajectory.push_back({p.t, problem.metricWorldFromFisheye(p.world_from_body)});
+    }
   }
   std::sort(
       r.cameras.begin(), r.cameras.end(),
