@@ -146,9 +146,26 @@ int main(int argc_in, char** argv_in) {
                        3)
                 << " deg\n";
     }
+    // Clock offsets (joint) against the simulator's (plus the shift).
+    double sum_clock = 0, max_clock = 0;
+    int n_clock = 0;
     for (const CameraRegistration& c : r.cameras) {
-      if (!c.clock_offset || (c.label != shift_camera && std::abs(c.clock_offset->offset_ns) < 2e6))
-        continue;
+      if (!c.clock_offset || c.status == CameraStatus::kUnregistered) continue;
+      const auto t = input.manifest.ground_truth.clock_offset.find(c.label);
+      if (t == input.manifest.ground_truth.clock_offset.end()) continue;
+      const double truth_ms = t->second * 1e-6 + (c.label == shift_camera ? shift_ms : 0.0);
+      const double e = c.clock_offset->offset_ns * 1e-6 - truth_ms;
+      sum_clock += e * e;
+      max_clock = std::max(max_clock, std::abs(e));
+      ++n_clock;
+    }
+    if (n_clock > 0) {
+      std::cout << "clock offsets vs the simulator's: RMS error "
+                << formatFixed(std::sqrt(sum_clock / n_clock), 3) << " ms, max "
+                << formatFixed(max_clock, 3) << " ms over " << n_clock << " cameras\n";
+    }
+    for (const CameraRegistration& c : r.cameras) {
+      if (!c.clock_offset || c.label != shift_camera) continue;
       const auto t = truth.find(c.label);
       const double e = t == truth.end()
                            ? -1

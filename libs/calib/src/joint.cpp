@@ -29,6 +29,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <set>
+#include <type_traits>
 #include <variant>
 
 #include "lookboth/calib/stages.h"
@@ -76,6 +80,37 @@ Rigid3<T> poseAt(const Bracket& b, const T* node_k, const T* node_k1, const T& t
   const Rigid3<T> reference(b.reference.rotation.cast<T>() * so3Exp(wd),
                             b.reference.translation.cast<T>() + b.velocity_world.cast<T>() * delta);
   return correction * reference;
+}
+
+// poseAt at tau = tau_camera - offset for a cost whose Jets are long: the
+// interpolation is differentiated with Jets of its own 15 inputs (the two
+// nodes and the offset) and chained into T, which halves the work.
+template <typename T>
+Rigid3<T> poseAtChained(const Bracket& b, const T* nk, const T* nk1, const T* offset,
+                        double tau_camera) {
+  if constexpr (std::is_same_v<T, double>) {
+    return poseAt(b, nk, nk1, T(tau_camera) - offset[0]);
+  } else {
+    using J = ceres::Jet<double, 15>;
+    J a[7], c[7];
+    for (int i = 0; i < 7; ++i) {
+      a[i] = J(nk[i].a, i);
+      c[i] = J(nk1[i].a, 7 + i);
+    }
+    const J tau = J(tau_camera) - J(offset[0].a, 14);
+    const Rigid3<J> w = poseAt(b, a, c, tau);
+    auto chain = [&](const J& v) {
+      T r;
+      r.a = v.a;
+      r.v = v.v[14] * offset[0].v;  // (d tau / d offset = -1 is in v.v[14])
+      for (int i = 0; i < 7; ++i) r.v += v.v[i] * nk[i].v + v.v[7 + i] * nk1[i].v;
+      return r;
+    };
+    return Rigid3<T>(Eigen::Quaternion<T>(chain(w.rotation.w()), chain(w.rotation.x()),
+                                          chain(w.rotation.y()), chain(w.rotation.z())),
+                     Eigen::Matrix<T, 3, 1>(chain(w.translation.x()), chain(w.translation.y()),
+                                            chain(w.translation.z())));
+  }
 }
 
 struct RelativeMotionCost {
@@ -135,8 +170,8 @@ struct MarkerPoseCost {
   template <typename T>
   bool operator()(const T* nk, const T* nk1, const T* x, const T* camera, const T* offset,
                   T* residual) const {
-    const T tau = T(tau_camera_s) - offset[0];
-    const Rigid3<T> world_from_marker = poseAt(bracket, nk, nk1, tau) * poseFromParams(x);
+    const Rigid3<T> world_from_marker =
+        poseAtChained(bracket, nk, nk1, offset, tau_camera_s) * poseFromParams(x);
     const Rigid3<T> predicted = poseFromParams(camera).inverse() * world_from_marker;
     Eigen::Map<Eigen::Matrix<T, 6, 1>> r(residual);
     r = sqrt_info.cast<T>() * poseError(predicted, measured);
@@ -152,6 +187,26 @@ bool projectWith(const Camera& camera, const Eigen::Matrix<T, 3, 1>& p, T* pixel
   return std::visit(
       [&](const auto& model) { return model.project(params.data(), p.data(), pixel); },
       camera.model());
+}
+
+// The camera model's projection of a point whose derivatives are of any
+// length: the model is differentiated only with respect to the point (a
+// Jet of 3) and chained, so its cost does not grow with the cost's parameters.
+template <typename T>
+bool projectChained(const Camera& camera, const Eigen::Matrix<T, 3, 1>& p, T* pixel) {
+  if constexpr (std::is_same_v<T, double>) {
+    return projectWith(camera, p, pixel);
+  } else {
+    using J3 = ceres::Jet<double, 3>;
+    const Eigen::Matrix<J3, 3, 1> q(J3(p[0].a, 0), J3(p[1].a, 1), J3(p[2].a, 2));
+    J3 out[2];
+    if (!projectWith(camera, q, out)) return false;
+    for (int r = 0; r < 2; ++r) {
+      pixel[r].a = out[r].a;
+      pixel[r].v = out[r].v[0] * p[0].v + out[r].v[1] * p[1].v + out[r].v[2] * p[2].v;
+    }
+    return true;
+  }
 }
 
 struct MarkerCornersCost {
@@ -171,7 +226,7 @@ struct MarkerCornersCost {
       const Eigen::Matrix<T, 3, 1> p = camera_from_marker * corners_in_marker[c].cast<T>();
       if (p.z() <= T(0)) return false;
       T pixel[2];
-      if (!projectWith(*camera_model, p, pixel)) return false;
+      if (!projectChained(*camera_model, p, pixel)) return false;
       residual[2 * c] = (T(observed[c].x()) - pixel[0]) / T(sigma_px);
       residual[2 * c + 1] = (T(observed[c].y()) - pixel[1]) / T(sigma_px);
     }
@@ -192,7 +247,7 @@ struct BlobCost {
     const Eigen::Matrix<T, 3, 1> p =
         world_from_fisheye.inverse() * (world_from_camera * offset_in_camera.cast<T>());
     T pixel[2];
-    if (!projectWith(*fisheye, p, pixel)) return false;
+    if (!projectChained(*fisheye, p, pixel)) return false;
     residual[0] = (T(observed.x()) - pixel[0]) / T(sigma_px);
     residual[1] = (T(observed.y()) - pixel[1]) / T(sigma_px);
     return true;
@@ -346,13 +401,41 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     configured_offsets[problem.marker(a).camera] = problem.marker(a).t - a.t_robot;
   }
   std::vector<JointCamera> cameras;
+  std::set<std::string> restarted;  // unregistered by look_down, given another chance here
   for (CameraRegistration& c : result.cameras) {
-    if (c.status == CameraStatus::kUnregistered) continue;
+    Rigid3d start = c.world_from_camera;
+    if (c.status == CameraStatus::kUnregistered) {
+      // Detections that disagree (e.g. a clock off by 100s of ms) may agree
+      // once the offset is estimated: start from the median of the
+      // per-detection poses world_from_marker * camera_from_marker^-1.
+      const auto found = problem.associations_by_camera.find(c.label);
+      if (found == problem.associations_by_camera.end() ||
+          static_cast<int>(found->second.size()) < options.min_detections) {
+        continue;
+      }
+      std::vector<Rigid3d> candidates;
+      for (std::size_t a : found->second) {
+        const Association& as = problem.associations[a];
+        candidates.push_back(problem.metricWorldFromFisheye(as.world_from_fisheye) * X0 *
+                             problem.marker(as).camera_from_marker.inverse());
+      }
+      Eigen::Vector3d median;
+      for (int i = 0; i < 3; ++i) {
+        std::vector<double> v;
+        for (const Rigid3d& r : candidates) v.push_back(r.translation[i]);
+        std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+        median[i] = v[v.size() / 2];
+      }
+      std::vector<Eigen::Quaterniond> rotations;
+      for (const Rigid3d& r : candidates) rotations.push_back(r.rotation);
+      start = Rigid3d(calib_detail::meanRotation(rotations), median);
+      restarted.insert(c.label);
+    }
     JointCamera jc;
     jc.registration = &c;
     const auto model = env_models.find(c.label);
     jc.model = model == env_models.end() ? nullptr : model->second;
-    poseToParams(c.world_from_camera, jc.pose);
+    poseToParams(start, jc.pose);
     const auto offset = configured_offsets.find(c.label);
     jc.offset0_s = offset == configured_offsets.end() ? 0.0 : nsToSeconds(offset->second);
     jc.offset_s = jc.offset0_s;
@@ -385,7 +468,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
                                         options.default_rotation_sigma_deg * kDeg);
         // Round 0 starts from look_down's inliers.
         d.inlier =
-            inliers == problem.inliers_by_camera.end() ||
+            restarted.count(label) > 0 || inliers == problem.inliers_by_camera.end() ||
             std::find(inliers->second.begin(), inliers->second.end(), a) != inliers->second.end();
         cameras[found->second].detections.push_back(detections.size());
         detections.push_back(d);
@@ -549,12 +632,16 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   }
   solver.max_num_iterations = options.max_iterations;
   solver.num_threads = options.threads;
-  solver.function_tolerance = 1e-12;
+  solver.function_tolerance = 1e-8;
   solver.gradient_tolerance = 1e-12;
-  solver.parameter_tolerance = 1e-12;
+  solver.parameter_tolerance = 1e-9;
 
   std::unique_ptr<ceres::LossFunction> huber, cauchy;
   std::unique_ptr<ceres::Problem> ceres_problem;
+  const bool verbose = std::getenv("LOOKBOTH_JOINT_VERBOSE") != nullptr;
+  std::vector<char> previous_inlier;
+  std::vector<double> previous_offset;
+  std::size_t previous_blobs = 0;
   for (int round = 0; round < options.rounds; ++round) {
     progress.checkStop();
     progress.report("joint", round, options.rounds, "round " + std::to_string(round + 1));
@@ -569,6 +656,29 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       }
     }
     associateBlobs();
+    // Another round only when its inputs changed: inliers, blob associations
+    // (by more than 0.5 %), or a clock offset by more than 0.1 ms (the
+    // expansion of the trajectory around the previous offset).
+    std::vector<char> inlier(detections.size());
+    for (std::size_t i = 0; i < detections.size(); ++i) {
+      inlier[i] = detections[i].in_range && detections[i].inlier;
+    }
+    std::vector<double> offsets;
+    for (const JointCamera& c : cameras) offsets.push_back(c.offset_s);
+    std::size_t blobs_total = 0;
+    for (const auto& m : matches) blobs_total += m.size();
+    if (round > 0 && inlier == previous_inlier &&
+        std::abs(static_cast<double>(blobs_total) - static_cast<double>(previous_blobs)) <=
+            0.005 * static_cast<double>(previous_blobs)) {
+      double moved = 0;
+      for (std::size_t c = 0; c < cameras.size(); ++c) {
+        moved = std::max(moved, std::abs(offsets[c] - previous_offset[c]));
+      }
+      if (moved < 1e-4) break;
+    }
+    previous_inlier = inlier;
+    previous_offset = offsets;
+    previous_blobs = blobs_total;
 
     // The losses are shared by many blocks: the problem does not own them
     // (they outlive it: declared before it, reset after it).
@@ -694,6 +804,13 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
 
     ceres::Solver::Summary summary;
     ceres::Solve(solver, &Q, &summary);
+    if (verbose) {
+      std::cerr << "joint round " << round + 1 << ": " << summary.BriefReport()
+                << " residual blocks " << Q.NumResidualBlocks() << ", time "
+                << summary.total_time_in_seconds << " s (jacobians "
+                << summary.jacobian_evaluation_time_in_seconds << " s, linear solver "
+                << summary.linear_solver_time_in_seconds << " s)\n";
+    }
     if (!summary.IsSolutionUsable()) {
       throw Error("joint: the solver failed: " + summary.message);
     }
@@ -860,6 +977,10 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       camera.covariance.reset();
       camera.residuals.reset();
       continue;
+    }
+    if (restarted.count(camera.label)) {
+      camera.warnings.push_back("joint: registered although look_down was not (" + camera.reason +
+                                ")");
     }
     const Rigid3d pose = paramsToPose(jc.pose);
     camera.world_from_camera = pose;

@@ -23,8 +23,8 @@ double rotationError(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
   return so3Log(Eigen::Quaterniond(a.conjugate() * b)).norm();
 }
 
-// Gives every environment camera a pinhole model and every detection its 4
-// corners (the marker's corner order of records.h), with noise sigma_px.
+// Gives every environment camera a pinhole model and every detection the 4
+// corners of the TRUE marker pose (the corner order of records.h), with noise sigma_px.
 void addCorners(SyntheticScene& scene, double sigma_px, std::uint32_t seed) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> normal(0.0, 1.0);
@@ -32,13 +32,17 @@ void addCorners(SyntheticScene& scene, double sigma_px, std::uint32_t seed) {
   for (CameraSensor& s : scene.input.manifest.cameras) {
     if (s.role == SensorRole::kEnvCamera) s.camera = pinhole;
   }
+  const Trajectory truth(scene.truth);
   const double h = 0.5 * scene.input.manifest.marker.size_m;
   const Eigen::Vector3d corners[4] = {{-h, h, 0}, {h, h, 0}, {h, -h, 0}, {-h, -h, 0}};
   for (MarkerObservation& m : scene.input.markers) {
-    // The noise-free pose: undo nothing (noise-free scenes only carry the truth).
+    const InterpolationResult pose = truth.interpolate(m.t, 0);
+    ASSERT_TRUE(pose.ok());
+    const Rigid3d camera_from_marker = scene.world_from_camera.at(m.camera).inverse() *
+                                       pose.world_from_body * scene.fisheye_from_marker;
     m.corners_px.clear();
     for (const Eigen::Vector3d& c : corners) {
-      const auto pixel = pinhole.project(m.camera_from_marker * c);
+      const auto pixel = pinhole.project(camera_from_marker * c);
       ASSERT_TRUE(pixel);
       m.corners_px.push_back(*pixel + sigma_px * Eigen::Vector2d(normal(rng), normal(rng)));
     }
@@ -172,14 +176,23 @@ TEST(Joint, CovarianceIsConsistentOverSeeds) {
 }
 
 TEST(Joint, RecoversAClockOffsetOf150ms) {
+  // The offset is determined by the blobs (camera position, robot clock)
+  // against the detections (camera clock), i.e. to (position sigma / speed):
+  // with the synthetic 640x360 fisheye at 0.6 m/s the offsets' sigma is
+  // 2.5 ms; at 1.5 m/s, 4 laps, 0.3 px blobs and 1 mm detections, ~1 ms.
   SyntheticOptions o = noisyOptions(3);
-  o.laps = 2;
+  o.marker_translation_sigma_m = 0.001;
+  o.blob_sigma_px = 0.3;
+  o.speed_mps = 1.5;
+  o.laps = 4;
   SyntheticScene scene = makeSyntheticScene(o);
   const TimeNs offset = 150'000'000;
   for (MarkerObservation& m : scene.input.markers) {
     if (m.camera == "cam02") m.t += offset;  // node clock - robot clock = +150 ms
   }
-  const RegistrationProblem problem = solve(scene, {});
+  JointOptions joint;
+  joint.blob_sigma_px = 0.3;
+  const RegistrationProblem problem = solve(scene, joint);
   const CameraRegistration* shifted = problem.result.findCamera("cam02");
   ASSERT_TRUE(shifted && shifted->clock_offset);
   ASSERT_NE(shifted->status, CameraStatus::kUnregistered) << shifted->reason;
@@ -193,7 +206,9 @@ TEST(Joint, RecoversAClockOffsetOf150ms) {
     const double e =
         (c.world_from_camera.translation - scene.world_from_camera.at(c.label).translation).norm();
     if (c.label == "cam02") continue;
-    EXPECT_NEAR(static_cast<double>(c.clock_offset->offset_ns), 0.0, 2e6) << c.label;
+    EXPECT_NEAR(static_cast<double>(c.clock_offset->offset_ns), 0.0,
+                std::max(2e6, 4e6 * c.clock_offset->sigma_ms))
+        << c.label << " sigma " << c.clock_offset->sigma_ms << " ms";
     others += e * e;
     worst_other = std::max(worst_other, e);
     ++n;
@@ -229,19 +244,7 @@ TEST(Joint, CameraWithTooFewDetectionsStaysUnregistered) {
 
 TEST(Joint, NoisyCornersAndPosesBothWork) {
   SyntheticScene scene = makeSyntheticScene(noisyOptions(5));
-  // Corners from the TRUE marker poses with 0.3 px noise (the pose measurements keep theirs).
-  SyntheticScene exact = makeSyntheticScene([] {
-    SyntheticOptions o;
-    o.seed = 5;
-    return o;
-  }());
-  addCorners(exact, 0.3, 9);
-  ASSERT_EQ(exact.input.markers.size(), scene.input.markers.size());
-  for (std::size_t i = 0; i < scene.input.markers.size(); ++i) {
-    scene.input.markers[i].corners_px = exact.input.markers[i].corners_px;
-    scene.input.markers[i].corner_sigma_px = exact.input.markers[i].corner_sigma_px;
-  }
-  scene.input.manifest.cameras = exact.input.manifest.cameras;
+  addCorners(scene, 0.3, 9);  // corners of the true marker poses, 0.3 px noise
   JointOptions corners;
   JointOptions poses;
   poses.use_corners = false;
@@ -252,10 +255,12 @@ TEST(Joint, NoisyCornersAndPosesBothWork) {
             << " mm, " << with_poses.rotation_rmse_deg << " deg\n";
   EXPECT_EQ(with_corners.compared, 6);
   EXPECT_EQ(with_poses.compared, 6);
-  EXPECT_LT(with_poses.position_rmse_m, 0.003);
-  EXPECT_LT(with_poses.rotation_rmse_deg, 0.5);
-  EXPECT_LT(with_corners.position_rmse_m, 0.003);
-  EXPECT_LT(with_corners.rotation_rmse_deg, 0.1);
+  // Poses (3 mm, 1 deg per detection) and corners (0.3 px at 800 px focal
+  // length, ~1 mm at 3 m): millimetres and hundredths of a degree.
+  EXPECT_LT(with_poses.position_rmse_m, 0.006);
+  EXPECT_LT(with_poses.rotation_rmse_deg, 0.15);
+  EXPECT_LT(with_corners.position_rmse_m, 0.006);
+  EXPECT_LT(with_corners.rotation_rmse_deg, 0.15);
 }
 
 TEST(Joint, NamesTheMissingStage) {
