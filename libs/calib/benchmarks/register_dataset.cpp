@@ -146,6 +146,11 @@ int main(int argc_in, char** argv_in) {
                        3)
                 << " deg\n";
     }
+    for (const CameraRegistration& c : r.cameras) {
+      if (c.status != CameraStatus::kRegistered) {
+        std::cout << c.label << ": " << cameraStatusName(c.status) << ": " << c.reason << "\n";
+      }
+    }
     // Clock offsets (joint) against the simulator's (plus the shift).
     double sum_clock = 0, max_clock = 0;
     int n_clock = 0;

@@ -401,35 +401,65 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     configured_offsets[problem.marker(a).camera] = problem.marker(a).t - a.t_robot;
   }
   std::vector<JointCamera> cameras;
-  std::set<std::string> restarted;  // unregistered by look_down, given another chance here
+  // Unregistered by look_down, given another chance here: label -> offset
+  // found by the search below, relative to the configured one [s].
+  std::map<std::string, double> restarted;
   for (CameraRegistration& c : result.cameras) {
     Rigid3d start = c.world_from_camera;
-    if (c.status == CameraStatus::kUnregistered) {
-      // Detections that disagree (e.g. a clock off by 100s of ms) may agree
-      // once the offset is estimated: start from the median of the
-      // per-detection poses world_from_marker * camera_from_marker^-1.
+    if (c.status != CameraStatus::kRegistered) {
+      // Detections that disagree (e.g. a clock off by 100s of ms: look_down
+      // found the camera suspect or could not register it) may agree once the
+      // offset is estimated: start from the offset that makes them agree best
+      // and the median of the per-detection poses world_from_marker *
+      // camera_from_marker^-1.
       const auto found = problem.associations_by_camera.find(c.label);
       if (found == problem.associations_by_camera.end() ||
           static_cast<int>(found->second.size()) < options.min_detections) {
         continue;
       }
+      // The per-detection poses at a trial clock offset [s] (relative to the
+      // configured one), their median position and spread.
+      auto trial = [&](double shift_s, std::vector<Rigid3d>& candidates, Eigen::Vector3d& median) {
+        candidates.clear();
+        for (std::size_t a : found->second) {
+          const Association& as = problem.associations[a];
+          const auto w = refAt(as.t_robot - static_cast<TimeNs>(std::llround(shift_s * 1e9)));
+          if (!w) continue;
+          candidates.push_back(*w * X0 * problem.marker(as).camera_from_marker.inverse());
+        }
+        if (static_cast<int>(candidates.size()) < options.min_detections) return 1e300;
+        for (int i = 0; i < 3; ++i) {
+          std::vector<double> v;
+          for (const Rigid3d& r : candidates) v.push_back(r.translation[i]);
+          std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+          median[i] = v[v.size() / 2];
+        }
+        std::vector<double> d;
+        for (const Rigid3d& r : candidates) d.push_back((r.translation - median).norm());
+        std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
+        return d[d.size() / 2];
+      };
+      // With estimated clocks: the offset within +-0.5 s (10 ms steps) that
+      // makes the detections agree best.
+      double best_shift = 0;
       std::vector<Rigid3d> candidates;
-      for (std::size_t a : found->second) {
-        const Association& as = problem.associations[a];
-        candidates.push_back(problem.metricWorldFromFisheye(as.world_from_fisheye) * X0 *
-                             problem.marker(as).camera_from_marker.inverse());
-      }
       Eigen::Vector3d median;
-      for (int i = 0; i < 3; ++i) {
-        std::vector<double> v;
-        for (const Rigid3d& r : candidates) v.push_back(r.translation[i]);
-        std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-        median[i] = v[v.size() / 2];
+      double best = trial(0.0, candidates, median);
+      if (options.estimate_clock_offsets) {
+        for (int k = -50; k <= 50; ++k) {
+          const double spread = trial(0.01 * k, candidates, median);
+          if (spread < best) {
+            best = spread;
+            best_shift = 0.01 * k;
+          }
+        }
       }
+      if (best >= 1e300) continue;
+      trial(best_shift, candidates, median);
       std::vector<Eigen::Quaterniond> rotations;
       for (const Rigid3d& r : candidates) rotations.push_back(r.rotation);
       start = Rigid3d(calib_detail::meanRotation(rotations), median);
-      restarted.insert(c.label);
+      restarted[c.label] = best_shift;
     }
     JointCamera jc;
     jc.registration = &c;
@@ -439,6 +469,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     const auto offset = configured_offsets.find(c.label);
     jc.offset0_s = offset == configured_offsets.end() ? 0.0 : nsToSeconds(offset->second);
     jc.offset_s = jc.offset0_s;
+    if (const auto r = restarted.find(c.label); r != restarted.end()) jc.offset_s += r->second;
     cameras.push_back(jc);
   }
   const double half_side = 0.5 * input.manifest.marker.size_m;
