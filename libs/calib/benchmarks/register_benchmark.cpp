@@ -4,6 +4,10 @@
 // process to read its peak: --benchmark_filter=/100$ etc.). doc/benchmarks.md.
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
 
 #include "../tests/synthetic.h"
 #include "lookboth/calib/pipeline.h"
@@ -26,10 +30,19 @@ testing::SyntheticScene facility(int cameras) {
   return testing::makeSyntheticScene(o);
 }
 
-void BM_RegisterFacility(benchmark::State& state) {
+// The paper's pipeline (the defaults) or, joint = true, followed by `joint`.
+void registerFacility(benchmark::State& state, bool joint) {
   const int cameras = static_cast<int>(state.range(0));
   const testing::SyntheticScene scene = facility(cameras);
-  const RegistrationController controller(loadRegistrationConfig(std::nullopt));
+  std::optional<std::filesystem::path> config;
+  if (joint) {
+    config = std::filesystem::temp_directory_path() /
+             ("lookboth-bench-joint-" + std::to_string(::getpid()) + ".yaml");
+    std::ofstream(*config) << "register:\n  pipeline: [associate, motion_calibration, look_down, "
+                              "look_up, joint]\n";
+  }
+  const RegistrationController controller(loadRegistrationConfig(config));
+  if (config) std::filesystem::remove(*config);
   int registered = 0;
   double position_rmse = 0;
   for (auto _ : state) {
@@ -47,6 +60,14 @@ void BM_RegisterFacility(benchmark::State& state) {
   state.counters["position_rmse_mm"] = position_rmse * 1000;
   state.counters["peak_rss_MiB"] = static_cast<double>(usage.ru_maxrss) / 1024.0;
 }
+void BM_RegisterFacility(benchmark::State& state) { registerFacility(state, false); }
+void BM_RegisterFacilityJoint(benchmark::State& state) { registerFacility(state, true); }
+BENCHMARK(BM_RegisterFacilityJoint)
+    ->Arg(100)
+    ->Arg(300)
+    ->Arg(1000)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
 BENCHMARK(BM_RegisterFacility)
     ->Arg(100)
     ->Arg(300)

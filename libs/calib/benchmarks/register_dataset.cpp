@@ -5,7 +5,9 @@
 //   lookboth-bench-register <dataset> metric [label] [repeats]
 //   lookboth-bench-register <dataset> visual <scale> <drift_m_per_sqrt_m> <drift_deg_per_sqrt_m>
 //   [repeats] (either with --config=f.yaml: a configuration over
-//   share/lookboth/config/default.yaml)
+//   share/lookboth/config/default.yaml, and --shift-camera=<label>:<ms>: that
+//   camera's detection stamps shifted by <ms> in memory, i.e. its clock off by
+//   that much (node - robot); the dataset file is only read)
 //
 // visual: a VO trajectory is synthesised from the dataset's "ground_truth"
 // (in the first pose's frame, translations divided by <scale>, random-walk drift).
@@ -27,11 +29,19 @@ int main(int argc_in, char** argv_in) {
   try {
     // "--config=f.yaml" anywhere: a configuration over the defaults.
     std::optional<std::filesystem::path> config;
+    std::string shift_camera;
+    double shift_ms = 0;
     std::vector<char*> args;
     for (int i = 0; i < argc_in; ++i) {
       const std::string a = argv_in[i];
       if (a.rfind("--config=", 0) == 0) {
         config = a.substr(9);
+      } else if (a.rfind("--shift-camera=", 0) == 0) {
+        const std::string v = a.substr(15);
+        const auto colon = v.find(':');
+        if (colon == std::string::npos) throw Error("--shift-camera=<label>:<ms>");
+        shift_camera = v.substr(0, colon);
+        shift_ms = std::stod(v.substr(colon + 1));
       } else {
         args.push_back(argv_in[i]);
       }
@@ -63,6 +73,16 @@ int main(int argc_in, char** argv_in) {
       if (argc > 6) repeats = std::stoi(argv[6]);
     }
     RegistrationInput input = loadRegistrationInput(options, ProgressReporter());
+    if (!shift_camera.empty()) {
+      int shifted = 0;
+      for (MarkerObservation& m : input.markers) {
+        if (m.camera != shift_camera) continue;
+        m.t += static_cast<TimeNs>(std::llround(shift_ms * 1e6));
+        ++shifted;
+      }
+      std::cout << "shifted " << shifted << " detections of " << shift_camera << " by " << shift_ms
+                << " ms\n";
+    }
     Rigid3d truth_from_registration;
     if (mode != "metric") {
       std::vector<StampedPose> vo = input.trajectory.samples();
@@ -125,6 +145,43 @@ int main(int argc_in, char** argv_in) {
                        Eigen::AngleAxisd(gx.rotation.conjugate() * x.rotation).angle() * 180 / M_PI,
                        3)
                 << " deg\n";
+    }
+    for (const CameraRegistration& c : r.cameras) {
+      if (c.status != CameraStatus::kRegistered) {
+        std::cout << c.label << ": " << cameraStatusName(c.status) << ": " << c.reason << "\n";
+      }
+    }
+    // Clock offsets (joint) against the simulator's (plus the shift).
+    double sum_clock = 0, max_clock = 0;
+    int n_clock = 0;
+    for (const CameraRegistration& c : r.cameras) {
+      if (!c.clock_offset || c.status == CameraStatus::kUnregistered) continue;
+      const auto t = input.manifest.ground_truth.clock_offset.find(c.label);
+      if (t == input.manifest.ground_truth.clock_offset.end()) continue;
+      const double truth_ms = t->second * 1e-6 + (c.label == shift_camera ? shift_ms : 0.0);
+      const double e = c.clock_offset->offset_ns * 1e-6 - truth_ms;
+      sum_clock += e * e;
+      max_clock = std::max(max_clock, std::abs(e));
+      ++n_clock;
+    }
+    if (n_clock > 0) {
+      std::cout << "clock offsets vs the simulator's: RMS error "
+                << formatFixed(std::sqrt(sum_clock / n_clock), 3) << " ms, max "
+                << formatFixed(max_clock, 3) << " ms over " << n_clock << " cameras\n";
+    }
+    for (const CameraRegistration& c : r.cameras) {
+      if (!c.clock_offset || c.label != shift_camera) continue;
+      const auto t = truth.find(c.label);
+      const double e = t == truth.end()
+                           ? -1
+                           : ((truth_from_registration * c.world_from_camera).translation -
+                              t->second.translation)
+                                 .norm();
+      std::cout << "clock offset of " << c.label << ": "
+                << formatFixed(c.clock_offset->offset_ns * 1e-6, 3) << " ms +- "
+                << formatFixed(c.clock_offset->sigma_ms, 3) << " ms; status "
+                << cameraStatusName(c.status) << "; position error " << formatFixed(e * 1000, 2)
+                << " mm\n";
     }
     if (r.reprojection) {
       std::cout << "reprojection: " << r.reprojection->blobs << " blobs, RMS "

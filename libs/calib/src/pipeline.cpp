@@ -270,8 +270,12 @@ RegistrationRun RegistrationSession::current() const {
   r.scale = problem_.scale;
   if (problem_.input.mode == TrajectoryMode::kMetric) r.scale_sigma = 0;
   r.trajectory.clear();
-  for (const StampedPose& p : problem_.input.trajectory.samples()) {
-    r.trajectory.push_back({p.t, problem_.metricWorldFromFisheye(p.world_from_body)});
+  if (problem_.metric_trajectory) {
+    r.trajectory = *problem_.metric_trajectory;
+  } else {
+    for (const StampedPose& p : problem_.input.trajectory.samples()) {
+      r.trajectory.push_back({p.t, problem_.metricWorldFromFisheye(p.world_from_body)});
+    }
   }
   std::sort(
       r.cameras.begin(), r.cameras.end(),

@@ -186,7 +186,7 @@ struct Reader : YamlReader {
 CameraRegistration readCamera(const Reader& r, const YAML::Node& node, const std::string& field) {
   r.rejectUnknownKeys(node,
                       {"label", "status", "reason", "world_from_camera", "stages", "covariance",
-                       "detections", "residuals", "reprojection", "warnings"},
+                       "detections", "residuals", "reprojection", "clock_offset", "warnings"},
                       field);
   CameraRegistration camera;
   camera.label = r.text(r.require(node, "label", field + ".label"), field + ".label");
@@ -233,6 +233,15 @@ CameraRegistration readCamera(const Reader& r, const YAML::Node& node, const std
   }
   if (node["reprojection"]) {
     camera.reprojection = r.reprojection(node["reprojection"], field + ".reprojection");
+  }
+  if (const YAML::Node c = node["clock_offset"]; c) {
+    const std::string f = field + ".clock_offset";
+    r.rejectUnknownKeys(c, {"offset_ns", "sigma_ms", "estimated"}, f);
+    ClockOffsetEstimate offset;
+    offset.offset_ns = r.integer(r.require(c, "offset_ns", f + ".offset_ns"), f + ".offset_ns");
+    offset.sigma_ms = r.number(r.require(c, "sigma_ms", f + ".sigma_ms"), f + ".sigma_ms");
+    offset.estimated = r.boolean(r.require(c, "estimated", f + ".estimated"), f + ".estimated");
+    camera.clock_offset = offset;
   }
   if (node["warnings"]) camera.warnings = r.strings(node["warnings"], field + ".warnings");
   return camera;
@@ -370,6 +379,13 @@ std::string registrationToYaml(const Registration& reg) {
     if (c.reprojection) {
       out << YAML::Key << "reprojection" << YAML::Value;
       emitReprojection(out, *c.reprojection);
+    }
+    if (c.clock_offset) {
+      out << YAML::Key << "clock_offset" << YAML::Value << YAML::Flow << YAML::BeginMap;
+      out << YAML::Key << "offset_ns" << YAML::Value << c.clock_offset->offset_ns;
+      out << YAML::Key << "sigma_ms" << YAML::Value << formatDouble(c.clock_offset->sigma_ms);
+      out << YAML::Key << "estimated" << YAML::Value << c.clock_offset->estimated;
+      out << YAML::EndMap;
     }
     out << YAML::Key << "warnings" << YAML::Value;
     emitStrings(out, c.warnings);

@@ -213,4 +213,141 @@ std::string LookUpOptions::check() const {
   return "";
 }
 
+void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::string& field) {
+  r.rejectUnknownKeys(node,
+                      {"node_interval_s",
+                       "drift_m_per_sqrt_m",
+                       "drift_deg_per_sqrt_m",
+                       "min_sigma_m",
+                       "min_sigma_deg",
+                       "scale_segment_m",
+                       "scale_walk_sigma",
+                       "metric_scale_sigma",
+                       "fix_trajectory",
+                       "fix_fisheye_from_marker",
+                       "fisheye_from_marker_from_ground_truth",
+                       "prior_translation_sigma_m",
+                       "prior_rotation_sigma_deg",
+                       "max_translation_sigma_m",
+                       "max_rotation_sigma_deg",
+                       "estimate_clock_offsets",
+                       "clock_prior_sigma_s",
+                       "max_clock_sigma_ms",
+                       "use_corners",
+                       "huber",
+                       "reject_chi2_pose",
+                       "reject_chi2_corners",
+                       "default_translation_sigma_m",
+                       "default_rotation_sigma_deg",
+                       "min_detections",
+                       "use_blobs",
+                       "blob_sigma_px",
+                       "cauchy",
+                       "gate_px",
+                       "ambiguity_ratio",
+                       "association_frame_step",
+                       "max_blobs_per_camera",
+                       "min_blobs",
+                       "blob_offset_in_camera_m",
+                       "rounds",
+                       "max_iterations",
+                       "linear_solver",
+                       "covariance",
+                       "threads"},
+                      field);
+  const Section s{r, node, field};
+  auto flag = [&](const char* key, bool& target) {
+    if (node[key]) target = r.boolean(node[key], s.path(key));
+  };
+  s.number("node_interval_s", node_interval_s);
+  s.number("drift_m_per_sqrt_m", drift_m_per_sqrt_m);
+  s.number("drift_deg_per_sqrt_m", drift_deg_per_sqrt_m);
+  s.number("min_sigma_m", min_sigma_m);
+  s.number("min_sigma_deg", min_sigma_deg);
+  s.number("scale_segment_m", scale_segment_m);
+  s.number("scale_walk_sigma", scale_walk_sigma);
+  s.number("metric_scale_sigma", metric_scale_sigma);
+  flag("fix_trajectory", fix_trajectory);
+  flag("fix_fisheye_from_marker", fix_fisheye_from_marker);
+  flag("fisheye_from_marker_from_ground_truth", fisheye_from_marker_from_ground_truth);
+  s.number("prior_translation_sigma_m", prior_translation_sigma_m);
+  s.number("prior_rotation_sigma_deg", prior_rotation_sigma_deg);
+  s.number("max_translation_sigma_m", max_translation_sigma_m);
+  s.number("max_rotation_sigma_deg", max_rotation_sigma_deg);
+  flag("estimate_clock_offsets", estimate_clock_offsets);
+  s.number("clock_prior_sigma_s", clock_prior_sigma_s);
+  s.number("max_clock_sigma_ms", max_clock_sigma_ms);
+  flag("use_corners", use_corners);
+  s.number("huber", huber);
+  s.number("reject_chi2_pose", reject_chi2_pose);
+  s.number("reject_chi2_corners", reject_chi2_corners);
+  s.number("default_translation_sigma_m", default_translation_sigma_m);
+  s.number("default_rotation_sigma_deg", default_rotation_sigma_deg);
+  s.integer("min_detections", min_detections);
+  flag("use_blobs", use_blobs);
+  s.number("blob_sigma_px", blob_sigma_px);
+  s.number("cauchy", cauchy);
+  s.number("gate_px", gate_px);
+  s.number("ambiguity_ratio", ambiguity_ratio);
+  s.integer("association_frame_step", association_frame_step);
+  s.integer("max_blobs_per_camera", max_blobs_per_camera);
+  s.integer("min_blobs", min_blobs);
+  s.vector3("blob_offset_in_camera_m", blob_offset_in_camera_m);
+  s.integer("rounds", rounds);
+  s.integer("max_iterations", max_iterations);
+  if (node["linear_solver"]) linear_solver = r.text(node["linear_solver"], s.path("linear_solver"));
+  flag("covariance", covariance);
+  s.integer("threads", threads);
+}
+
+std::string JointOptions::check() const {
+  for (const auto& [name, value] : std::initializer_list<std::pair<const char*, double>>{
+           {"scale_segment_m", scale_segment_m},
+           {"scale_walk_sigma", scale_walk_sigma},
+           {"metric_scale_sigma", metric_scale_sigma},
+           {"prior_translation_sigma_m", prior_translation_sigma_m},
+           {"prior_rotation_sigma_deg", prior_rotation_sigma_deg},
+           {"max_translation_sigma_m", max_translation_sigma_m},
+           {"max_rotation_sigma_deg", max_rotation_sigma_deg},
+           {"clock_prior_sigma_s", clock_prior_sigma_s},
+           {"max_clock_sigma_ms", max_clock_sigma_ms},
+           {"huber", huber},
+           {"reject_chi2_pose", reject_chi2_pose},
+           {"reject_chi2_corners", reject_chi2_corners},
+           {"default_translation_sigma_m", default_translation_sigma_m},
+           {"default_rotation_sigma_deg", default_rotation_sigma_deg},
+           {"blob_sigma_px", blob_sigma_px},
+           {"cauchy", cauchy},
+           {"gate_px", gate_px}}) {
+    if (std::string why = positive(name, value); !why.empty()) return why;
+  }
+  for (const auto& [name, value] : std::initializer_list<std::pair<const char*, double>>{
+           {"node_interval_s", node_interval_s},
+           {"drift_m_per_sqrt_m", drift_m_per_sqrt_m},
+           {"drift_deg_per_sqrt_m", drift_deg_per_sqrt_m}}) {
+    if (!(value >= 0) || !std::isfinite(value)) {
+      return std::string("'") + name + "': must not be negative, got " + formatDouble(value);
+    }
+  }
+  if (!(min_sigma_m > 0) || !(min_sigma_deg > 0)) {
+    return "'min_sigma_m', 'min_sigma_deg': must be positive (they keep the trajectory's "
+           "relative-motion factors finite)";
+  }
+  if (ambiguity_ratio < 1) return "'ambiguity_ratio': must be at least 1";
+  if (min_detections < 1) return "'min_detections': must be at least 1";
+  if (min_blobs < 1) return "'min_blobs': must be at least 1";
+  if (association_frame_step < 1) return "'association_frame_step': must be at least 1";
+  if (max_blobs_per_camera < 0) return "'max_blobs_per_camera': must not be negative";
+  if (rounds < 1) return "'rounds': must be at least 1";
+  if (max_iterations < 1) return "'max_iterations': must be at least 1";
+  if (threads < 1) return "'threads': must be at least 1";
+  if (linear_solver != "sparse_normal_cholesky" && linear_solver != "sparse_schur" &&
+      linear_solver != "iterative_schur") {
+    return "'linear_solver': must be sparse_normal_cholesky, sparse_schur or iterative_schur, got "
+           "'" +
+           linear_solver + "'";
+  }
+  return "";
+}
+
 }  // namespace lookboth

@@ -89,6 +89,9 @@ void registerPaperStages(StageRegistry& registry) {
       registry, "look_down", "world_from_camera of each camera from its detections (eq. 3)");
   addFunctionStage<LookUpOptions, runLookUp>(
       registry, "look_up", "camera positions refined by fisheye reprojection of blobs (eq. 4-5)");
+  addFunctionStage<JointOptions, runJoint>(
+      registry, "joint",
+      "one adjustment of trajectory, scale, fisheye_from_marker, cameras and clock offsets");
 }
 
 }  // namespace lookboth

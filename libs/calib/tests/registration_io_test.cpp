@@ -54,6 +54,7 @@ Registration sampleRegistration() {
   a.detections = {120, 110, 10, 0};
   a.residuals = ResidualStats{0.004, 0.1};
   a.reprojection = ReprojectionStats{300, 2.1, 0.9};
+  a.clock_offset = ClockOffsetEstimate{-150123456, 0.37, true};
   CameraRegistration b;
   b.label = "cam02";
   b.status = CameraStatus::kSuspect;
@@ -150,6 +151,12 @@ TEST_F(RegistrationIoTest, RoundTripsEveryField) {
       EXPECT_EQ(y.reprojection->blobs, x.reprojection->blobs);
       EXPECT_EQ(y.reprojection->rms_px_before, x.reprojection->rms_px_before);
       EXPECT_EQ(y.reprojection->rms_px_after, x.reprojection->rms_px_after);
+    }
+    ASSERT_EQ(y.clock_offset.has_value(), x.clock_offset.has_value());
+    if (x.clock_offset) {
+      EXPECT_EQ(y.clock_offset->offset_ns, x.clock_offset->offset_ns);
+      EXPECT_EQ(y.clock_offset->sigma_ms, x.clock_offset->sigma_ms);
+      EXPECT_EQ(y.clock_offset->estimated, x.clock_offset->estimated);
     }
     EXPECT_EQ(y.warnings, x.warnings);
   }

@@ -58,6 +58,10 @@ struct RegistrationProblem {
   /// by camera label (look_down's inliers).
   std::map<std::string, std::vector<std::size_t>> inliers_by_camera;
 
+  /// The metric world_from_fisheye trajectory when a stage corrected it
+  /// (`joint`); absent: the input trajectory scaled by `scale`.
+  std::optional<std::vector<StampedPose>> metric_trajectory;
+
   /// The result being built: cameras, statistics, warnings, diagnostics.
   /// Stages write `result.cameras[...]`, `result.fisheye_from_marker*`,
   /// `result.observability`, `result.warnings`, `result.reprojection`.

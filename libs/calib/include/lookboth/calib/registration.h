@@ -60,6 +60,14 @@ struct ReprojectionStats {
   double rms_px_after = 0;   ///< RMS after it.
 };
 
+/// A camera's clock offset (node clock - robot clock) as estimated by the
+/// `joint` stage.
+struct ClockOffsetEstimate {
+  TimeNs offset_ns = 0;
+  double sigma_ms = 0;    ///< Its standard deviation [ms] (0 when not computed).
+  bool estimated = true;  ///< false: held at the configured value.
+};
+
 struct CameraRegistration {
   std::string label;
   CameraStatus status = CameraStatus::kUnregistered;
@@ -69,8 +77,9 @@ struct CameraRegistration {
   std::map<std::string, Rigid3d> stage_poses;
   std::optional<Matrix6d> covariance;  ///< Of world_from_camera; absent when not computed.
   DetectionCounts detections;
-  std::optional<ResidualStats> residuals;         ///< Absent when unregistered.
-  std::optional<ReprojectionStats> reprojection;  ///< Absent when stage 4 did not run for it.
+  std::optional<ResidualStats> residuals;           ///< Absent when unregistered.
+  std::optional<ReprojectionStats> reprojection;    ///< Absent when stage 4 did not run for it.
+  std::optional<ClockOffsetEstimate> clock_offset;  ///< Absent unless `joint` ran.
   std::vector<std::string> warnings;
 };
 

@@ -6,6 +6,8 @@
 //   motion_calibration  scale s and fisheye_from_marker from relative motions (eq. 1-2)
 //   look_down           world_from_camera per camera from its detections (eq. 3)
 //   look_up             camera positions refined by fisheye reprojection of blobs (eq. 4-5)
+//   joint               beyond the paper (issue #10): one adjustment of trajectory, scale,
+//                       fisheye_from_marker, cameras and clock offsets (src/joint.cpp)
 #pragma once
 #include <Eigen/Geometry>
 #include <map>
@@ -116,6 +118,83 @@ struct LookUpOptions {
   std::string check() const;
 };
 
+struct JointOptions {
+  // --- trajectory ---
+  /// Trajectory nodes: the input's samples at least this far apart in time [s]
+  /// (0 = every sample); detections and fisheye frames between two nodes are
+  /// interpolated between them inside the cost.
+  double node_interval_s = 0.1;
+  /// Drift model of the input trajectory: the relative motion between two
+  /// nodes d metres apart has standard deviation sqrt(min^2 + drift^2 d) in
+  /// translation [m/sqrt(m)] and rotation [deg/sqrt(m)].
+  double drift_m_per_sqrt_m = 0.002;
+  double drift_deg_per_sqrt_m = 0.05;
+  double min_sigma_m = 0.0005;   ///< [m]
+  double min_sigma_deg = 0.005;  ///< [deg]
+  /// The trajectory's scale is one parameter per segment of this length [m]
+  /// (visual: VO's slowly varying scale; metric: the odometry's distance error).
+  double scale_segment_m = 10;
+  /// Random walk of the scale between consecutive segments (relative, per segment).
+  double scale_walk_sigma = 0.002;
+  /// Metric mode only: prior of every segment's scale around 1 (relative sigma).
+  double metric_scale_sigma = 0.01;
+  /// Keep the trajectory (scaled by motion_calibration's scale) fixed: the floor
+  /// "given the trajectory", e.g. with a ground-truth trajectory.
+  bool fix_trajectory = false;
+  // --- fisheye_from_marker ---
+  bool fix_fisheye_from_marker = false;
+  /// Benchmarks only: start from (with fix_fisheye_from_marker: keep) the
+  /// dataset's ground-truth fisheye_from_marker; an error when it has none.
+  bool fisheye_from_marker_from_ground_truth = false;
+  /// Components motion_calibration reported as not determined by the motion are
+  /// tied to its (prior) value with these sigmas [m], [deg].
+  double prior_translation_sigma_m = 0.005;
+  double prior_rotation_sigma_deg = 2.0;
+  /// A component of fisheye_from_marker whose posterior sigma exceeds these, or
+  /// that its prior fixes, is reported as not determined [m], [deg].
+  double max_translation_sigma_m = 0.002;
+  double max_rotation_sigma_deg = 0.5;
+  // --- clocks ---
+  /// Estimate each camera's clock offset (node clock - robot clock), starting
+  /// from associate's configured offset, with a weak prior around it [s].
+  bool estimate_clock_offsets = true;
+  double clock_prior_sigma_s = 1.0;
+  /// An offset whose sigma exceeds this is reported as not determined [ms].
+  double max_clock_sigma_ms = 2.0;
+  // --- marker detections ---
+  /// Use the four corners (reprojected through the camera's model) when the
+  /// detection has them, a corner sigma and the camera a calibration; else the pose.
+  bool use_corners = true;
+  double huber = 3.0;  ///< Huber threshold on whitened residuals [sigmas].
+  /// Detections whose whitened squared residual exceeds these are rejected
+  /// (chi-square 99.9 %: 6 dof for poses, 8 for corners).
+  double reject_chi2_pose = 22.46;
+  double reject_chi2_corners = 26.12;
+  /// Marker pose noise for detections without an information matrix [m], [deg].
+  double default_translation_sigma_m = 0.01;
+  double default_rotation_sigma_deg = 2.0;
+  int min_detections = 3;  ///< Fewer used detections: the camera is unregistered.
+  // --- blobs ---
+  bool use_blobs = true;
+  double blob_sigma_px = 1.0;    ///< Noise of a blob centre [px].
+  double cauchy = 2.0;           ///< Cauchy loss scale on whitened blob residuals [sigmas].
+  double gate_px = 10;           ///< Nearest blob within this distance of the projection [px]...
+  double ambiguity_ratio = 1.5;  ///< ...and the second nearest this many times farther (both ways).
+  int association_frame_step = 1;  ///< Associate blobs of every n-th fisheye frame.
+  int max_blobs_per_camera = 500;  ///< Blob residuals per camera, spread in time (0 = all).
+  int min_blobs = 5;               ///< Fewer associated blobs: the camera's blobs are not used.
+  Eigen::Vector3d blob_offset_in_camera_m = Eigen::Vector3d::Zero();  ///< As look_up's [m].
+  // --- solver ---
+  int rounds = 3;  ///< Association (detections' node brackets, blobs, outliers) + solve rounds.
+  int max_iterations = 50;
+  /// "sparse_normal_cholesky", "sparse_schur" or "iterative_schur".
+  std::string linear_solver = "sparse_normal_cholesky";
+  bool covariance = true;  ///< Per-camera 6x6 covariance (ceres::Covariance, SPARSE_QR).
+  int threads = 1;
+  void read(const YamlReader& reader, const YAML::Node& node, const std::string& field);
+  std::string check() const;
+};
+
 void runAssociate(RegistrationProblem& problem, const AssociateOptions& options,
                   const ProgressReporter& progress);
 void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationOptions& options,
@@ -125,7 +204,10 @@ void runLookDown(RegistrationProblem& problem, const LookDownOptions& options,
 void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
                const ProgressReporter& progress);
 
-/// Adds associate, motion_calibration, look_down, look_up to a registry.
+void runJoint(RegistrationProblem& problem, const JointOptions& options,
+              const ProgressReporter& progress);
+
+/// Adds associate, motion_calibration, look_down, look_up, joint to a registry.
 void registerPaperStages(StageRegistry& registry);
 
 }  // namespace lookboth

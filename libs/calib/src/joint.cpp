@@ -1,0 +1,1074 @@
+// Stage `joint` (issue #10, beyond the paper): one Ceres problem over
+//   - trajectory nodes N_k = world_from_fisheye (metric) at input samples at
+//     least node_interval_s apart, tied by the input's relative motions
+//     weighted by a drift model (sigma^2 = min^2 + drift^2 * distance) and a
+//     scale per segment of scale_segment_m metres (random-walk prior between
+//     segments; metric mode: also a prior around 1);
+//   - fisheye_from_marker X (components motion_calibration found undetermined
+//     get a prior at its value);
+//   - every camera's world_from_camera C;
+//   - every camera's clock offset o (node clock - robot clock) [s], weak prior;
+// with the measurements
+//   - marker detections: the 4 corners reprojected through the camera's model
+//     (when present), else the 6-DoF pose error whitened by the detection's
+//     information; Huber; chi-square rejection between rounds;
+//   - blobs in the fisheye: the camera centre (+ blob_offset_in_camera_m)
+//     reprojected; Cauchy; look_up's gated, unambiguous nearest-neighbour
+//     association re-run at the current estimate each round.
+// A time t between nodes k and k+1 has the pose
+//   P(t) = Interp(N_k Nref_k^-1, N_k+1 Nref_k+1^-1, alpha) * Fref(t),
+// Nref/Fref the initial (input, scaled) trajectory, alpha = (t - t_k) / (t_k+1 - t_k),
+// Interp linear in translation and slerp in rotation: the input's shape between
+// nodes is kept and only its correction is interpolated. For detections
+// t = t_camera - o; Fref(t) is expanded to first order around the previous
+// round's t (body velocity), so the offset is differentiable.
+//
+// Gauge: the first node is held at the input's first pose (scaled): the
+// registration's world is the trajectory's first pose, as for the paper's
+// stages (doc/conventions.md).
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <set>
+#include <type_traits>
+#include <variant>
+
+#include "lookboth/calib/stages.h"
+#include "lookboth/core/error.h"
+#include "lookboth/core/text.h"
+#include "pose_costs.h"
+
+namespace lookboth {
+namespace {
+
+using calib_detail::newPoseManifold;
+using calib_detail::paramsToPose;
+using calib_detail::poseError;
+using calib_detail::poseFromParams;
+using calib_detail::poseToParams;
+using calib_detail::sqrtInformation;
+
+constexpr double kDeg = M_PI / 180.0;
+constexpr std::size_t kMaxParams = 64;
+constexpr TimeNs kMaxGapNs = 500'000'000;  // trajectory gaps longer than this are not crossed
+
+// Where a time falls between two nodes and the reference trajectory there.
+struct Bracket {
+  std::size_t k = 0;                                         // node index (k, k+1)
+  double duration_s = 1;                                     // t_k+1 - t_k
+  double tau_ref_s = 0;                                      // reference time - t_k [s]
+  Rigid3d ref_inverse_k, ref_inverse_k1;                     // Nref^-1 at the two nodes
+  Rigid3d reference;                                         // Fref at the reference time
+  Eigen::Vector3d velocity_world = Eigen::Vector3d::Zero();  // [m/s]
+  Eigen::Vector3d omega_body = Eigen::Vector3d::Zero();      // [rad/s]
+};
+
+template <typename T>
+Rigid3<T> poseAt(const Bracket& b, const T* node_k, const T* node_k1, const T& tau) {
+  const Rigid3<T> ck = poseFromParams(node_k) * b.ref_inverse_k.cast<T>();
+  const Rigid3<T> ck1 = poseFromParams(node_k1) * b.ref_inverse_k1.cast<T>();
+  const T alpha = tau / T(b.duration_s);
+  const Eigen::Matrix<T, 3, 1> w =
+      so3Log(Eigen::Quaternion<T>(ck.rotation.conjugate() * ck1.rotation));
+  const Eigen::Matrix<T, 3, 1> wa = w * alpha;
+  const Rigid3<T> correction(ck.rotation * so3Exp(wa),
+                             ck.translation + (ck1.translation - ck.translation) * alpha);
+  const T delta = tau - T(b.tau_ref_s);
+  const Eigen::Matrix<T, 3, 1> wd = b.omega_body.cast<T>() * delta;
+  const Rigid3<T> reference(b.reference.rotation.cast<T>() * so3Exp(wd),
+                            b.reference.translation.cast<T>() + b.velocity_world.cast<T>() * delta);
+  return correction * reference;
+}
+
+// poseAt at tau = tau_camera - offset for a cost whose Jets are long: the
+// interpolation is differentiated with Jets of its own 15 inputs (the two
+// nodes and the offset) and chained into T, which halves the work.
+template <typename T>
+Rigid3<T> poseAtChained(const Bracket& b, const T* nk, const T* nk1, const T* offset,
+                        double tau_camera) {
+  if constexpr (std::is_same_v<T, double>) {
+    return poseAt(b, nk, nk1, T(tau_camera) - offset[0]);
+  } else {
+    using J = ceres::Jet<double, 15>;
+    J a[7], c[7];
+    for (int i = 0; i < 7; ++i) {
+      a[i] = J(nk[i].a, i);
+      c[i] = J(nk1[i].a, 7 + i);
+    }
+    const J tau = J(tau_camera) - J(offset[0].a, 14);
+    const Rigid3<J> w = poseAt(b, a, c, tau);
+    auto chain = [&](const J& v) {
+      T r;
+      r.a = v.a;
+      r.v = v.v[14] * offset[0].v;  // (d tau / d offset = -1 is in v.v[14])
+      for (int i = 0; i < 7; ++i) r.v += v.v[i] * nk[i].v + v.v[7 + i] * nk1[i].v;
+      return r;
+    };
+    return Rigid3<T>(Eigen::Quaternion<T>(chain(w.rotation.w()), chain(w.rotation.x()),
+                                          chain(w.rotation.y()), chain(w.rotation.z())),
+                     Eigen::Matrix<T, 3, 1>(chain(w.translation.x()), chain(w.translation.y()),
+                                            chain(w.translation.z())));
+  }
+}
+
+struct RelativeMotionCost {
+  Rigid3d delta_unscaled;  // Nref_k^-1 Nref_k+1 in trajectory units
+  double sigma_t = 1, sigma_r = 1;
+  template <typename T>
+  bool operator()(const T* nk, const T* nk1, const T* scale, T* residual) const {
+    const Rigid3<T> a = poseFromParams(nk), b = poseFromParams(nk1);
+    const Eigen::Matrix<T, 3, 1> dt = a.rotation.conjugate() * (b.translation - a.translation) -
+                                      delta_unscaled.translation.cast<T>() * scale[0];
+    const Eigen::Matrix<T, 3, 1> dr = so3Log(Eigen::Quaternion<T>(
+        delta_unscaled.rotation.cast<T>().conjugate() * a.rotation.conjugate() * b.rotation));
+    for (int i = 0; i < 3; ++i) {
+      residual[i] = dt[i] / T(sigma_t);
+      residual[3 + i] = dr[i] / T(sigma_r);
+    }
+    return true;
+  }
+};
+
+struct ScaleWalkCost {
+  double sigma = 1;
+  template <typename T>
+  bool operator()(const T* a, const T* b, T* residual) const {
+    residual[0] = (b[0] - a[0]) / T(sigma);
+    return true;
+  }
+};
+
+struct ScalarPriorCost {
+  double value = 0, sigma = 1;
+  template <typename T>
+  bool operator()(const T* x, T* residual) const {
+    residual[0] = (x[0] - T(value)) / T(sigma);
+    return true;
+  }
+};
+
+// One tangent component c of a pose ([dt; dtheta] at `prior`).
+struct ComponentPriorCost {
+  Rigid3d prior;
+  int component = 0;
+  double sigma = 1;
+  template <typename T>
+  bool operator()(const T* x, T* residual) const {
+    const Eigen::Matrix<T, 6, 1> e = poseError(poseFromParams(x), prior);
+    residual[0] = e[component] / T(sigma);
+    return true;
+  }
+};
+
+struct MarkerPoseCost {
+  Bracket bracket;
+  double tau_camera_s = 0;  // t_camera - t_k [s]
+  Rigid3d measured;         // camera_from_marker
+  Matrix6d sqrt_info;
+  template <typename T>
+  bool operator()(const T* nk, const T* nk1, const T* x, const T* camera, const T* offset,
+                  T* residual) const {
+    const Rigid3<T> world_from_marker =
+        poseAtChained(bracket, nk, nk1, offset, tau_camera_s) * poseFromParams(x);
+    const Rigid3<T> predicted = poseFromParams(camera).inverse() * world_from_marker;
+    Eigen::Map<Eigen::Matrix<T, 6, 1>> r(residual);
+    r = sqrt_info.cast<T>() * poseError(predicted, measured);
+    return true;
+  }
+};
+
+template <typename T>
+bool projectWith(const Camera& camera, const Eigen::Matrix<T, 3, 1>& p, T* pixel) {
+  std::array<T, kMaxParams> params;
+  const std::vector<double>& values = camera.params();
+  for (std::size_t i = 0; i < values.size() && i < kMaxParams; ++i) params[i] = T(values[i]);
+  return std::visit(
+      [&](const auto& model) { return model.project(params.data(), p.data(), pixel); },
+      camera.model());
+}
+
+// The camera model's projection of a point whose derivatives are of any
+// length: the model is differentiated only with respect to the point (a
+// Jet of 3) and chained, so its cost does not grow with the cost's parameters.
+template <typename T>
+bool projectChained(const Camera& camera, const Eigen::Matrix<T, 3, 1>& p, T* pixel) {
+  if constexpr (std::is_same_v<T, double>) {
+    return projectWith(camera, p, pixel);
+  } else {
+    using J3 = ceres::Jet<double, 3>;
+    const Eigen::Matrix<J3, 3, 1> q(J3(p[0].a, 0), J3(p[1].a, 1), J3(p[2].a, 2));
+    J3 out[2];
+    if (!projectWith(camera, q, out)) return false;
+    for (int r = 0; r < 2; ++r) {
+      pixel[r].a = out[r].a;
+      pixel[r].v = out[r].v[0] * p[0].v + out[r].v[1] * p[1].v + out[r].v[2] * p[2].v;
+    }
+    return true;
+  }
+}
+
+struct MarkerCornersCost {
+  Bracket bracket;
+  double tau_camera_s = 0;
+  const Camera* camera_model = nullptr;
+  std::array<Eigen::Vector3d, 4> corners_in_marker;
+  std::array<Eigen::Vector2d, 4> observed;
+  double sigma_px = 1;
+  template <typename T>
+  bool operator()(const T* nk, const T* nk1, const T* x, const T* camera, const T* offset,
+                  T* residual) const {
+    const T tau = T(tau_camera_s) - offset[0];
+    const Rigid3<T> camera_from_marker =
+        poseFromParams(camera).inverse() * poseAt(bracket, nk, nk1, tau) * poseFromParams(x);
+    for (int c = 0; c < 4; ++c) {
+      const Eigen::Matrix<T, 3, 1> p = camera_from_marker * corners_in_marker[c].cast<T>();
+      if (p.z() <= T(0)) return false;
+      T pixel[2];
+      if (!projectChained(*camera_model, p, pixel)) return false;
+      residual[2 * c] = (T(observed[c].x()) - pixel[0]) / T(sigma_px);
+      residual[2 * c + 1] = (T(observed[c].y()) - pixel[1]) / T(sigma_px);
+    }
+    return true;
+  }
+};
+
+struct BlobCost {
+  Bracket bracket;  // tau_ref_s = the frame's time, zero velocity
+  const Camera* fisheye = nullptr;
+  Eigen::Vector3d offset_in_camera = Eigen::Vector3d::Zero();
+  Eigen::Vector2d observed;
+  double sigma_px = 1;
+  template <typename T>
+  bool operator()(const T* nk, const T* nk1, const T* camera, T* residual) const {
+    const Rigid3<T> world_from_fisheye = poseAt(bracket, nk, nk1, T(bracket.tau_ref_s));
+    const Rigid3<T> world_from_camera = poseFromParams(camera);
+    const Eigen::Matrix<T, 3, 1> p =
+        world_from_fisheye.inverse() * (world_from_camera * offset_in_camera.cast<T>());
+    T pixel[2];
+    if (!projectChained(*fisheye, p, pixel)) return false;
+    residual[0] = (T(observed.x()) - pixel[0]) / T(sigma_px);
+    residual[1] = (T(observed.y()) - pixel[1]) / T(sigma_px);
+    return true;
+  }
+};
+
+struct Detection {
+  std::size_t association = 0;
+  std::size_t camera = 0;  // index into the joint's cameras
+  bool corners = false;
+  bool inlier = true;
+  bool in_range = true;
+  Matrix6d sqrt_info = Matrix6d::Identity();
+  TimeNs t_camera = 0;
+};
+
+struct JointCamera {
+  CameraRegistration* registration = nullptr;
+  const Camera* model = nullptr;  // env camera calibration (corners), may be null
+  double pose[7];
+  double offset_s = 0;   // node - robot [s]
+  double offset0_s = 0;  // configured (associate) [s]
+  std::vector<std::size_t> detections;
+  int blobs = 0;
+};
+
+Matrix6d detectionSqrtInfo(const MarkerObservation& m, double dt, double dr) {
+  if (m.information.isZero(0)) {
+    Matrix6d info = Matrix6d::Zero();
+    info.topLeftCorner<3, 3>().diagonal().setConstant(1.0 / (dt * dt));
+    info.bottomRightCorner<3, 3>().diagonal().setConstant(1.0 / (dr * dr));
+    return sqrtInformation(info);
+  }
+  return sqrtInformation(m.information);
+}
+
+const char* kComponentNames[6] = {
+    "x", "y", "z", "roll (about x)", "pitch (about y)", "yaw (about z)"};
+
+}  // namespace
+
+void runJoint(RegistrationProblem& problem, const JointOptions& options,
+              const ProgressReporter& progress) {
+  // ---- what the earlier stages must have produced ----
+  if (!problem.associated) {
+    throw Error("joint needs associated detections: put 'associate' before it");
+  }
+  if (!problem.fisheye_from_marker) {
+    throw Error(
+        "joint needs fisheye_from_marker and the scale: put 'motion_calibration' before it");
+  }
+  bool any_pose = false;
+  for (const CameraRegistration& c : problem.result.cameras) {
+    if (c.stage_poses.count("look_down")) any_pose = true;
+  }
+  if (!any_pose && !problem.result.cameras.empty()) {
+    throw Error("joint needs initial camera poses: put 'look_down' before it");
+  }
+  const RegistrationInput& input = problem.input;
+  Registration& result = problem.result;
+  const std::vector<StampedPose>& samples = input.trajectory.samples();
+  if (samples.size() < 2) throw Error("joint: the trajectory has fewer than 2 samples");
+  const bool visual = input.mode == TrajectoryMode::kVisual;
+  const double scale0 = problem.scale;
+
+  // ---- fisheye_from_marker ----
+  Rigid3d X0 = *problem.fisheye_from_marker;
+  if (options.fisheye_from_marker_from_ground_truth) {
+    if (!input.manifest.ground_truth.fisheye_from_marker) {
+      throw Error(
+          "joint: fisheye_from_marker_from_ground_truth is set but the dataset has no ground-truth "
+          "fisheye_from_marker");
+    }
+    X0 = *input.manifest.ground_truth.fisheye_from_marker;
+  }
+  double x_params[7];
+  poseToParams(X0, x_params);
+
+  // ---- trajectory nodes ----
+  const TimeNs interval = static_cast<TimeNs>(options.node_interval_s * 1e9);
+  std::vector<std::size_t> node_sample;  // sample index of each node
+  node_sample.push_back(0);
+  for (std::size_t i = 1; i + 1 < samples.size(); ++i) {
+    if (samples[i].t - samples[node_sample.back()].t >= interval) node_sample.push_back(i);
+  }
+  node_sample.push_back(samples.size() - 1);
+  const std::size_t n_nodes = node_sample.size();
+  std::vector<TimeNs> node_t(n_nodes);
+  std::vector<Rigid3d> node_ref(n_nodes);  // Nref (scaled input)
+  std::vector<std::array<double, 7>> nodes(n_nodes);
+  for (std::size_t k = 0; k < n_nodes; ++k) {
+    node_t[k] = samples[node_sample[k]].t;
+    node_ref[k] = problem.metricWorldFromFisheye(samples[node_sample[k]].world_from_body);
+    poseToParams(node_ref[k], nodes[k].data());
+  }
+  // Scale segments by metric distance along the trajectory.
+  std::vector<std::size_t> segment_of_edge(n_nodes - 1);
+  double travelled = 0;
+  std::vector<double> edge_length(n_nodes - 1);
+  for (std::size_t k = 0; k + 1 < n_nodes; ++k) {
+    edge_length[k] = (node_ref[k + 1].translation - node_ref[k].translation).norm();
+    segment_of_edge[k] = static_cast<std::size_t>(travelled / options.scale_segment_m);
+    travelled += edge_length[k];
+  }
+  const std::size_t n_segments = segment_of_edge.empty() ? 1 : segment_of_edge.back() + 1;
+  std::vector<double> scales(n_segments, visual ? scale0 : 1.0);
+
+  auto refAt = [&](TimeNs t) -> std::optional<Rigid3d> {
+    const InterpolationResult r = input.trajectory.interpolate(t, kMaxGapNs);
+    if (!r.ok()) return std::nullopt;
+    return problem.metricWorldFromFisheye(r.world_from_body);
+  };
+  // Bracket of time t (robot clock); nullopt outside the nodes or in a gap.
+  auto bracketAt = [&](TimeNs t, bool with_velocity) -> std::optional<Bracket> {
+    if (t < node_t.front() || t > node_t.back()) return std::nullopt;
+    std::size_t k = static_cast<std::size_t>(std::upper_bound(node_t.begin(), node_t.end(), t) -
+                                             node_t.begin());
+    k = k == 0 ? 0 : k - 1;
+    if (k + 1 >= n_nodes) k = n_nodes - 2;
+    const auto reference = refAt(t);
+    if (!reference) return std::nullopt;
+    Bracket b;
+    b.k = k;
+    b.duration_s = nsToSeconds(node_t[k + 1] - node_t[k]);
+    b.tau_ref_s = nsToSeconds(t - node_t[k]);
+    b.ref_inverse_k = node_ref[k].inverse();
+    b.ref_inverse_k1 = node_ref[k + 1].inverse();
+    b.reference = *reference;
+    if (with_velocity) {
+      const TimeNs h = 5'000'000;  // 5 ms
+      const TimeNs lo = std::max(t - h, node_t.front()), hi = std::min(t + h, node_t.back());
+      const auto a = refAt(lo), c = refAt(hi);
+      if (a && c && hi > lo) {
+        const double dt = nsToSeconds(hi - lo);
+        b.velocity_world = (c->translation - a->translation) / dt;
+        b.omega_body =
+            so3Log(Eigen::Quaterniond(reference->rotation.conjugate() * c->rotation)) / dt -
+            so3Log(Eigen::Quaterniond(reference->rotation.conjugate() * a->rotation)) / dt;
+      }
+    }
+    return b;
+  };
+
+  // ---- cameras ----
+  std::map<std::string, const Camera*> env_models;
+  for (const CameraSensor& s : input.manifest.cameras) {
+    if (s.role == SensorRole::kEnvCamera && s.camera) env_models[s.label] = &*s.camera;
+  }
+  std::map<std::string, TimeNs> configured_offsets;
+  for (const Association& a : problem.associations) {
+    configured_offsets[problem.marker(a).camera] = problem.marker(a).t - a.t_robot;
+  }
+  std::vector<JointCamera> cameras;
+  // Unregistered by look_down, given another chance here: label -> offset
+  // found by the search below, relative to the configured one [s].
+  std::map<std::string, double> restarted;
+  for (CameraRegistration& c : result.cameras) {
+    Rigid3d start = c.world_from_camera;
+    if (c.status != CameraStatus::kRegistered) {
+      // Detections that disagree (e.g. a clock off by 100s of ms: look_down
+      // found the camera suspect or could not register it) may agree once the
+      // offset is estimated: start from the offset that makes them agree best
+      // and the median of the per-detection poses world_from_marker *
+      // camera_from_marker^-1.
+      const auto found = problem.associations_by_camera.find(c.label);
+      if (found == problem.associations_by_camera.end() ||
+          static_cast<int>(found->second.size()) < options.min_detections) {
+        continue;
+      }
+      // The per-detection poses at a trial clock offset [s] (relative to the
+      // configured one), their median position and spread.
+      auto trial = [&](double shift_s, std::vector<Rigid3d>& candidates, Eigen::Vector3d& median) {
+        candidates.clear();
+        for (std::size_t a : found->second) {
+          const Association& as = problem.associations[a];
+          const auto w = refAt(as.t_robot - static_cast<TimeNs>(std::llround(shift_s * 1e9)));
+          if (!w) continue;
+          candidates.push_back(*w * X0 * problem.marker(as).camera_from_marker.inverse());
+        }
+        if (static_cast<int>(candidates.size()) < options.min_detections) return 1e300;
+        for (int i = 0; i < 3; ++i) {
+          std::vector<double> v;
+          for (const Rigid3d& r : candidates) v.push_back(r.translation[i]);
+          std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+          median[i] = v[v.size() / 2];
+        }
+        std::vector<double> d;
+        for (const Rigid3d& r : candidates) d.push_back((r.translation - median).norm());
+        std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
+        return d[d.size() / 2];
+      };
+      // With estimated clocks: the offset within +-0.5 s (10 ms steps) that
+      // makes the detections agree best.
+      double best_shift = 0;
+      std::vector<Rigid3d> candidates;
+      Eigen::Vector3d median;
+      double best = trial(0.0, candidates, median);
+      if (options.estimate_clock_offsets) {
+        for (int k = -50; k <= 50; ++k) {
+          const double spread = trial(0.01 * k, candidates, median);
+          if (spread < best) {
+            best = spread;
+            best_shift = 0.01 * k;
+          }
+        }
+      }
+      if (best >= 1e300) continue;
+      trial(best_shift, candidates, median);
+      std::vector<Eigen::Quaterniond> rotations;
+      for (const Rigid3d& r : candidates) rotations.push_back(r.rotation);
+      start = Rigid3d(calib_detail::meanRotation(rotations), median);
+      restarted[c.label] = best_shift;
+    }
+    JointCamera jc;
+    jc.registration = &c;
+    const auto model = env_models.find(c.label);
+    jc.model = model == env_models.end() ? nullptr : model->second;
+    poseToParams(start, jc.pose);
+    const auto offset = configured_offsets.find(c.label);
+    jc.offset0_s = offset == configured_offsets.end() ? 0.0 : nsToSeconds(offset->second);
+    jc.offset_s = jc.offset0_s;
+    if (const auto r = restarted.find(c.label); r != restarted.end()) jc.offset_s += r->second;
+    cameras.push_back(jc);
+  }
+  const double half_side = 0.5 * input.manifest.marker.size_m;
+  const std::array<Eigen::Vector3d, 4> corners_in_marker = {
+      Eigen::Vector3d(-half_side, half_side, 0), Eigen::Vector3d(half_side, half_side, 0),
+      Eigen::Vector3d(half_side, -half_side, 0), Eigen::Vector3d(-half_side, -half_side, 0)};
+
+  // ---- detections ----
+  std::vector<Detection> detections;
+  {
+    std::map<std::string, std::size_t> index;
+    for (std::size_t c = 0; c < cameras.size(); ++c) index[cameras[c].registration->label] = c;
+    for (const auto& [label, indices] : problem.associations_by_camera) {
+      const auto found = index.find(label);
+      if (found == index.end()) continue;
+      const auto inliers = problem.inliers_by_camera.find(label);
+      for (std::size_t a : indices) {
+        const MarkerObservation& m = problem.marker(problem.associations[a]);
+        Detection d;
+        d.association = a;
+        d.camera = found->second;
+        d.t_camera = m.t;
+        d.corners = options.use_corners && m.corners_px.size() == 4 && m.corner_sigma_px > 0 &&
+                    cameras[found->second].model != nullptr &&
+                    cameras[found->second].model->params().size() <= kMaxParams;
+        d.sqrt_info = detectionSqrtInfo(m, options.default_translation_sigma_m,
+                                        options.default_rotation_sigma_deg * kDeg);
+        // Round 0 starts from look_down's inliers.
+        d.inlier =
+            restarted.count(label) > 0 || inliers == problem.inliers_by_camera.end() ||
+            std::find(inliers->second.begin(), inliers->second.end(), a) != inliers->second.end();
+        cameras[found->second].detections.push_back(detections.size());
+        detections.push_back(d);
+      }
+    }
+  }
+
+  // ---- fisheye and blob frames ----
+  const CameraSensor* fisheye_sensor = input.manifest.fisheye();
+  const Camera* fisheye =
+      fisheye_sensor && fisheye_sensor->camera ? &*fisheye_sensor->camera : nullptr;
+  const bool use_blobs = options.use_blobs && fisheye && !input.blobs.empty() &&
+                         fisheye->params().size() <= kMaxParams;
+  if (options.use_blobs && !use_blobs && !input.blobs.empty()) {
+    result.warnings.push_back("joint: the fisheye has no usable calibration; blobs not used");
+  }
+  struct Frame {
+    const BlobObservation* blobs;
+    Bracket bracket;
+  };
+  std::vector<Frame> frames;
+  if (use_blobs) {
+    for (const BlobObservation& b : input.blobs) {
+      if (b.blobs.empty()) continue;
+      if (const auto bracket = bracketAt(b.t, false)) frames.push_back({&b, *bracket});
+    }
+  }
+
+  // ---- the undetermined components of fisheye_from_marker ----
+  std::array<bool, 6> prior_on = {false, false, false, false, false, false};
+  if (!options.fix_fisheye_from_marker) {
+    for (int c = 0; c < 6; ++c) prior_on[c] = !result.fisheye_from_marker_determined[c];
+  }
+
+  auto evalPose = [&](const Bracket& b, double tau) {
+    return poseAt<double>(b, nodes[b.k].data(), nodes[b.k + 1].data(), tau);
+  };
+
+  struct BlobMatch {
+    std::size_t frame, blob;
+  };
+  std::vector<std::vector<BlobMatch>> matches(cameras.size());
+  auto associateBlobs = [&]() {
+    for (auto& m : matches) m.clear();
+    if (frames.empty()) return;
+    const double max_angle = std::min(fisheye->maxIncidenceAngle(), 85.0 * kDeg);
+    std::vector<std::pair<double, std::size_t>> by_x;
+    std::vector<Eigen::Vector3d> centre(cameras.size());
+    double max_height = 0;
+    const Eigen::Vector3d o0 =
+        evalPose(frames.front().bracket, frames.front().bracket.tau_ref_s).translation;
+    for (std::size_t c = 0; c < cameras.size(); ++c) {
+      const Rigid3d pose = paramsToPose(cameras[c].pose);
+      centre[c] = pose * options.blob_offset_in_camera_m;
+      by_x.emplace_back(centre[c].x(), c);
+      max_height = std::max(max_height, std::abs(centre[c].z() - o0.z()));
+    }
+    std::sort(by_x.begin(), by_x.end());
+    const double range = std::max(5.0, (max_height + 1.0) * std::tan(max_angle) + 2.0);
+    std::vector<std::pair<std::size_t, Eigen::Vector2d>> projected;
+    for (std::size_t fi = 0; fi < frames.size();
+         fi += static_cast<std::size_t>(options.association_frame_step)) {
+      const Frame& f = frames[fi];
+      const Rigid3d world_from_fisheye = evalPose(f.bracket, f.bracket.tau_ref_s);
+      const Rigid3d fisheye_from_world = world_from_fisheye.inverse();
+      const Eigen::Vector3d o = world_from_fisheye.translation;
+      const auto lo =
+          std::lower_bound(by_x.begin(), by_x.end(), std::make_pair(o.x() - range, std::size_t(0)));
+      projected.clear();
+      for (auto it = lo; it != by_x.end() && it->first <= o.x() + range; ++it) {
+        const std::size_t c = it->second;
+        if (std::abs(centre[c].y() - o.y()) > range) continue;
+        const Eigen::Vector3d p = fisheye_from_world * centre[c];
+        if (p.z() <= 0) continue;
+        const auto pixel = fisheye->project(p);
+        if (!pixel || !fisheye->isInImage(*pixel, -options.gate_px)) continue;
+        projected.emplace_back(c, *pixel);
+      }
+      const std::vector<Blob>& blobs = f.blobs->blobs;
+      for (const auto& [c, pixel] : projected) {
+        double d1 = 1e300, d2 = 1e300;
+        std::size_t best = 0;
+        for (std::size_t b = 0; b < blobs.size(); ++b) {
+          const double d = (Eigen::Vector2d(blobs[b].u, blobs[b].v) - pixel).norm();
+          if (d < d1) {
+            d2 = d1;
+            d1 = d;
+            best = b;
+          } else if (d < d2) {
+            d2 = d;
+          }
+        }
+        if (d1 > options.gate_px || d2 < options.ambiguity_ratio * d1) continue;
+        const Eigen::Vector2d blob(blobs[best].u, blobs[best].v);
+        bool mutual = true;
+        for (const auto& [other, other_pixel] : projected) {
+          if (other != c && (other_pixel - blob).norm() < options.ambiguity_ratio * d1) {
+            mutual = false;
+            break;
+          }
+        }
+        if (mutual) matches[c].push_back({fi, best});
+      }
+    }
+  };
+
+  // Detection brackets for the current offsets.
+  std::vector<std::optional<Bracket>> det_bracket(detections.size());
+  auto bracketDetections = [&]() {
+    for (std::size_t i = 0; i < detections.size(); ++i) {
+      const Detection& d = detections[i];
+      const TimeNs t_robot =
+          d.t_camera - static_cast<TimeNs>(std::llround(cameras[d.camera].offset_s * 1e9));
+      det_bracket[i] = bracketAt(t_robot, true);
+      detections[i].in_range = det_bracket[i].has_value();
+    }
+  };
+  auto markerCost = [&](std::size_t i) -> ceres::CostFunction* {
+    const Detection& d = detections[i];
+    const Bracket& b = *det_bracket[i];
+    const MarkerObservation& m = problem.marker(problem.associations[d.association]);
+    const double tau_camera = nsToSeconds(d.t_camera - node_t[b.k]);
+    if (d.corners) {
+      auto* cost = new MarkerCornersCost;
+      cost->bracket = b;
+      cost->tau_camera_s = tau_camera;
+      cost->camera_model = cameras[d.camera].model;
+      cost->corners_in_marker = corners_in_marker;
+      for (int c = 0; c < 4; ++c) cost->observed[c] = m.corners_px[c];
+      cost->sigma_px = m.corner_sigma_px;
+      return new ceres::AutoDiffCostFunction<MarkerCornersCost, 8, 7, 7, 7, 7, 1>(cost);
+    }
+    auto* cost = new MarkerPoseCost;
+    cost->bracket = b;
+    cost->tau_camera_s = tau_camera;
+    cost->measured = m.camera_from_marker;
+    cost->sqrt_info = d.sqrt_info;
+    return new ceres::AutoDiffCostFunction<MarkerPoseCost, 6, 7, 7, 7, 7, 1>(cost);
+  };
+  auto markerChi2 = [&](std::size_t i) {
+    std::unique_ptr<ceres::CostFunction> cost(markerCost(i));
+    const Detection& d = detections[i];
+    const Bracket& b = *det_bracket[i];
+    const double* blocks[5] = {nodes[b.k].data(), nodes[b.k + 1].data(), x_params,
+                               cameras[d.camera].pose, &cameras[d.camera].offset_s};
+    double r[8];
+    if (!cost->Evaluate(blocks, r, nullptr)) return 1e300;
+    double sum = 0;
+    for (int k = 0; k < cost->num_residuals(); ++k) sum += r[k] * r[k];
+    return sum;
+  };
+
+  ceres::Solver::Options solver;
+  if (options.linear_solver == "sparse_schur") {
+    solver.linear_solver_type = ceres::SPARSE_SCHUR;
+  } else if (options.linear_solver == "iterative_schur") {
+    solver.linear_solver_type = ceres::ITERATIVE_SCHUR;
+    solver.preconditioner_type = ceres::SCHUR_JACOBI;
+  } else {
+    solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  }
+  solver.max_num_iterations = options.max_iterations;
+  solver.num_threads = options.threads;
+  solver.function_tolerance = 1e-8;
+  solver.gradient_tolerance = 1e-12;
+  solver.parameter_tolerance = 1e-9;
+
+  std::unique_ptr<ceres::LossFunction> huber, cauchy;
+  std::unique_ptr<ceres::Problem> ceres_problem;
+  const bool verbose = std::getenv("LOOKBOTH_JOINT_VERBOSE") != nullptr;
+  std::vector<char> previous_inlier;
+  std::vector<double> previous_offset;
+  std::size_t previous_blobs = 0;
+  for (int round = 0; round < options.rounds; ++round) {
+    progress.checkStop();
+    progress.report("joint", round, options.rounds, "round " + std::to_string(round + 1));
+    bracketDetections();
+    if (round > 0) {
+      // Outliers at the current estimate (every detection is reconsidered).
+      for (std::size_t i = 0; i < detections.size(); ++i) {
+        if (!detections[i].in_range) continue;
+        const double bound =
+            detections[i].corners ? options.reject_chi2_corners : options.reject_chi2_pose;
+        detections[i].inlier = markerChi2(i) <= bound;
+      }
+    }
+    associateBlobs();
+    // Another round only when its inputs changed: inliers, blob associations
+    // (by more than 0.5 %), or a clock offset by more than 0.1 ms (the
+    // expansion of the trajectory around the previous offset).
+    std::vector<char> inlier(detections.size());
+    for (std::size_t i = 0; i < detections.size(); ++i) {
+      inlier[i] = detections[i].in_range && detections[i].inlier;
+    }
+    std::vector<double> offsets;
+    for (const JointCamera& c : cameras) offsets.push_back(c.offset_s);
+    std::size_t blobs_total = 0;
+    for (const auto& m : matches) blobs_total += m.size();
+    if (round > 0 && inlier == previous_inlier &&
+        std::abs(static_cast<double>(blobs_total) - static_cast<double>(previous_blobs)) <=
+            0.005 * static_cast<double>(previous_blobs)) {
+      double moved = 0;
+      for (std::size_t c = 0; c < cameras.size(); ++c) {
+        moved = std::max(moved, std::abs(offsets[c] - previous_offset[c]));
+      }
+      if (moved < 1e-4) break;
+    }
+    previous_inlier = inlier;
+    previous_offset = offsets;
+    previous_blobs = blobs_total;
+
+    // The losses are shared by many blocks: the problem does not own them
+    // (they outlive it: declared before it, reset after it).
+    ceres_problem.reset();
+    huber = std::make_unique<ceres::HuberLoss>(options.huber);
+    cauchy = std::make_unique<ceres::CauchyLoss>(options.cauchy);
+    ceres::Problem::Options problem_options;
+    problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    ceres_problem = std::make_unique<ceres::Problem>(problem_options);
+    ceres::Problem& Q = *ceres_problem;
+    std::vector<bool> node_used(n_nodes, false);
+    auto addNode = [&](std::size_t k) {
+      if (node_used[k]) return;
+      node_used[k] = true;
+      Q.AddParameterBlock(nodes[k].data(), 7, newPoseManifold());
+    };
+
+    // Trajectory: relative motions and scales.
+    if (!options.fix_trajectory) {
+      for (std::size_t k = 0; k + 1 < n_nodes; ++k) {
+        addNode(k);
+        addNode(k + 1);
+        auto* cost = new RelativeMotionCost;
+        const Rigid3d& a = samples[node_sample[k]].world_from_body;
+        const Rigid3d& b = samples[node_sample[k + 1]].world_from_body;
+        cost->delta_unscaled = a.inverse() * b;
+        double d = edge_length[k];
+        const bool gap = node_t[k + 1] - node_t[k] > kMaxGapNs;
+        cost->sigma_t = std::sqrt(options.min_sigma_m * options.min_sigma_m +
+                                  options.drift_m_per_sqrt_m * options.drift_m_per_sqrt_m * d);
+        cost->sigma_r = std::sqrt(std::pow(options.min_sigma_deg * kDeg, 2) +
+                                  std::pow(options.drift_deg_per_sqrt_m * kDeg, 2) * d);
+        if (gap) {  // across a gap the input says little
+          cost->sigma_t *= 100;
+          cost->sigma_r *= 100;
+        }
+        Q.AddResidualBlock(new ceres::AutoDiffCostFunction<RelativeMotionCost, 6, 7, 7, 1>(cost),
+                           nullptr, nodes[k].data(), nodes[k + 1].data(),
+                           &scales[segment_of_edge[k]]);
+      }
+      for (std::size_t j = 0; j < n_segments; ++j) {
+        if (j > 0) {
+          auto* cost = new ScaleWalkCost;
+          cost->sigma = options.scale_walk_sigma * (visual ? scale0 : 1.0);
+          Q.AddResidualBlock(new ceres::AutoDiffCostFunction<ScaleWalkCost, 1, 1, 1>(cost), nullptr,
+                             &scales[j - 1], &scales[j]);
+        }
+        if (!visual) {
+          auto* cost = new ScalarPriorCost;
+          cost->value = 1.0;
+          cost->sigma = options.metric_scale_sigma;
+          Q.AddResidualBlock(new ceres::AutoDiffCostFunction<ScalarPriorCost, 1, 1>(cost), nullptr,
+                             &scales[j]);
+        }
+      }
+    }
+    // X and its priors.
+    Q.AddParameterBlock(x_params, 7, newPoseManifold());
+    for (int c = 0; c < 6; ++c) {
+      if (!prior_on[c]) continue;
+      auto* cost = new ComponentPriorCost;
+      cost->prior = *problem.fisheye_from_marker;
+      cost->component = c;
+      cost->sigma =
+          c < 3 ? options.prior_translation_sigma_m : options.prior_rotation_sigma_deg * kDeg;
+      Q.AddResidualBlock(new ceres::AutoDiffCostFunction<ComponentPriorCost, 1, 7>(cost), nullptr,
+                         x_params);
+    }
+    // Cameras, offsets, detections.
+    for (JointCamera& c : cameras) {
+      Q.AddParameterBlock(c.pose, 7, newPoseManifold());
+      Q.AddParameterBlock(&c.offset_s, 1);
+      auto* cost = new ScalarPriorCost;
+      cost->value = c.offset0_s;
+      cost->sigma = options.clock_prior_sigma_s;
+      Q.AddResidualBlock(new ceres::AutoDiffCostFunction<ScalarPriorCost, 1, 1>(cost), nullptr,
+                         &c.offset_s);
+      if (!options.estimate_clock_offsets) Q.SetParameterBlockConstant(&c.offset_s);
+    }
+    for (std::size_t i = 0; i < detections.size(); ++i) {
+      const Detection& d = detections[i];
+      if (!d.in_range || !d.inlier) continue;
+      const Bracket& b = *det_bracket[i];
+      addNode(b.k);
+      addNode(b.k + 1);
+      Q.AddResidualBlock(markerCost(i), huber.get(), nodes[b.k].data(), nodes[b.k + 1].data(),
+                         x_params, cameras[d.camera].pose, &cameras[d.camera].offset_s);
+    }
+    // Blobs.
+    for (std::size_t c = 0; c < cameras.size(); ++c) {
+      const std::size_t n = matches[c].size();
+      cameras[c].blobs = static_cast<int>(n);
+      if (static_cast<int>(n) < options.min_blobs) continue;
+      const std::size_t keep =
+          options.max_blobs_per_camera > 0
+              ? std::min(n, static_cast<std::size_t>(options.max_blobs_per_camera))
+              : n;
+      for (std::size_t q = 0; q < keep; ++q) {
+        const BlobMatch& m = matches[c][q * n / keep];
+        const Frame& f = frames[m.frame];
+        auto* cost = new BlobCost;
+        cost->bracket = f.bracket;
+        cost->fisheye = fisheye;
+        cost->offset_in_camera = options.blob_offset_in_camera_m;
+        cost->observed = Eigen::Vector2d(f.blobs->blobs[m.blob].u, f.blobs->blobs[m.blob].v);
+        cost->sigma_px = options.blob_sigma_px;
+        addNode(f.bracket.k);
+        addNode(f.bracket.k + 1);
+        Q.AddResidualBlock(new ceres::AutoDiffCostFunction<BlobCost, 2, 7, 7, 7>(cost),
+                           cauchy.get(), nodes[f.bracket.k].data(), nodes[f.bracket.k + 1].data(),
+                           cameras[c].pose);
+      }
+    }
+    // Gauge and fixed parts.
+    addNode(0);
+    Q.SetParameterBlockConstant(nodes[0].data());
+    if (options.fix_trajectory) {
+      for (std::size_t k = 0; k < n_nodes; ++k) {
+        if (node_used[k]) Q.SetParameterBlockConstant(nodes[k].data());
+      }
+    }
+    if (options.fix_fisheye_from_marker) Q.SetParameterBlockConstant(x_params);
+
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver, &Q, &summary);
+    if (verbose) {
+      std::cerr << "joint round " << round + 1 << ": " << summary.BriefReport()
+                << " residual blocks " << Q.NumResidualBlocks() << ", time "
+                << summary.total_time_in_seconds << " s (jacobians "
+                << summary.jacobian_evaluation_time_in_seconds << " s, linear solver "
+                << summary.linear_solver_time_in_seconds << " s)\n";
+    }
+    if (!summary.IsSolutionUsable()) {
+      throw Error("joint: the solver failed: " + summary.message);
+    }
+  }
+
+  // ---- what each camera used ----
+  std::vector<int> used(cameras.size(), 0), rejected(cameras.size(), 0);
+  for (const Detection& d : detections) {
+    if (!d.in_range) continue;
+    (d.inlier ? used : rejected)[d.camera]++;
+  }
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    if (used[c] < options.min_detections) {
+      ceres_problem->SetParameterBlockConstant(cameras[c].pose);
+      ceres_problem->SetParameterBlockConstant(&cameras[c].offset_s);
+    }
+  }
+
+  // ---- covariance (the gauge: the first node is constant) ----
+  const bool scales_free = !options.fix_trajectory;
+  std::vector<std::pair<const double*, const double*>> blocks;
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    if (used[c] < options.min_detections) continue;
+    blocks.emplace_back(cameras[c].pose, cameras[c].pose);
+    if (options.estimate_clock_offsets) {
+      blocks.emplace_back(&cameras[c].offset_s, &cameras[c].offset_s);
+    }
+  }
+  if (!options.fix_fisheye_from_marker) blocks.emplace_back(x_params, x_params);
+  const bool scale_covariance = visual && scales_free && n_segments <= 200;
+  if (scale_covariance) {
+    for (std::size_t i = 0; i < n_segments; ++i) {
+      for (std::size_t j = i; j < n_segments; ++j) blocks.emplace_back(&scales[i], &scales[j]);
+    }
+  }
+  ceres::Covariance::Options covariance_options;
+  covariance_options.algorithm_type = ceres::SPARSE_QR;
+  covariance_options.num_threads = options.threads;
+  ceres::Covariance covariance(covariance_options);
+  bool have_covariance = false;
+  if (options.covariance && !blocks.empty()) {
+    progress.report("joint", options.rounds, options.rounds, "covariance");
+    have_covariance = covariance.Compute(blocks, ceres_problem.get());
+    if (!have_covariance) {
+      result.warnings.push_back(
+          "joint: the covariance could not be computed (the problem has directions the data does "
+          "not determine)");
+    }
+  }
+  auto poseCovariance = [&](const double* block) {
+    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> m;
+    covariance.GetCovarianceBlockInTangentSpace(block, block, m.data());
+    return Matrix6d(m);
+  };
+  auto scalarVariance = [&](const double* a, const double* b) {
+    double v = 0;
+    covariance.GetCovarianceBlock(a, b, &v);
+    return v;
+  };
+
+  // ---- fisheye_from_marker ----
+  const Rigid3d X = paramsToPose(x_params);
+  problem.fisheye_from_marker = X;
+  result.fisheye_from_marker = X;
+  {
+    std::vector<std::string> notes;
+    if (options.fix_fisheye_from_marker) {
+      notes.push_back(std::string("joint: fisheye_from_marker held fixed at ") +
+                      (options.fisheye_from_marker_from_ground_truth
+                           ? "the dataset's ground truth"
+                           : "the value of the earlier stages") +
+                      " (fix_fisheye_from_marker)");
+    } else if (have_covariance) {
+      const Matrix6d cov = poseCovariance(x_params);
+      result.fisheye_from_marker_covariance = cov;
+      std::string undetermined;
+      for (int c = 0; c < 6; ++c) {
+        const double sigma = std::sqrt(std::max(0.0, cov(c, c)));
+        const double prior_sigma =
+            c < 3 ? options.prior_translation_sigma_m : options.prior_rotation_sigma_deg * kDeg;
+        const double max_sigma =
+            c < 3 ? options.max_translation_sigma_m : options.max_rotation_sigma_deg * kDeg;
+        const bool by_prior = prior_on[c] && sigma > 0.5 * prior_sigma;
+        const bool determined = sigma <= max_sigma && !by_prior;
+        result.fisheye_from_marker_determined[c] = determined;
+        if (!determined) {
+          undetermined += std::string(undetermined.empty() ? "" : ", ") + kComponentNames[c] +
+                          " (sigma " +
+                          (c < 3 ? formatFixed(sigma * 1000, 2) + " mm"
+                                 : formatFixed(sigma / kDeg, 3) + " deg") +
+                          (by_prior ? ", held by the prior of motion_calibration" : "") + ")";
+        }
+      }
+      if (undetermined.empty()) {
+        notes.push_back(
+            "joint: the detections and blobs determine every component of fisheye_from_marker" +
+            std::string(std::any_of(prior_on.begin(), prior_on.end(), [](bool b) { return b; })
+                            ? " (the motion-only priors no longer dominate)"
+                            : ""));
+      } else {
+        notes.push_back("joint: not determined by the data: fisheye_from_marker " + undetermined);
+        result.warnings.push_back("joint: fisheye_from_marker " + undetermined +
+                                  " is not determined by the data");
+      }
+    }
+    for (const std::string& n : notes) {
+      result.observability.message += (result.observability.message.empty() ? "" : " ") + n + ".";
+    }
+  }
+
+  // ---- scale ----
+  if (visual) {
+    double mean = 0;
+    for (double s : scales) mean += s;
+    mean /= static_cast<double>(n_segments);
+    problem.scale = mean;
+    result.scale = mean;
+    if (have_covariance && scale_covariance) {
+      double var = 0;
+      for (std::size_t i = 0; i < n_segments; ++i) {
+        for (std::size_t j = 0; j < n_segments; ++j) {
+          var += scalarVariance(&scales[std::min(i, j)], &scales[std::max(i, j)]);
+        }
+      }
+      result.scale_sigma = std::sqrt(std::max(0.0, var)) / static_cast<double>(n_segments);
+    }
+    double lo = *std::min_element(scales.begin(), scales.end());
+    double hi = *std::max_element(scales.begin(), scales.end());
+    if (n_segments > 1) {
+      result.observability.message += (result.observability.message.empty() ? "" : " ") +
+                                      std::string("joint: the trajectory's scale varies over ") +
+                                      std::to_string(n_segments) + " segments of " +
+                                      formatDouble(options.scale_segment_m) + " m from " +
+                                      formatFixed(lo, 6) + " to " + formatFixed(hi, 6) + ".";
+    }
+  }
+
+  // ---- the corrected trajectory ----
+  {
+    std::vector<StampedPose> corrected;
+    corrected.reserve(samples.size());
+    for (const StampedPose& sample : samples) {
+      const auto b = bracketAt(sample.t, false);
+      if (!b) continue;
+      corrected.push_back({sample.t, evalPose(*b, b->tau_ref_s)});
+    }
+    problem.metric_trajectory = std::move(corrected);
+  }
+
+  // ---- cameras ----
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    JointCamera& jc = cameras[c];
+    CameraRegistration& camera = *jc.registration;
+    std::vector<std::size_t>& kept = problem.inliers_by_camera[camera.label];
+    kept.clear();
+    const int n = used[c] + rejected[c];
+    camera.detections.used = used[c];
+    camera.detections.rejected = rejected[c];
+    if (used[c] < options.min_detections) {
+      camera.status = CameraStatus::kUnregistered;
+      camera.reason = "joint: only " + std::to_string(used[c]) + " of " + std::to_string(n) +
+                      " detections are consistent with the joint estimate (at least " +
+                      std::to_string(options.min_detections) + " needed)";
+      camera.covariance.reset();
+      camera.residuals.reset();
+      continue;
+    }
+    if (restarted.count(camera.label)) {
+      camera.warnings.push_back("joint: registered although look_down was not (" + camera.reason +
+                                ")");
+    }
+    const Rigid3d pose = paramsToPose(jc.pose);
+    camera.world_from_camera = pose;
+    camera.stage_poses["joint"] = pose;
+    camera.covariance.reset();
+    if (have_covariance) camera.covariance = poseCovariance(jc.pose);
+    ClockOffsetEstimate offset;
+    offset.offset_ns = static_cast<TimeNs>(std::llround(jc.offset_s * 1e9));
+    offset.estimated = options.estimate_clock_offsets;
+    if (have_covariance && options.estimate_clock_offsets) {
+      offset.sigma_ms = std::sqrt(std::max(0.0, scalarVariance(&jc.offset_s, &jc.offset_s))) * 1e3;
+      if (offset.sigma_ms > options.max_clock_sigma_ms) {
+        camera.warnings.push_back("joint: the clock offset is not determined by the data (sigma " +
+                                  formatFixed(offset.sigma_ms, 2) + " ms)");
+      }
+    }
+    camera.clock_offset = offset;
+    if (std::abs(jc.offset_s - jc.offset0_s) > 0.005) {
+      camera.warnings.push_back("joint: clock offset " + formatFixed(jc.offset_s * 1e3, 2) +
+                                " ms (node - robot) estimated; configured " +
+                                formatFixed(jc.offset0_s * 1e3, 2) + " ms");
+    }
+    // Residuals as look_down reports them (marker pose by the camera vs by the robot).
+    double sum_p = 0, sum_r = 0;
+    for (std::size_t i : jc.detections) {
+      const Detection& d = detections[i];
+      if (!d.in_range || !d.inlier) continue;
+      kept.push_back(d.association);
+      const Bracket& b = *det_bracket[i];
+      const double tau = nsToSeconds(d.t_camera - node_t[b.k]) - jc.offset_s;
+      const Rigid3d by_robot = evalPose(b, tau) * X;
+      const Rigid3d by_camera =
+          pose * problem.marker(problem.associations[d.association]).camera_from_marker;
+      sum_p += (by_camera.translation - by_robot.translation).squaredNorm();
+      const double angle =
+          calib_detail::angleOf(by_camera.rotation.conjugate() * by_robot.rotation);
+      sum_r += angle * angle;
+    }
+    camera.residuals = ResidualStats{std::sqrt(sum_p / used[c]), std::sqrt(sum_r / used[c]) / kDeg};
+    const double rejected_fraction = n > 0 ? static_cast<double>(rejected[c]) / n : 0.0;
+    if (rejected_fraction > 0.3) {
+      camera.status = CameraStatus::kSuspect;
+      camera.reason = "joint: " + std::to_string(rejected[c]) + " of " + std::to_string(n) +
+                      " detections disagree with the joint estimate";
+    } else if (used[c] < 8) {
+      camera.status = CameraStatus::kSuspect;
+      camera.reason = "only " + std::to_string(used[c]) + " consistent detections";
+    } else {
+      camera.status = CameraStatus::kRegistered;
+      camera.reason.clear();
+    }
+    if (jc.blobs > 0 && jc.blobs < options.min_blobs) {
+      camera.warnings.push_back("joint: only " + std::to_string(jc.blobs) +
+                                " blobs associated; not used");
+    }
+  }
+  progress.report("joint", options.rounds, options.rounds);
+}
+
+}  // namespace lookboth

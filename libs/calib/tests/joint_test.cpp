@@ -1,0 +1,293 @@
+// Stage `joint` on synthetic problems (COLMAP style: truth -> measurements
+// -> noise -> solve -> bound): noise-free recovery, covariance consistency
+// (NEES), a camera's clock offset, a camera with too few detections, the
+// corners and the pose measurement paths, missing earlier stages.
+#include <gtest/gtest.h>
+
+#include "lookboth/calib/stages.h"
+#include "lookboth/core/error.h"
+#include "lookboth/geometry/lie.h"
+#include "synthetic.h"
+
+namespace lookboth {
+namespace {
+
+using testing::accuracyAgainst;
+using testing::makeSyntheticScene;
+using testing::SyntheticOptions;
+using testing::SyntheticScene;
+
+constexpr double kDeg = M_PI / 180.0;
+
+double rotationError(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
+  return so3Log(Eigen::Quaterniond(a.conjugate() * b)).norm();
+}
+
+// Gives every environment camera a pinhole model and every detection the 4
+// corners of the TRUE marker pose (the corner order of records.h), with noise sigma_px.
+void addCorners(SyntheticScene& scene, double sigma_px, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const Camera pinhole(PinholeModel{}, 1280, 960, {800, 800, 640, 480});
+  for (CameraSensor& s : scene.input.manifest.cameras) {
+    if (s.role == SensorRole::kEnvCamera) s.camera = pinhole;
+  }
+  const Trajectory truth(scene.truth);
+  const double h = 0.5 * scene.input.manifest.marker.size_m;
+  const Eigen::Vector3d corners[4] = {{-h, h, 0}, {h, h, 0}, {h, -h, 0}, {-h, -h, 0}};
+  for (MarkerObservation& m : scene.input.markers) {
+    const InterpolationResult pose = truth.interpolate(m.t, 0);
+    ASSERT_TRUE(pose.ok());
+    const Rigid3d camera_from_marker = scene.world_from_camera.at(m.camera).inverse() *
+                                       pose.world_from_body * scene.fisheye_from_marker;
+    m.corners_px.clear();
+    for (const Eigen::Vector3d& c : corners) {
+      const auto pixel = pinhole.project(camera_from_marker * c);
+      ASSERT_TRUE(pixel);
+      m.corners_px.push_back(*pixel + sigma_px * Eigen::Vector2d(normal(rng), normal(rng)));
+    }
+    m.corner_sigma_px = sigma_px > 0 ? sigma_px : 0.1;
+  }
+}
+
+// Runs associate, motion_calibration, look_down, joint.
+RegistrationProblem solve(const SyntheticScene& scene, const JointOptions& joint,
+                          const AssociateOptions& associate = {}) {
+  RegistrationProblem problem;
+  problem.input = scene.input;
+  runAssociate(problem, associate, ProgressReporter());
+  MotionCalibrationOptions motion;
+  motion.prior_translation_m = scene.fisheye_from_marker.translation;
+  runMotionCalibration(problem, motion, ProgressReporter());
+  runLookDown(problem, {}, ProgressReporter());
+  runJoint(problem, joint, ProgressReporter());
+  return problem;
+}
+
+void expectExact(const RegistrationProblem& problem, const SyntheticScene& scene) {
+  int compared = 0;
+  for (const CameraRegistration& c : problem.result.cameras) {
+    ASSERT_NE(c.status, CameraStatus::kUnregistered) << c.label << ": " << c.reason;
+    const Rigid3d& truth = scene.world_from_camera.at(c.label);
+    EXPECT_LT((c.world_from_camera.translation - truth.translation).norm(), 1e-6) << c.label;
+    EXPECT_LT(rotationError(c.world_from_camera.rotation, truth.rotation), 1e-6) << c.label;
+    ASSERT_TRUE(c.clock_offset);
+    EXPECT_LE(std::abs(c.clock_offset->offset_ns), 1000) << c.label;  // 1 us
+    ASSERT_TRUE(c.covariance);
+    EXPECT_TRUE(c.stage_poses.count("joint"));
+    ++compared;
+  }
+  EXPECT_EQ(compared, 6);
+  EXPECT_LT(
+      (problem.fisheye_from_marker->translation - scene.fisheye_from_marker.translation).norm(),
+      1e-6);
+  ASSERT_TRUE(problem.metric_trajectory);
+  for (const StampedPose& p : *problem.metric_trajectory) {
+    const auto truth = scene.input.trajectory.interpolate(p.t, 0);
+    ASSERT_TRUE(truth.ok());
+    ASSERT_LT((p.world_from_body.translation - truth.world_from_body.translation).norm(), 1e-6);
+  }
+}
+
+TEST(Joint, NoiseFreePoseMeasurementsRecoverEverything) {
+  const SyntheticScene scene = makeSyntheticScene({});
+  const RegistrationProblem problem = solve(scene, {});
+  expectExact(problem, scene);
+}
+
+TEST(Joint, NoiseFreeCornersRecoverEverything) {
+  SyntheticScene scene = makeSyntheticScene({});
+  addCorners(scene, 0, 1);
+  const RegistrationProblem problem = solve(scene, {});
+  expectExact(problem, scene);
+}
+
+TEST(Joint, NoiseFreeVisualTrajectoryRecoversScale) {
+  SyntheticScene scene = makeSyntheticScene({});
+  std::vector<StampedPose> vo = scene.truth;
+  const Rigid3d world_from_vo = testing::makeVisualOdometry(vo, 2.5, 0, 0, 1);
+  scene.input.trajectory = Trajectory(vo);
+  scene.input.mode = TrajectoryMode::kVisual;
+  const RegistrationProblem problem = solve(scene, {});
+  EXPECT_NEAR(problem.result.scale, 2.5, 2.5e-6);
+  const auto a = accuracyAgainst(problem.result, scene.world_from_camera, world_from_vo);
+  EXPECT_EQ(a.compared, 6);
+  EXPECT_LT(a.position_max_m, 1e-6);
+  EXPECT_LT(a.rotation_max_deg, 1e-6 / kDeg);
+}
+
+// A trajectory measured with the drift model of JointOptions: every relative
+// motion between consecutive samples perturbed by its sigma.
+std::vector<StampedPose> driftedTrajectory(const std::vector<StampedPose>& truth,
+                                           const JointOptions& o, std::mt19937& rng) {
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::vector<StampedPose> out = {truth.front()};
+  for (std::size_t i = 1; i < truth.size(); ++i) {
+    const Rigid3d delta = truth[i - 1].world_from_body.inverse() * truth[i].world_from_body;
+    const double d = delta.translation.norm();
+    const double st =
+        std::sqrt(o.min_sigma_m * o.min_sigma_m + o.drift_m_per_sqrt_m * o.drift_m_per_sqrt_m * d);
+    const double sr = std::sqrt(std::pow(o.min_sigma_deg * kDeg, 2) +
+                                std::pow(o.drift_deg_per_sqrt_m * kDeg, 2) * d);
+    const Eigen::Vector3d nt = st * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+    const Eigen::Vector3d nr = sr * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+    const Rigid3d noisy(delta.rotation * so3Exp(nr), delta.translation + nt);
+    out.push_back({truth[i].t, out.back().world_from_body * noisy});
+  }
+  return out;
+}
+
+SyntheticOptions noisyOptions(std::uint32_t seed) {
+  SyntheticOptions o;
+  o.marker_translation_sigma_m = 0.003;
+  o.marker_rotation_sigma_deg = 1.0;
+  o.blob_sigma_px = 0.7;
+  o.seed = seed;
+  return o;
+}
+
+TEST(Joint, CovarianceIsConsistentOverSeeds) {
+  JointOptions joint;
+  joint.node_interval_s = 0;  // every sample a node: the drift model is exactly the simulated one
+  joint.blob_sigma_px = 0.7;
+  double sum = 0;
+  int count = 0;
+  for (std::uint32_t seed = 1; seed <= 5; ++seed) {
+    SyntheticScene scene = makeSyntheticScene(noisyOptions(seed));
+    std::mt19937 rng(seed + 100);
+    scene.input.trajectory = Trajectory(driftedTrajectory(scene.truth, joint, rng));
+    const RegistrationProblem problem = solve(scene, joint);
+    for (const CameraRegistration& c : problem.result.cameras) {
+      ASSERT_NE(c.status, CameraStatus::kUnregistered) << c.reason;
+      ASSERT_TRUE(c.covariance);
+      const Rigid3d& truth = scene.world_from_camera.at(c.label);
+      Eigen::Matrix<double, 6, 1> e;
+      e.head<3>() = c.world_from_camera.translation - truth.translation;
+      e.tail<3>() =
+          so3Log(Eigen::Quaterniond(truth.rotation.conjugate() * c.world_from_camera.rotation));
+      sum += e.dot(c.covariance->ldlt().solve(e)) / 6.0;
+      ++count;
+    }
+  }
+  const double mean = sum / count;
+  std::cout << "mean NEES/dof over " << count << " cameras: " << mean << "\n";
+  EXPECT_GE(mean, 0.7);
+  EXPECT_LE(mean, 1.5);
+}
+
+TEST(Joint, RecoversAClockOffsetOf150ms) {
+  // The offset is determined by the blobs (camera position, robot clock)
+  // against the detections (camera clock), i.e. to (position sigma / speed):
+  // with the synthetic 640x360 fisheye at 0.6 m/s the offsets' sigma is
+  // 2.5 ms; at 1.5 m/s, 4 laps, 0.3 px blobs and 1 mm detections, ~1 ms.
+  SyntheticOptions o = noisyOptions(3);
+  o.marker_translation_sigma_m = 0.001;
+  o.blob_sigma_px = 0.3;
+  o.speed_mps = 1.5;
+  o.laps = 4;
+  SyntheticScene scene = makeSyntheticScene(o);
+  const TimeNs offset = 150'000'000;
+  for (MarkerObservation& m : scene.input.markers) {
+    if (m.camera == "cam02") m.t += offset;  // node clock - robot clock = +150 ms
+  }
+  JointOptions joint;
+  joint.blob_sigma_px = 0.3;
+  const RegistrationProblem problem = solve(scene, joint);
+  const CameraRegistration* shifted = problem.result.findCamera("cam02");
+  ASSERT_TRUE(shifted && shifted->clock_offset);
+  ASSERT_NE(shifted->status, CameraStatus::kUnregistered) << shifted->reason;
+  std::cout << "cam02 offset " << shifted->clock_offset->offset_ns * 1e-6 << " ms +- "
+            << shifted->clock_offset->sigma_ms << " ms\n";
+  EXPECT_NEAR(static_cast<double>(shifted->clock_offset->offset_ns), 150e6, 2e6);
+  double others = 0;
+  int n = 0;
+  double worst_other = 0;
+  for (const CameraRegistration& c : problem.result.cameras) {
+    const double e =
+        (c.world_from_camera.translation - scene.world_from_camera.at(c.label).translation).norm();
+    if (c.label == "cam02") continue;
+    EXPECT_NEAR(static_cast<double>(c.clock_offset->offset_ns), 0.0,
+                std::max(2e6, 4e6 * c.clock_offset->sigma_ms))
+        << c.label << " sigma " << c.clock_offset->sigma_ms << " ms";
+    others += e * e;
+    worst_other = std::max(worst_other, e);
+    ++n;
+  }
+  const double e02 =
+      (shifted->world_from_camera.translation - scene.world_from_camera.at("cam02").translation)
+          .norm();
+  std::cout << "cam02 position error " << e02 * 1e3 << " mm; others RMS "
+            << std::sqrt(others / n) * 1e3 << " mm, max " << worst_other * 1e3 << " mm\n";
+  EXPECT_LE(e02, std::max(1.5 * worst_other, 0.002));
+}
+
+TEST(Joint, CameraWithTooFewDetectionsStaysUnregistered) {
+  SyntheticScene scene = makeSyntheticScene(noisyOptions(4));
+  // cam01 keeps 2 detections.
+  int kept = 0;
+  std::vector<MarkerObservation> markers;
+  for (const MarkerObservation& m : scene.input.markers) {
+    if (m.camera == "cam01" && kept++ >= 2) continue;
+    markers.push_back(m);
+  }
+  scene.input.markers = markers;
+  const RegistrationProblem problem = solve(scene, {});
+  const CameraRegistration* c = problem.result.findCamera("cam01");
+  ASSERT_TRUE(c);
+  EXPECT_EQ(c->status, CameraStatus::kUnregistered);
+  EXPECT_NE(c->reason.find("only 2"), std::string::npos) << c->reason;
+  EXPECT_FALSE(c->stage_poses.count("joint"));
+  const auto a = accuracyAgainst(problem.result, scene.world_from_camera);
+  EXPECT_EQ(a.compared, 5);
+  EXPECT_LT(a.position_rmse_m, 0.003);
+}
+
+TEST(Joint, NoisyCornersAndPosesBothWork) {
+  SyntheticScene scene = makeSyntheticScene(noisyOptions(5));
+  addCorners(scene, 0.3, 9);  // corners of the true marker poses, 0.3 px noise
+  JointOptions corners;
+  JointOptions poses;
+  poses.use_corners = false;
+  const auto with_corners = accuracyAgainst(solve(scene, corners).result, scene.world_from_camera);
+  const auto with_poses = accuracyAgainst(solve(scene, poses).result, scene.world_from_camera);
+  std::cout << "corners: " << with_corners.position_rmse_m * 1e3 << " mm, "
+            << with_corners.rotation_rmse_deg << " deg; poses: " << with_poses.position_rmse_m * 1e3
+            << " mm, " << with_poses.rotation_rmse_deg << " deg\n";
+  EXPECT_EQ(with_corners.compared, 6);
+  EXPECT_EQ(with_poses.compared, 6);
+  // Poses (3 mm, 1 deg per detection) and corners (0.3 px at 800 px focal
+  // length, ~1 mm at 3 m): millimetres and hundredths of a degree.
+  EXPECT_LT(with_poses.position_rmse_m, 0.006);
+  EXPECT_LT(with_poses.rotation_rmse_deg, 0.15);
+  EXPECT_LT(with_corners.position_rmse_m, 0.006);
+  EXPECT_LT(with_corners.rotation_rmse_deg, 0.15);
+}
+
+TEST(Joint, NamesTheMissingStage) {
+  const SyntheticScene scene = makeSyntheticScene({});
+  RegistrationProblem problem;
+  problem.input = scene.input;
+  try {
+    runJoint(problem, {}, ProgressReporter());
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("associate"), std::string::npos);
+  }
+  runAssociate(problem, {}, ProgressReporter());
+  try {
+    runJoint(problem, {}, ProgressReporter());
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("motion_calibration"), std::string::npos);
+  }
+  runMotionCalibration(problem, {}, ProgressReporter());
+  try {
+    runJoint(problem, {}, ProgressReporter());
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("look_down"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace lookboth
