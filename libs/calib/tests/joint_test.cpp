@@ -146,6 +146,16 @@ SyntheticOptions noisyOptions(std::uint32_t seed) {
   return o;
 }
 
+// The synthetic scenes' trajectory is the truth itself: declared as nearly
+// exact (2 mm/sqrt(m), 0.05 deg/sqrt(m)), as a user would for a motion-capture
+// trajectory, rather than with the defaults made for visual odometry.
+JointOptions forExactTrajectory() {
+  JointOptions o;
+  o.drift_m_per_sqrt_m = 0.002;
+  o.drift_deg_per_sqrt_m = 0.05;
+  return o;
+}
+
 TEST(Joint, CovarianceIsConsistentOverSeeds) {
   JointOptions joint;
   joint.node_interval_s = 0;  // every sample a node: the drift model is exactly the simulated one
@@ -190,7 +200,7 @@ TEST(Joint, RecoversAClockOffsetOf150ms) {
   for (MarkerObservation& m : scene.input.markers) {
     if (m.camera == "cam02") m.t += offset;  // node clock - robot clock = +150 ms
   }
-  JointOptions joint;
+  JointOptions joint = forExactTrajectory();
   joint.blob_sigma_px = 0.3;
   const RegistrationProblem problem = solve(scene, joint);
   const CameraRegistration* shifted = problem.result.findCamera("cam02");
@@ -231,7 +241,7 @@ TEST(Joint, CameraWithTooFewDetectionsStaysUnregistered) {
     markers.push_back(m);
   }
   scene.input.markers = markers;
-  const RegistrationProblem problem = solve(scene, {});
+  const RegistrationProblem problem = solve(scene, forExactTrajectory());
   const CameraRegistration* c = problem.result.findCamera("cam01");
   ASSERT_TRUE(c);
   EXPECT_EQ(c->status, CameraStatus::kUnregistered);
@@ -245,8 +255,8 @@ TEST(Joint, CameraWithTooFewDetectionsStaysUnregistered) {
 TEST(Joint, NoisyCornersAndPosesBothWork) {
   SyntheticScene scene = makeSyntheticScene(noisyOptions(5));
   addCorners(scene, 0.3, 9);  // corners of the true marker poses, 0.3 px noise
-  JointOptions corners;
-  JointOptions poses;
+  JointOptions corners = forExactTrajectory();
+  JointOptions poses = forExactTrajectory();
   poses.use_corners = false;
   const auto with_corners = accuracyAgainst(solve(scene, corners).result, scene.world_from_camera);
   const auto with_poses = accuracyAgainst(solve(scene, poses).result, scene.world_from_camera);

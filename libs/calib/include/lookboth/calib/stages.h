@@ -127,8 +127,8 @@ struct JointOptions {
   /// Drift model of the input trajectory: the relative motion between two
   /// nodes d metres apart has standard deviation sqrt(min^2 + drift^2 d) in
   /// translation [m/sqrt(m)] and rotation [deg/sqrt(m)].
-  double drift_m_per_sqrt_m = 0.002;
-  double drift_deg_per_sqrt_m = 0.05;
+  double drift_m_per_sqrt_m = 0.01;
+  double drift_deg_per_sqrt_m = 0.2;
   double min_sigma_m = 0.0005;   ///< [m]
   double min_sigma_deg = 0.005;  ///< [deg]
   /// The trajectory's scale is one parameter per segment of this length [m]
