@@ -35,6 +35,7 @@
 #include <type_traits>
 #include <variant>
 
+#include "blob_association.h"
 #include "lookboth/calib/stages.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
@@ -580,28 +581,10 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       }
       const std::vector<Blob>& blobs = f.blobs->blobs;
       for (const auto& [c, pixel] : projected) {
-        double d1 = 1e300, d2 = 1e300;
-        std::size_t best = 0;
-        for (std::size_t b = 0; b < blobs.size(); ++b) {
-          const double d = (Eigen::Vector2d(blobs[b].u, blobs[b].v) - pixel).norm();
-          if (d < d1) {
-            d2 = d1;
-            d1 = d;
-            best = b;
-          } else if (d < d2) {
-            d2 = d;
-          }
+        if (const auto best = calib_detail::associatedBlob(blobs, c, pixel, options.gate_px,
+                                                           options.ambiguity_ratio, projected)) {
+          matches[c].push_back({fi, *best});
         }
-        if (d1 > options.gate_px || d2 < options.ambiguity_ratio * d1) continue;
-        const Eigen::Vector2d blob(blobs[best].u, blobs[best].v);
-        bool mutual = true;
-        for (const auto& [other, other_pixel] : projected) {
-          if (other != c && (other_pixel - blob).norm() < options.ambiguity_ratio * d1) {
-            mutual = false;
-            break;
-          }
-        }
-        if (mutual) matches[c].push_back({fi, best});
       }
     }
   };

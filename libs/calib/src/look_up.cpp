@@ -14,6 +14,7 @@
 #include <optional>
 #include <variant>
 
+#include "blob_association.h"
 #include "lookboth/calib/stages.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
@@ -172,30 +173,10 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
         projected.emplace_back(static_cast<std::size_t>(k), *pixel);
       }
       for (const auto& [k, pixel] : projected) {
-        // Nearest and second nearest blob to this camera's projection...
-        double d1 = 1e300, d2 = 1e300;
-        std::size_t best = 0;
-        for (std::size_t b = 0; b < blobs.size(); ++b) {
-          const double d = (Eigen::Vector2d(blobs[b].u, blobs[b].v) - pixel).norm();
-          if (d < d1) {
-            d2 = d1;
-            d1 = d;
-            best = b;
-          } else if (d < d2) {
-            d2 = d;
-          }
+        if (const auto best = calib_detail::associatedBlob(blobs, k, pixel, cameras[k].gate,
+                                                           options.ambiguity_ratio, projected)) {
+          cameras[k].matches.push_back({fi, *best});
         }
-        if (d1 > cameras[k].gate || d2 < options.ambiguity_ratio * d1) continue;
-        // ...and this camera's projection the nearest to that blob, unambiguously.
-        const Eigen::Vector2d blob(blobs[best].u, blobs[best].v);
-        bool mutual = true;
-        for (const auto& [other, other_pixel] : projected) {
-          if (other != k && (other_pixel - blob).norm() < options.ambiguity_ratio * d1) {
-            mutual = false;
-            break;
-          }
-        }
-        if (mutual) cameras[k].matches.push_back({fi, best});
       }
     }
   };
