@@ -1,6 +1,7 @@
 #include "lookboth/core/yaml_reader.h"
 
 #include <cmath>
+#include <map>
 
 #include "lookboth/core/text.h"
 
@@ -56,8 +57,16 @@ bool YamlReader::boolean(const YAML::Node& node, const std::string& field) const
 void YamlReader::rejectUnknownKeys(const YAML::Node& node, const std::set<std::string>& known,
                                    const std::string& field) const {
   if (!node.IsMap()) throw Error(at(node, field), "expected a mapping");
+  // yaml-cpp keeps a repeated key and answers node[key] with the first one:
+  // the second would be silently ignored.
+  std::map<std::string, int> first_line;
   for (const auto& entry : node) {
     const std::string key = entry.first.as<std::string>();
+    const int line = entry.first.Mark().line + 1;
+    if (const auto [it, inserted] = first_line.emplace(key, line); !inserted) {
+      throw Error(at(entry.first, field.empty() ? key : field + "." + key),
+                  "duplicate key (first at line " + std::to_string(it->second) + ")");
+    }
     if (!known.count(key)) {
       std::string list;
       for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;

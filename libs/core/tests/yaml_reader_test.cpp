@@ -40,5 +40,14 @@ TEST(YamlReader, ErrorsNameSourceLineAndField) {
   EXPECT_EQ(errorOf([&] { r.parse("a: [1\n"); }).rfind("cfg.yaml:", 0), 0u);
 }
 
+TEST(YamlReader, RejectsARepeatedKey) {
+  const YamlReader r("cfg.yaml");
+  const YAML::Node root = r.parse("s:\n  a: 1\n  b: 2\n  a: 3\n");
+  EXPECT_EQ(errorOf([&] {
+              r.rejectUnknownKeys(root["s"], {"a", "b"}, "s");
+            }),
+            "cfg.yaml:4: 's.a': duplicate key (first at line 2)");
+}
+
 }  // namespace
 }  // namespace lookboth

@@ -35,7 +35,7 @@ class YamlReader {
   bool boolean(const YAML::Node& node, const std::string& field) const;  ///< true/false/yes/no
 
   /// Throws naming the first key of a mapping that is not in `known` (and
-  /// listing the known ones).
+  /// listing the known ones), or that appears twice.
   void rejectUnknownKeys(const YAML::Node& node, const std::set<std::string>& known,
                          const std::string& field) const;
 
