@@ -3,7 +3,6 @@
 // scored against a simulated dataset's ground truth.
 #include <cstdio>
 #include <iostream>
-#include <set>
 
 #include "commands.h"
 #include "lookboth/core/error.h"
@@ -100,21 +99,7 @@ int runDetect(const DetectArgs& args) {
     if (!args.dry_run) {
       if (args.evaluate) {
         // Write what was evaluated (no second detection run).
-        AugmentOptions augment;
-        augment.input = options.dataset;
-        augment.output = options.out;
-        augment.overwrite = options.overwrite;
-        std::set<std::string> marker_cameras, blob_cameras;
-        for (const CameraDetectSummary& c : summary.cameras)
-          (c.fisheye ? blob_cameras : marker_cameras).insert(c.camera);
-        augment.drop = [&](const Record& record) {
-          if (const auto* m = std::get_if<MarkerObservation>(&record))
-            return marker_cameras.count(m->camera) > 0;
-          if (const auto* b = std::get_if<BlobObservation>(&record))
-            return blob_cameras.count(b->camera) > 0;
-          return false;
-        };
-        summary.written = augmentDataset(augment, records, progress);
+        summary.written = writeDetections(options, records, summary, progress);
       } else {
         summary = detectDataset(options, progress);
       }

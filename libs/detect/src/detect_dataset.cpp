@@ -374,9 +374,8 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
   return records;
 }
 
-DetectSummary detectDataset(const DetectOptions& options, const ProgressReporter& progress) {
-  DetectSummary summary;
-  std::vector<Record> records = runDetection(options, progress, &summary);
+AugmentSummary writeDetections(const DetectOptions& options, std::vector<Record> records,
+                               const DetectSummary& summary, const ProgressReporter& progress) {
   std::set<std::string> marker_cameras, blob_cameras;
   for (const CameraDetectSummary& c : summary.cameras) {
     (c.fisheye ? blob_cameras : marker_cameras).insert(c.camera);
@@ -392,7 +391,13 @@ DetectSummary detectDataset(const DetectOptions& options, const ProgressReporter
       return blob_cameras.count(b->camera) > 0;
     return false;
   };
-  summary.written = augmentDataset(augment, std::move(records), progress);
+  return augmentDataset(augment, std::move(records), progress);
+}
+
+DetectSummary detectDataset(const DetectOptions& options, const ProgressReporter& progress) {
+  DetectSummary summary;
+  std::vector<Record> records = runDetection(options, progress, &summary);
+  summary.written = writeDetections(options, std::move(records), summary, progress);
   return summary;
 }
 

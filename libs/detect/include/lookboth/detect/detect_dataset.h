@@ -77,6 +77,12 @@ struct DetectSummary {
 /// written, the input untouched).
 DetectSummary detectDataset(const DetectOptions& options, const ProgressReporter& progress);
 
+/// Writes records from `runDetection` into the dataset (options.out, or in
+/// place): the detections already there for the cameras of `summary` are
+/// replaced, everything else is kept.
+AugmentSummary writeDetections(const DetectOptions& options, std::vector<Record> records,
+                               const DetectSummary& summary, const ProgressReporter& progress);
+
 /// Detection without writing: the records `detectDataset` would add (markers
 /// in time order per camera, then blobs), for evaluation and benchmarks.
 std::vector<Record> runDetection(const DetectOptions& options, const ProgressReporter& progress,
