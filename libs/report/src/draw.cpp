@@ -65,13 +65,16 @@ void drawCross(cv::Mat& image, cv::Point at, int half, const cv::Scalar& colour,
            cv::LINE_8);
 }
 
+int legendLineHeight(double font_scale) {
+  int baseline = 0;
+  return static_cast<int>(cv::getTextSize("Ag", kFont, font_scale, 1, &baseline).height * 1.9) + 2;
+}
 }  // namespace
 
 cv::Size measureLegend(const std::vector<std::pair<std::string, cv::Scalar>>& entries,
                        const std::vector<std::string>& notes, double font_scale) {
   int baseline = 0;
-  const int line_height =
-      static_cast<int>(cv::getTextSize("Ag", kFont, font_scale, 1, &baseline).height * 1.9) + 2;
+  const int line_height = legendLineHeight(font_scale);
   int width = 0;
   for (const auto& [text, colour] : entries) {
     width = std::max(width, cv::getTextSize(text, kFont, font_scale, 1, &baseline).width + 30);
@@ -85,18 +88,8 @@ cv::Size measureLegend(const std::vector<std::pair<std::string, cv::Scalar>>& en
 
 int drawLegend(cv::Mat& image, const std::vector<std::pair<std::string, cv::Scalar>>& entries,
                const std::vector<std::string>& notes, double font_scale, cv::Point origin) {
-  int baseline = 0;
-  const int line_height =
-      static_cast<int>(cv::getTextSize("Ag", kFont, font_scale, 1, &baseline).height * 1.9) + 2;
-  int width = 0;
-  for (const auto& [text, colour] : entries) {
-    width = std::max(width, cv::getTextSize(text, kFont, font_scale, 1, &baseline).width + 30);
-  }
-  for (const std::string& note : notes) {
-    width = std::max(width, cv::getTextSize(note, kFont, font_scale, 1, &baseline).width);
-  }
-  const int rows = static_cast<int>(entries.size() + notes.size());
-  const cv::Rect box(origin.x, origin.y, width + 16, rows * line_height + 10);
+  const int line_height = legendLineHeight(font_scale);
+  const cv::Rect box(origin, measureLegend(entries, notes, font_scale));
   cv::Mat roi = image(box & cv::Rect(0, 0, image.cols, image.rows));
   cv::Mat shade(roi.size(), roi.type(), cv::Scalar(255, 255, 255));
   cv::addWeighted(roi, 0.25, shade, 0.75, 0, roi);
