@@ -29,17 +29,21 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
+#include <ctime>
 #include <iostream>
 #include <set>
 #include <type_traits>
 #include <variant>
 
 #include "blob_association.h"
+#include "joint_costs.h"
 #include "lookboth/calib/stages.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
 #include "pose_costs.h"
+#include "sparse_covariance.h"
 
 namespace lookboth {
 namespace {
@@ -49,211 +53,12 @@ using calib_detail::paramsToPose;
 using calib_detail::poseError;
 using calib_detail::poseFromParams;
 using calib_detail::poseToParams;
+using calib_detail::SparseCovariance;
 using calib_detail::sqrtInformation;
+using namespace joint_detail;
 
 constexpr double kDeg = M_PI / 180.0;
-constexpr std::size_t kMaxParams = 64;
 constexpr TimeNs kMaxGapNs = 500'000'000;  // trajectory gaps longer than this are not crossed
-
-// Where a time falls between two nodes and the reference trajectory there.
-struct Bracket {
-  std::size_t k = 0;                                         // node index (k, k+1)
-  double duration_s = 1;                                     // t_k+1 - t_k
-  double tau_ref_s = 0;                                      // reference time - t_k [s]
-  Rigid3d ref_inverse_k, ref_inverse_k1;                     // Nref^-1 at the two nodes
-  Rigid3d reference;                                         // Fref at the reference time
-  Eigen::Vector3d velocity_world = Eigen::Vector3d::Zero();  // [m/s]
-  Eigen::Vector3d omega_body = Eigen::Vector3d::Zero();      // [rad/s]
-};
-
-template <typename T>
-Rigid3<T> poseAt(const Bracket& b, const T* node_k, const T* node_k1, const T& tau) {
-  const Rigid3<T> ck = poseFromParams(node_k) * b.ref_inverse_k.cast<T>();
-  const Rigid3<T> ck1 = poseFromParams(node_k1) * b.ref_inverse_k1.cast<T>();
-  const T alpha = tau / T(b.duration_s);
-  const Eigen::Matrix<T, 3, 1> w =
-      so3Log(Eigen::Quaternion<T>(ck.rotation.conjugate() * ck1.rotation));
-  const Eigen::Matrix<T, 3, 1> wa = w * alpha;
-  const Rigid3<T> correction(ck.rotation * so3Exp(wa),
-                             ck.translation + (ck1.translation - ck.translation) * alpha);
-  const T delta = tau - T(b.tau_ref_s);
-  const Eigen::Matrix<T, 3, 1> wd = b.omega_body.cast<T>() * delta;
-  const Rigid3<T> reference(b.reference.rotation.cast<T>() * so3Exp(wd),
-                            b.reference.translation.cast<T>() + b.velocity_world.cast<T>() * delta);
-  return correction * reference;
-}
-
-// poseAt at tau = tau_camera - offset for a cost whose Jets are long: the
-// interpolation is differentiated with Jets of its own 15 inputs (the two
-// nodes and the offset) and chained into T, which halves the work.
-template <typename T>
-Rigid3<T> poseAtChained(const Bracket& b, const T* nk, const T* nk1, const T* offset,
-                        double tau_camera) {
-  if constexpr (std::is_same_v<T, double>) {
-    return poseAt(b, nk, nk1, T(tau_camera) - offset[0]);
-  } else {
-    using J = ceres::Jet<double, 15>;
-    J a[7], c[7];
-    for (int i = 0; i < 7; ++i) {
-      a[i] = J(nk[i].a, i);
-      c[i] = J(nk1[i].a, 7 + i);
-    }
-    const J tau = J(tau_camera) - J(offset[0].a, 14);
-    const Rigid3<J> w = poseAt(b, a, c, tau);
-    auto chain = [&](const J& v) {
-      T r;
-      r.a = v.a;
-      r.v = v.v[14] * offset[0].v;  // (d tau / d offset = -1 is in v.v[14])
-      for (int i = 0; i < 7; ++i) r.v += v.v[i] * nk[i].v + v.v[7 + i] * nk1[i].v;
-      return r;
-    };
-    return Rigid3<T>(Eigen::Quaternion<T>(chain(w.rotation.w()), chain(w.rotation.x()),
-                                          chain(w.rotation.y()), chain(w.rotation.z())),
-                     Eigen::Matrix<T, 3, 1>(chain(w.translation.x()), chain(w.translation.y()),
-                                            chain(w.translation.z())));
-  }
-}
-
-struct RelativeMotionCost {
-  Rigid3d delta_unscaled;  // Nref_k^-1 Nref_k+1 in trajectory units
-  double sigma_t = 1, sigma_r = 1;
-  template <typename T>
-  bool operator()(const T* nk, const T* nk1, const T* scale, T* residual) const {
-    const Rigid3<T> a = poseFromParams(nk), b = poseFromParams(nk1);
-    const Eigen::Matrix<T, 3, 1> dt = a.rotation.conjugate() * (b.translation - a.translation) -
-                                      delta_unscaled.translation.cast<T>() * scale[0];
-    const Eigen::Matrix<T, 3, 1> dr = so3Log(Eigen::Quaternion<T>(
-        delta_unscaled.rotation.cast<T>().conjugate() * a.rotation.conjugate() * b.rotation));
-    for (int i = 0; i < 3; ++i) {
-      residual[i] = dt[i] / T(sigma_t);
-      residual[3 + i] = dr[i] / T(sigma_r);
-    }
-    return true;
-  }
-};
-
-struct ScaleWalkCost {
-  double sigma = 1;
-  template <typename T>
-  bool operator()(const T* a, const T* b, T* residual) const {
-    residual[0] = (b[0] - a[0]) / T(sigma);
-    return true;
-  }
-};
-
-struct ScalarPriorCost {
-  double value = 0, sigma = 1;
-  template <typename T>
-  bool operator()(const T* x, T* residual) const {
-    residual[0] = (x[0] - T(value)) / T(sigma);
-    return true;
-  }
-};
-
-// One tangent component c of a pose ([dt; dtheta] at `prior`).
-struct ComponentPriorCost {
-  Rigid3d prior;
-  int component = 0;
-  double sigma = 1;
-  template <typename T>
-  bool operator()(const T* x, T* residual) const {
-    const Eigen::Matrix<T, 6, 1> e = poseError(poseFromParams(x), prior);
-    residual[0] = e[component] / T(sigma);
-    return true;
-  }
-};
-
-struct MarkerPoseCost {
-  Bracket bracket;
-  double tau_camera_s = 0;  // t_camera - t_k [s]
-  Rigid3d measured;         // camera_from_marker
-  Matrix6d sqrt_info;
-  template <typename T>
-  bool operator()(const T* nk, const T* nk1, const T* x, const T* camera, const T* offset,
-                  T* residual) const {
-    const Rigid3<T> world_from_marker =
-        poseAtChained(bracket, nk, nk1, offset, tau_camera_s) * poseFromParams(x);
-    const Rigid3<T> predicted = poseFromParams(camera).inverse() * world_from_marker;
-    Eigen::Map<Eigen::Matrix<T, 6, 1>> r(residual);
-    r = sqrt_info.cast<T>() * poseError(predicted, measured);
-    return true;
-  }
-};
-
-template <typename T>
-bool projectWith(const Camera& camera, const Eigen::Matrix<T, 3, 1>& p, T* pixel) {
-  std::array<T, kMaxParams> params;
-  const std::vector<double>& values = camera.params();
-  for (std::size_t i = 0; i < values.size() && i < kMaxParams; ++i) params[i] = T(values[i]);
-  return std::visit(
-      [&](const auto& model) { return model.project(params.data(), p.data(), pixel); },
-      camera.model());
-}
-
-// The camera model's projection of a point whose derivatives are of any
-// length: the model is differentiated only with respect to the point (a
-// Jet of 3) and chained, so its cost does not grow with the cost's parameters.
-template <typename T>
-bool projectChained(const Camera& camera, const Eigen::Matrix<T, 3, 1>& p, T* pixel) {
-  if constexpr (std::is_same_v<T, double>) {
-    return projectWith(camera, p, pixel);
-  } else {
-    using J3 = ceres::Jet<double, 3>;
-    const Eigen::Matrix<J3, 3, 1> q(J3(p[0].a, 0), J3(p[1].a, 1), J3(p[2].a, 2));
-    J3 out[2];
-    if (!projectWith(camera, q, out)) return false;
-    for (int r = 0; r < 2; ++r) {
-      pixel[r].a = out[r].a;
-      pixel[r].v = out[r].v[0] * p[0].v + out[r].v[1] * p[1].v + out[r].v[2] * p[2].v;
-    }
-    return true;
-  }
-}
-
-struct MarkerCornersCost {
-  Bracket bracket;
-  double tau_camera_s = 0;
-  const Camera* camera_model = nullptr;
-  std::array<Eigen::Vector3d, 4> corners_in_marker;
-  std::array<Eigen::Vector2d, 4> observed;
-  double sigma_px = 1;
-  template <typename T>
-  bool operator()(const T* nk, const T* nk1, const T* x, const T* camera, const T* offset,
-                  T* residual) const {
-    const T tau = T(tau_camera_s) - offset[0];
-    const Rigid3<T> camera_from_marker =
-        poseFromParams(camera).inverse() * poseAt(bracket, nk, nk1, tau) * poseFromParams(x);
-    for (int c = 0; c < 4; ++c) {
-      const Eigen::Matrix<T, 3, 1> p = camera_from_marker * corners_in_marker[c].cast<T>();
-      if (p.z() <= T(0)) return false;
-      T pixel[2];
-      if (!projectChained(*camera_model, p, pixel)) return false;
-      residual[2 * c] = (T(observed[c].x()) - pixel[0]) / T(sigma_px);
-      residual[2 * c + 1] = (T(observed[c].y()) - pixel[1]) / T(sigma_px);
-    }
-    return true;
-  }
-};
-
-struct BlobCost {
-  Bracket bracket;  // tau_ref_s = the frame's time, zero velocity
-  const Camera* fisheye = nullptr;
-  Eigen::Vector3d offset_in_camera = Eigen::Vector3d::Zero();
-  Eigen::Vector2d observed;
-  double sigma_px = 1;
-  template <typename T>
-  bool operator()(const T* nk, const T* nk1, const T* camera, T* residual) const {
-    const Rigid3<T> world_from_fisheye = poseAt(bracket, nk, nk1, T(bracket.tau_ref_s));
-    const Rigid3<T> world_from_camera = poseFromParams(camera);
-    const Eigen::Matrix<T, 3, 1> p =
-        world_from_fisheye.inverse() * (world_from_camera * offset_in_camera.cast<T>());
-    T pixel[2];
-    if (!projectChained(*fisheye, p, pixel)) return false;
-    residual[0] = (T(observed.x()) - pixel[0]) / T(sigma_px);
-    residual[1] = (T(observed.y()) - pixel[1]) / T(sigma_px);
-    return true;
-  }
-};
 
 struct Detection {
   std::size_t association = 0;
@@ -646,13 +451,22 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   }
   solver.max_num_iterations = options.max_iterations;
   solver.num_threads = options.threads;
-  solver.function_tolerance = 1e-8;
+  solver.function_tolerance = options.function_tolerance;
   solver.gradient_tolerance = 1e-12;
   solver.parameter_tolerance = 1e-9;
 
   std::unique_ptr<ceres::LossFunction> huber, cauchy;
+  std::unique_ptr<FramePoseCache> frame_poses;  // the blob frames' poses at each evaluation point
   std::unique_ptr<ceres::Problem> ceres_problem;
   const bool verbose = std::getenv("LOOKBOTH_JOINT_VERBOSE") != nullptr;
+  // Process CPU time [s], for the verbose breakdown.
+  auto cpu = []() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; };
+  double cpu_mark = cpu();
+  auto lap = [&]() {
+    const double now = cpu(), d = now - cpu_mark;
+    cpu_mark = now;
+    return d;
+  };
   std::vector<char> previous_inlier;
   std::vector<double> previous_offset;
   std::size_t previous_blobs = 0;
@@ -701,6 +515,9 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     cauchy = std::make_unique<ceres::CauchyLoss>(options.cauchy);
     ceres::Problem::Options problem_options;
     problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    frame_poses = std::make_unique<FramePoseCache>();
+    problem_options.evaluation_callback = frame_poses.get();
+    std::vector<std::size_t> frame_slot(frames.size(), SIZE_MAX);
     ceres_problem = std::make_unique<ceres::Problem>(problem_options);
     ceres::Problem& Q = *ceres_problem;
     std::vector<bool> node_used(n_nodes, false);
@@ -793,17 +610,18 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       for (std::size_t q = 0; q < keep; ++q) {
         const BlobMatch& m = matches[c][q * n / keep];
         const Frame& f = frames[m.frame];
-        auto* cost = new BlobCost;
-        cost->bracket = f.bracket;
-        cost->fisheye = fisheye;
-        cost->offset_in_camera = options.blob_offset_in_camera_m;
-        cost->observed = Eigen::Vector2d(f.blobs->blobs[m.blob].u, f.blobs->blobs[m.blob].v);
-        cost->sigma_px = options.blob_sigma_px;
+        double* nk = nodes[f.bracket.k].data();
+        double* nk1 = nodes[f.bracket.k + 1].data();
+        if (frame_slot[m.frame] == SIZE_MAX) {
+          frame_slot[m.frame] = frame_poses->add(f.bracket, nk, nk1);
+        }
+        auto* cost = new CachedBlobCost(
+            frame_poses.get(), frame_slot[m.frame], fisheye, options.blob_offset_in_camera_m,
+            Eigen::Vector2d(f.blobs->blobs[m.blob].u, f.blobs->blobs[m.blob].v),
+            options.blob_sigma_px);
         addNode(f.bracket.k);
         addNode(f.bracket.k + 1);
-        Q.AddResidualBlock(new ceres::AutoDiffCostFunction<BlobCost, 2, 7, 7, 7>(cost),
-                           cauchy.get(), nodes[f.bracket.k].data(), nodes[f.bracket.k + 1].data(),
-                           cameras[c].pose);
+        Q.AddResidualBlock(cost, cauchy.get(), nk, nk1, cameras[c].pose);
       }
     }
     // Gauge and fixed parts.
@@ -816,14 +634,18 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     }
     if (options.fix_fisheye_from_marker) Q.SetParameterBlockConstant(x_params);
 
+    const double cpu_setup = lap();
     ceres::Solver::Summary summary;
     ceres::Solve(solver, &Q, &summary);
     if (verbose) {
-      std::cerr << "joint round " << round + 1 << ": " << summary.BriefReport()
-                << " residual blocks " << Q.NumResidualBlocks() << ", time "
-                << summary.total_time_in_seconds << " s (jacobians "
-                << summary.jacobian_evaluation_time_in_seconds << " s, linear solver "
-                << summary.linear_solver_time_in_seconds << " s)\n";
+      std::cerr << "joint round " << round + 1 << ": CPU " << cpu_setup
+                << " s association and setup, " << lap() << " s solve (preprocessor "
+                << summary.preprocessor_time_in_seconds << " s wall, residuals "
+                << summary.residual_evaluation_time_in_seconds
+                << " s wall): " << summary.BriefReport() << " residual blocks "
+                << Q.NumResidualBlocks() << ", time " << summary.total_time_in_seconds
+                << " s (jacobians " << summary.jacobian_evaluation_time_in_seconds
+                << " s, linear solver " << summary.linear_solver_time_in_seconds << " s)\n";
     }
     if (!summary.IsSolutionUsable()) {
       throw Error("joint: the solver failed: " + summary.message);
@@ -860,29 +682,24 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       for (std::size_t j = i; j < n_segments; ++j) blocks.emplace_back(&scales[i], &scales[j]);
     }
   }
-  ceres::Covariance::Options covariance_options;
-  covariance_options.algorithm_type = ceres::SPARSE_QR;
-  covariance_options.num_threads = options.threads;
-  ceres::Covariance covariance(covariance_options);
+  SparseCovariance covariance;
   bool have_covariance = false;
   if (options.covariance && !blocks.empty()) {
     progress.report("joint", options.rounds, options.rounds, "covariance");
-    have_covariance = covariance.Compute(blocks, ceres_problem.get());
+    frame_poses->PrepareForEvaluation(true, true);  // (Problem::Evaluate calls it too)
+    lap();
+    have_covariance = covariance.compute(blocks, ceres_problem.get(), options.threads);
+    if (verbose) std::cerr << "joint covariance: CPU " << lap() << " s\n";
     if (!have_covariance) {
-      result.warnings.push_back(
-          "joint: the covariance could not be computed (the problem has directions the data does "
-          "not determine)");
+      result.warnings.push_back("joint: the covariance could not be computed (" +
+                                covariance.message() + ")");
     }
   }
   auto poseCovariance = [&](const double* block) {
-    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> m;
-    covariance.GetCovarianceBlockInTangentSpace(block, block, m.data());
-    return Matrix6d(m);
+    return Matrix6d(covariance.block(block, block));
   };
   auto scalarVariance = [&](const double* a, const double* b) {
-    double v = 0;
-    covariance.GetCovarianceBlock(a, b, &v);
-    return v;
+    return covariance.block(a, b)(0, 0);
   };
 
   // ---- fisheye_from_marker ----

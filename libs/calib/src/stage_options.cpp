@@ -251,6 +251,7 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
                        "blob_offset_in_camera_m",
                        "rounds",
                        "max_iterations",
+                       "function_tolerance",
                        "linear_solver",
                        "covariance",
                        "threads"},
@@ -295,6 +296,7 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
   s.vector3("blob_offset_in_camera_m", blob_offset_in_camera_m);
   s.integer("rounds", rounds);
   s.integer("max_iterations", max_iterations);
+  s.number("function_tolerance", function_tolerance);
   if (node["linear_solver"]) linear_solver = r.text(node["linear_solver"], s.path("linear_solver"));
   flag("covariance", covariance);
   s.integer("threads", threads);
@@ -341,6 +343,9 @@ std::string JointOptions::check() const {
   if (rounds < 1) return "'rounds': must be at least 1";
   if (max_iterations < 1) return "'max_iterations': must be at least 1";
   if (threads < 1) return "'threads': must be at least 1";
+  if (!(function_tolerance > 0 && function_tolerance < 1)) {
+    return "'function_tolerance': must be in (0, 1), got " + formatDouble(function_tolerance);
+  }
   if (linear_solver != "sparse_normal_cholesky" && linear_solver != "sparse_schur" &&
       linear_solver != "iterative_schur") {
     return "'linear_solver': must be sparse_normal_cholesky, sparse_schur or iterative_schur, got "

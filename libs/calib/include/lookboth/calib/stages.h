@@ -187,9 +187,13 @@ struct JointOptions {
   // --- solver ---
   int rounds = 3;  ///< Association (detections' node brackets, blobs, outliers) + solve rounds.
   int max_iterations = 50;
+  /// A round stops when an iteration changes the cost by less than this
+  /// fraction (Ceres' function_tolerance).
+  double function_tolerance = 1e-6;
   /// "sparse_normal_cholesky", "sparse_schur" or "iterative_schur".
-  std::string linear_solver = "sparse_normal_cholesky";
-  bool covariance = true;  ///< Per-camera 6x6 covariance (ceres::Covariance, SPARSE_QR).
+  std::string linear_solver = "sparse_schur";
+  /// Per-camera 6x6 covariance (sparse LDL^T of the problem's J^T J; src/sparse_covariance.h).
+  bool covariance = true;
   int threads = 1;
   void read(const YamlReader& reader, const YAML::Node& node, const std::string& field);
   std::string check() const;

@@ -1,0 +1,357 @@
+// Private: the residuals of stage `joint` (joint.cpp), in a header of their
+// own so that tests can compare them (tests/joint_costs_test.cpp).
+#pragma once
+#include <ceres/ceres.h>
+#include <ceres/evaluation_callback.h>
+
+#include <array>
+#include <type_traits>
+#include <variant>
+#include <vector>
+
+#include "lookboth/cameras/camera.h"
+#include "pose_costs.h"
+
+namespace lookboth::joint_detail {
+
+using calib_detail::poseError;
+using calib_detail::poseFromParams;
+
+constexpr std::size_t kMaxParams = 64;  // camera model parameters a cost can carry
+
+// Where a time falls between two nodes and the reference trajectory there.
+struct Bracket {
+  std::size_t k = 0;                                         // node index (k, k+1)
+  double duration_s = 1;                                     // t_k+1 - t_k
+  double tau_ref_s = 0;                                      // reference time - t_k [s]
+  Rigid3d ref_inverse_k, ref_inverse_k1;                     // Nref^-1 at the two nodes
+  Rigid3d reference;                                         // Fref at the reference time
+  Eigen::Vector3d velocity_world = Eigen::Vector3d::Zero();  // [m/s]
+  Eigen::Vector3d omega_body = Eigen::Vector3d::Zero();      // [rad/s]
+};
+
+template <typename T>
+Rigid3<T> poseAt(const Bracket& b, const T* node_k, const T* node_k1, const T& tau) {
+  const Rigid3<T> ck = poseFromParams(node_k) * b.ref_inverse_k.cast<T>();
+  const Rigid3<T> ck1 = poseFromParams(node_k1) * b.ref_inverse_k1.cast<T>();
+  const T alpha = tau / T(b.duration_s);
+  const Eigen::Matrix<T, 3, 1> w =
+      so3Log(Eigen::Quaternion<T>(ck.rotation.conjugate() * ck1.rotation));
+  const Eigen::Matrix<T, 3, 1> wa = w * alpha;
+  const Rigid3<T> correction(ck.rotation * so3Exp(wa),
+                             ck.translation + (ck1.translation - ck.translation) * alpha);
+  const T delta = tau - T(b.tau_ref_s);
+  const Eigen::Matrix<T, 3, 1> wd = b.omega_body.cast<T>() * delta;
+  const Rigid3<T> reference(b.reference.rotation.cast<T>() * so3Exp(wd),
+                            b.reference.translation.cast<T>() + b.velocity_world.cast<T>() * delta);
+  return correction * reference;
+}
+
+// poseAt at tau = tau_camera - offset for a cost whose Jets are long: the
+// interpolation is differentiated with Jets of its own 15 inputs (the two
+// nodes and the offset) and chained into T, which halves the work.
+template <typename T>
+Rigid3<T> poseAtChained(const Bracket& b, const T* nk, const T* nk1, const T* offset,
+                        double tau_camera) {
+  if constexpr (std::is_same_v<T, double>) {
+    return poseAt(b, nk, nk1, T(tau_camera) - offset[0]);
+  } else {
+    using J = ceres::Jet<double, 15>;
+    J a[7], c[7];
+    for (int i = 0; i < 7; ++i) {
+      a[i] = J(nk[i].a, i);
+      c[i] = J(nk1[i].a, 7 + i);
+    }
+    const J tau = J(tau_camera) - J(offset[0].a, 14);
+    const Rigid3<J> w = poseAt(b, a, c, tau);
+    auto chain = [&](const J& v) {
+      T r;
+      r.a = v.a;
+      r.v = v.v[14] * offset[0].v;  // (d tau / d offset = -1 is in v.v[14])
+      for (int i = 0; i < 7; ++i) r.v += v.v[i] * nk[i].v + v.v[7 + i] * nk1[i].v;
+      return r;
+    };
+    return Rigid3<T>(Eigen::Quaternion<T>(chain(w.rotation.w()), chain(w.rotation.x()),
+                                          chain(w.rotation.y()), chain(w.rotation.z())),
+                     Eigen::Matrix<T, 3, 1>(chain(w.translation.x()), chain(w.translation.y()),
+                                            chain(w.translation.z())));
+  }
+}
+
+struct RelativeMotionCost {
+  Rigid3d delta_unscaled;  // Nref_k^-1 Nref_k+1 in trajectory units
+  double sigma_t = 1, sigma_r = 1;
+  template <typename T>
+  bool operator()(const T* nk, const T* nk1, const T* scale, T* residual) const {
+    const Rigid3<T> a = poseFromParams(nk), b = poseFromParams(nk1);
+    const Eigen::Matrix<T, 3, 1> dt = a.rotation.conjugate() * (b.translation - a.translation) -
+                                      delta_unscaled.translation.cast<T>() * scale[0];
+    const Eigen::Matrix<T, 3, 1> dr = so3Log(Eigen::Quaternion<T>(
+        delta_unscaled.rotation.cast<T>().conjugate() * a.rotation.conjugate() * b.rotation));
+    for (int i = 0; i < 3; ++i) {
+      residual[i] = dt[i] / T(sigma_t);
+      residual[3 + i] = dr[i] / T(sigma_r);
+    }
+    return true;
+  }
+};
+
+struct ScaleWalkCost {
+  double sigma = 1;
+  template <typename T>
+  bool operator()(const T* a, const T* b, T* residual) const {
+    residual[0] = (b[0] - a[0]) / T(sigma);
+    return true;
+  }
+};
+
+struct ScalarPriorCost {
+  double value = 0, sigma = 1;
+  template <typename T>
+  bool operator()(const T* x, T* residual) const {
+    residual[0] = (x[0] - T(value)) / T(sigma);
+    return true;
+  }
+};
+
+// One tangent component c of a pose ([dt; dtheta] at `prior`).
+struct ComponentPriorCost {
+  Rigid3d prior;
+  int component = 0;
+  double sigma = 1;
+  template <typename T>
+  bool operator()(const T* x, T* residual) const {
+    const Eigen::Matrix<T, 6, 1> e = poseError(poseFromParams(x), prior);
+    residual[0] = e[component] / T(sigma);
+    return true;
+  }
+};
+
+struct MarkerPoseCost {
+  Bracket bracket;
+  double tau_camera_s = 0;  // t_camera - t_k [s]
+  Rigid3d measured;         // camera_from_marker
+  Matrix6d sqrt_info;
+  template <typename T>
+  bool operator()(const T* nk, const T* nk1, const T* x, const T* camera, const T* offset,
+                  T* residual) const {
+    const Rigid3<T> world_from_marker =
+        poseAtChained(bracket, nk, nk1, offset, tau_camera_s) * poseFromParams(x);
+    const Rigid3<T> predicted = poseFromParams(camera).inverse() * world_from_marker;
+    Eigen::Map<Eigen::Matrix<T, 6, 1>> r(residual);
+    r = sqrt_info.cast<T>() * poseError(predicted, measured);
+    return true;
+  }
+};
+
+template <typename T>
+bool projectWith(const Camera& camera, const Eigen::Matrix<T, 3, 1>& p, T* pixel) {
+  std::array<T, kMaxParams> params;
+  const std::vector<double>& values = camera.params();
+  for (std::size_t i = 0; i < values.size() && i < kMaxParams; ++i) params[i] = T(values[i]);
+  return std::visit(
+      [&](const auto& model) { return model.project(params.data(), p.data(), pixel); },
+      camera.model());
+}
+
+// The camera model's projection of a point whose derivatives are of any
+// length: the model is differentiated only with respect to the point (a
+// Jet of 3) and chained, so its cost does not grow with the cost's parameters.
+template <typename T>
+bool projectChained(const Camera& camera, const Eigen::Matrix<T, 3, 1>& p, T* pixel) {
+  if constexpr (std::is_same_v<T, double>) {
+    return projectWith(camera, p, pixel);
+  } else {
+    using J3 = ceres::Jet<double, 3>;
+    const Eigen::Matrix<J3, 3, 1> q(J3(p[0].a, 0), J3(p[1].a, 1), J3(p[2].a, 2));
+    J3 out[2];
+    if (!projectWith(camera, q, out)) return false;
+    for (int r = 0; r < 2; ++r) {
+      pixel[r].a = out[r].a;
+      pixel[r].v = out[r].v[0] * p[0].v + out[r].v[1] * p[1].v + out[r].v[2] * p[2].v;
+    }
+    return true;
+  }
+}
+
+struct MarkerCornersCost {
+  Bracket bracket;
+  double tau_camera_s = 0;
+  const Camera* camera_model = nullptr;
+  std::array<Eigen::Vector3d, 4> corners_in_marker;
+  std::array<Eigen::Vector2d, 4> observed;
+  double sigma_px = 1;
+  template <typename T>
+  bool operator()(const T* nk, const T* nk1, const T* x, const T* camera, const T* offset,
+                  T* residual) const {
+    const T tau = T(tau_camera_s) - offset[0];
+    const Rigid3<T> camera_from_marker =
+        poseFromParams(camera).inverse() * poseAt(bracket, nk, nk1, tau) * poseFromParams(x);
+    for (int c = 0; c < 4; ++c) {
+      const Eigen::Matrix<T, 3, 1> p = camera_from_marker * corners_in_marker[c].cast<T>();
+      if (p.z() <= T(0)) return false;
+      T pixel[2];
+      if (!projectChained(*camera_model, p, pixel)) return false;
+      residual[2 * c] = (T(observed[c].x()) - pixel[0]) / T(sigma_px);
+      residual[2 * c + 1] = (T(observed[c].y()) - pixel[1]) / T(sigma_px);
+    }
+    return true;
+  }
+};
+
+struct BlobCost {
+  Bracket bracket;  // tau_ref_s = the frame's time, zero velocity
+  const Camera* fisheye = nullptr;
+  Eigen::Vector3d offset_in_camera = Eigen::Vector3d::Zero();
+  Eigen::Vector2d observed;
+  double sigma_px = 1;
+  template <typename T>
+  bool operator()(const T* nk, const T* nk1, const T* camera, T* residual) const {
+    const Rigid3<T> world_from_fisheye = poseAt(bracket, nk, nk1, T(bracket.tau_ref_s));
+    const Rigid3<T> world_from_camera = poseFromParams(camera);
+    const Eigen::Matrix<T, 3, 1> p =
+        world_from_fisheye.inverse() * (world_from_camera * offset_in_camera.cast<T>());
+    T pixel[2];
+    if (!projectChained(*fisheye, p, pixel)) return false;
+    residual[0] = (T(observed.x()) - pixel[0]) / T(sigma_px);
+    residual[1] = (T(observed.y()) - pixel[1]) / T(sigma_px);
+    return true;
+  }
+};
+
+// The poses world_from_fisheye of the blob frames and their derivatives with
+// respect to the two nodes around each frame, computed once per evaluation
+// point for all the blobs of a frame (a Ceres EvaluationCallback), instead of
+// once per blob residual: BlobCost's interpolation with Jets of 21 was most of
+// the joint's Jacobian time.
+class FramePoseCache : public ceres::EvaluationCallback {
+ public:
+  using Jacobian = Eigen::Matrix<double, 7, 14, Eigen::RowMajor>;  // d pose / d [node_k node_k+1]
+
+  /// A frame between the nodes `node_k` and `node_k1` (parameter blocks that
+  /// outlive the cache); returns its slot.
+  std::size_t add(const Bracket& bracket, const double* node_k, const double* node_k1) {
+    slots_.push_back({bracket, node_k, node_k1});
+    poses_.emplace_back();
+    jacobians_.emplace_back();
+    have_values_ = have_jacobians_ = false;
+    return slots_.size() - 1;
+  }
+  std::size_t size() const { return slots_.size(); }
+
+  void PrepareForEvaluation(bool evaluate_jacobians, bool new_evaluation_point) override {
+    if (new_evaluation_point) have_values_ = have_jacobians_ = false;
+    if (evaluate_jacobians ? have_jacobians_ : have_values_) return;
+    for (std::size_t i = 0; i < slots_.size(); ++i) compute(i, evaluate_jacobians);
+    have_values_ = true;
+    have_jacobians_ = have_jacobians_ || evaluate_jacobians;
+  }
+
+  /// [tx ty tz qx qy qz qw] of a slot at the last prepared point.
+  const std::array<double, 7>& pose(std::size_t slot) const { return poses_[slot]; }
+  const Jacobian& jacobian(std::size_t slot) const { return jacobians_[slot]; }
+
+ private:
+  struct Slot {
+    Bracket bracket;
+    const double* node_k;
+    const double* node_k1;
+  };
+  void compute(std::size_t i, bool with_jacobian) {
+    const Slot& s = slots_[i];
+    if (!with_jacobian) {
+      const Rigid3d w = poseAt<double>(s.bracket, s.node_k, s.node_k1, s.bracket.tau_ref_s);
+      for (int r = 0; r < 3; ++r) poses_[i][r] = w.translation[r];
+      for (int r = 0; r < 4; ++r) poses_[i][3 + r] = w.rotation.coeffs()[r];
+      return;
+    }
+    using J = ceres::Jet<double, 14>;
+    J a[7], c[7];
+    for (int r = 0; r < 7; ++r) {
+      a[r] = J(s.node_k[r], r);
+      c[r] = J(s.node_k1[r], 7 + r);
+    }
+    const Rigid3<J> w = poseAt(s.bracket, a, c, J(s.bracket.tau_ref_s));
+    const J out[7] = {w.translation.x(),      w.translation.y(),      w.translation.z(),
+                      w.rotation.coeffs()[0], w.rotation.coeffs()[1], w.rotation.coeffs()[2],
+                      w.rotation.coeffs()[3]};
+    for (int r = 0; r < 7; ++r) {
+      poses_[i][r] = out[r].a;
+      jacobians_[i].row(r) = out[r].v.transpose();
+    }
+  }
+  std::vector<Slot> slots_;
+  std::vector<std::array<double, 7>> poses_;
+  std::vector<Jacobian> jacobians_;
+  bool have_values_ = false, have_jacobians_ = false;
+};
+
+// BlobCost through a FramePoseCache: the same residual, with the Jacobian
+// with respect to the nodes chained from the cached frame-pose derivative.
+// Its parameter blocks must be the slot's two nodes, then the camera.
+class CachedBlobCost : public ceres::SizedCostFunction<2, 7, 7, 7> {
+ public:
+  CachedBlobCost(const FramePoseCache* cache, std::size_t slot, const Camera* fisheye,
+                 const Eigen::Vector3d& offset_in_camera, const Eigen::Vector2d& observed,
+                 double sigma_px)
+      : cache_(cache),
+        slot_(slot),
+        fisheye_(fisheye),
+        offset_in_camera_(offset_in_camera),
+        observed_(observed),
+        sigma_px_(sigma_px) {}
+
+  template <typename T>
+  bool residualOf(const T* world_from_fisheye_params, const T* camera, T* residual) const {
+    const Rigid3<T> world_from_fisheye = poseFromParams(world_from_fisheye_params);
+    const Eigen::Matrix<T, 3, 1> p =
+        world_from_fisheye.inverse() * (poseFromParams(camera) * offset_in_camera_.cast<T>());
+    T pixel[2];
+    if (!projectChained(*fisheye_, p, pixel)) return false;
+    residual[0] = (T(observed_.x()) - pixel[0]) / T(sigma_px_);
+    residual[1] = (T(observed_.y()) - pixel[1]) / T(sigma_px_);
+    return true;
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const std::array<double, 7>& f = cache_->pose(slot_);
+    const double* camera = parameters[2];
+    if (jacobians == nullptr) return residualOf(f.data(), camera, residuals);
+    using J = ceres::Jet<double, 14>;
+    J fj[7], cj[7], r[2];
+    for (int i = 0; i < 7; ++i) {
+      fj[i] = J(f[i], i);
+      cj[i] = J(camera[i], 7 + i);
+    }
+    if (!residualOf(fj, cj, r)) return false;
+    Eigen::Matrix<double, 2, 7, Eigen::RowMajor> d_fisheye;
+    for (int row = 0; row < 2; ++row) {
+      residuals[row] = r[row].a;
+      d_fisheye.row(row) = r[row].v.template head<7>().transpose();
+      if (jacobians[2] != nullptr) {
+        for (int i = 0; i < 7; ++i) jacobians[2][7 * row + i] = r[row].v[7 + i];
+      }
+    }
+    if (jacobians[0] != nullptr || jacobians[1] != nullptr) {
+      const Eigen::Matrix<double, 2, 14, Eigen::RowMajor> d_nodes =
+          d_fisheye * cache_->jacobian(slot_);
+      for (int b = 0; b < 2; ++b) {
+        if (jacobians[b] == nullptr) continue;
+        Eigen::Map<Eigen::Matrix<double, 2, 7, Eigen::RowMajor>> out(jacobians[b]);
+        out = d_nodes.template middleCols<7>(7 * b);
+      }
+    }
+    return true;
+  }
+
+ private:
+  const FramePoseCache* cache_;
+  std::size_t slot_;
+  const Camera* fisheye_;
+  Eigen::Vector3d offset_in_camera_;
+  Eigen::Vector2d observed_;
+  double sigma_px_;
+};
+
+}  // namespace lookboth::joint_detail
