@@ -9,9 +9,9 @@
 #   4. detect the marker in the environment cameras and the cameras in the fisheye
 #      (and score the detections against the ground truth);
 #   5. run the fisheye visual odometry;
-#   6. register the cameras (the paper's stages), with the visual trajectory and
-#      with the robot's wheel odometry;
-#      and once more with the joint adjustment after the paper's stages;
+#   6. register the cameras (the default: the paper's stages, then the joint
+#      adjustment), with the visual trajectory and with the robot's wheel
+#      odometry; and once more with the paper's stages alone (config/paper.yaml);
 #   7. evaluate against the ground truth, compare the runs, draw the pictures
 #      and write the HTML report.
 set -euo pipefail
@@ -41,17 +41,17 @@ echo
 echo "== 5. Visual odometry on the fisheye (trajectory 'vo', up to scale, added to the dataset)"
 "$LOOKBOTH" odometry "$OUT/small.rawlog"
 echo
-echo "== 6. Register the cameras: visual trajectory (the paper), then the wheel odometry (metric),"
-echo "==    then the visual trajectory with the joint adjustment after the paper's stages"
+echo "== 6. Register the cameras (the paper's stages, then the joint adjustment): visual trajectory,"
+echo "==    then the wheel odometry (metric), then the visual trajectory with the paper's stages alone"
 "$LOOKBOTH" register "$OUT/small.rawlog" --out "$OUT/registration" --overwrite
 "$LOOKBOTH" register "$OUT/small.rawlog" --trajectory metric --out "$OUT/registration_metric" --overwrite
-"$LOOKBOTH" register "$OUT/small.rawlog" --out "$OUT/registration_joint" --overwrite \
-  --config "$LOOKBOTH_ROOT/share/lookboth/config/joint.yaml"
+"$LOOKBOTH" register "$OUT/small.rawlog" --out "$OUT/registration_paper" --overwrite \
+  --config "$LOOKBOTH_ROOT/share/lookboth/config/paper.yaml"
 echo
 echo "== 7. Evaluate against the simulator's ground truth, and the two runs against each other"
 "$LOOKBOTH" evaluate "$OUT/registration" --ground-truth "$OUT/small.rawlog"
 "$LOOKBOTH" evaluate "$OUT/registration" --against "$OUT/registration_metric"
-"$LOOKBOTH" evaluate "$OUT/registration_joint" --ground-truth "$OUT/small.rawlog"
+"$LOOKBOTH" evaluate "$OUT/registration_paper" --ground-truth "$OUT/small.rawlog"
 echo
 echo "== Pictures without a display: reprojection checks, camera views, 3-D overview, comparison"
 "$LOOKBOTH" snapshot "$OUT/small.rawlog" "$OUT/registration" --out "$OUT/pictures" \

@@ -44,14 +44,15 @@ class PipelineTest : public ::testing::Test {
   }
   static RegistrationRun registerDataset(const std::string& scenario, TrajectoryMode mode,
                                          const std::string& label,
-                                         RegistrationInput* input_out = nullptr) {
+                                         RegistrationInput* input_out = nullptr,
+                                         const std::optional<fs::path>& config = std::nullopt) {
     RegisterOptions options;
     options.dataset = dataset(scenario);
     options.mode = mode;
     options.trajectory_label = label;
     RegistrationInput input = loadRegistrationInput(options, ProgressReporter());
     if (input_out) *input_out = input;
-    const RegistrationController controller(loadRegistrationConfig(std::nullopt));
+    const RegistrationController controller(loadRegistrationConfig(config));
     return controller.run(std::move(input), ProgressReporter());
   }
   static fs::path* dir_;
@@ -64,8 +65,8 @@ TEST_F(PipelineTest, SmallMetricGroundTruthTrajectory) {
       registerDataset("small", TrajectoryMode::kMetric, "ground_truth", &input);
   const Registration& r = run.registration;
   EXPECT_EQ(r.registeredCount(), 6);
-  EXPECT_EQ(r.pipeline,
-            (std::vector<std::string>{"associate", "motion_calibration", "look_down", "look_up"}));
+  EXPECT_EQ(r.pipeline, (std::vector<std::string>{"associate", "motion_calibration", "look_down",
+                                                  "look_up", "joint"}));
   const auto a = testing::accuracyAgainst(r, input.manifest.ground_truth.world_from_camera);
   EXPECT_EQ(a.compared, 6);
   // small: 640x360 cameras, 18 px markers (tilt noise ~17 deg per detection).
@@ -137,27 +138,47 @@ TEST_F(PipelineTest, StepsBeforeRegistrationSayWhyTheyAreSkipped) {
   }
 }
 
+// The faults scenario under the paper's stages (share/lookboth/config/paper.yaml)
+// and under the default pipeline, which ends with the joint adjustment.
 TEST_F(PipelineTest, FaultsCompleteWithFaultsReported) {
-  RegistrationInput input;
-  const RegistrationRun run =
-      registerDataset("faults", TrajectoryMode::kMetric, "odometry", &input);
-  const Registration& r = run.registration;
-  ASSERT_EQ(r.cameras.size(), 7u);
-  // The unvisited camera: unregistered, with the reason.
-  const CameraRegistration* unvisited = r.findCamera("cam06");
-  ASSERT_NE(unvisited, nullptr);
-  EXPECT_EQ(unvisited->status, CameraStatus::kUnregistered);
-  EXPECT_NE(unvisited->reason.find("never detected"), std::string::npos);
-  // The camera whose clock jumped by 250 ms: its detections disagree.
-  const CameraRegistration* jumped = r.findCamera("cam00");
-  ASSERT_NE(jumped, nullptr);
-  EXPECT_EQ(jumped->status, CameraStatus::kSuspect) << jumped->reason;
-  EXPECT_GT(jumped->detections.rejected, 0);
-  // The others are registered and near the truth.
-  const auto a = testing::accuracyAgainst(r, input.manifest.ground_truth.world_from_camera);
-  EXPECT_EQ(a.compared, 6);
-  EXPECT_LT(a.position_rmse_m, 0.1);
-  EXPECT_FALSE(r.warnings.empty());
+  for (const bool paper : {true, false}) {
+    SCOPED_TRACE(paper ? "paper.yaml" : "default");
+    RegistrationInput input;
+    const RegistrationRun run =
+        registerDataset("faults", TrajectoryMode::kMetric, "odometry", &input,
+                        paper ? std::optional<fs::path>(fs::path(LOOKBOTH_SHARE_DIR) / "config" /
+                                                        "paper.yaml")
+                              : std::nullopt);
+    const Registration& r = run.registration;
+    ASSERT_EQ(r.cameras.size(), 7u);
+    // The unvisited camera: unregistered, with the reason.
+    const CameraRegistration* unvisited = r.findCamera("cam06");
+    ASSERT_NE(unvisited, nullptr);
+    EXPECT_EQ(unvisited->status, CameraStatus::kUnregistered);
+    EXPECT_NE(unvisited->reason.find("never detected"), std::string::npos);
+    // The camera whose clock is 250 ms off: its detections disagree for the
+    // paper's stages; the joint adjustment estimates the offset and registers it.
+    const CameraRegistration* jumped = r.findCamera("cam00");
+    ASSERT_NE(jumped, nullptr);
+    if (paper) {
+      EXPECT_EQ(jumped->status, CameraStatus::kSuspect) << jumped->reason;
+      EXPECT_GT(jumped->detections.rejected, 0);
+    } else {
+      EXPECT_EQ(jumped->status, CameraStatus::kRegistered) << jumped->reason;
+      ASSERT_TRUE(jumped->clock_offset.has_value());
+      EXPECT_NEAR(static_cast<double>(jumped->clock_offset->offset_ns) * 1e-6, 250.0, 20.0);
+      bool warned = false;
+      for (const std::string& w : jumped->warnings) {
+        warned = warned || w.find("registered although look_down was not") != std::string::npos;
+      }
+      EXPECT_TRUE(warned) << "no warning that look_down could not register cam00";
+    }
+    // The others are registered and near the truth.
+    const auto a = testing::accuracyAgainst(r, input.manifest.ground_truth.world_from_camera);
+    EXPECT_EQ(a.compared, 6);
+    EXPECT_LT(a.position_rmse_m, paper ? 0.1 : 0.03);
+    EXPECT_FALSE(r.warnings.empty());
+  }
 }
 
 TEST_F(PipelineTest, VisualWithoutVoSaysToRunOdometry) {
@@ -231,8 +252,8 @@ TEST(RegistrationConfig, UserFileOverridesAndErrorsNameTheField) {
 
 TEST(RegistrationConfig, ShippedDefaultsAreValid) {
   const RegistrationConfig config = loadRegistrationConfig(std::nullopt);
-  EXPECT_EQ(config.pipeline,
-            (std::vector<std::string>{"associate", "motion_calibration", "look_down", "look_up"}));
+  EXPECT_EQ(config.pipeline, (std::vector<std::string>{"associate", "motion_calibration",
+                                                       "look_down", "look_up", "joint"}));
   EXPECT_NO_THROW(RegistrationController{config});
 }
 
