@@ -30,11 +30,12 @@ testing::SyntheticScene facility(int cameras) {
   return testing::makeSyntheticScene(o);
 }
 
-// The paper's pipeline (the defaults) or, joint = true, followed by `joint`.
+// The paper's pipeline (config/paper.yaml) or, joint = true, followed by `joint`.
 void registerFacility(benchmark::State& state, bool joint) {
   const int cameras = static_cast<int>(state.range(0));
   const testing::SyntheticScene scene = facility(cameras);
-  std::optional<std::filesystem::path> config;
+  std::optional<std::filesystem::path> config =
+      std::filesystem::path(LOOKBOTH_SHARE_DIR) / "config" / "paper.yaml";
   if (joint) {
     config = std::filesystem::temp_directory_path() /
              ("lookboth-bench-joint-" + std::to_string(::getpid()) + ".yaml");
@@ -44,7 +45,7 @@ void registerFacility(benchmark::State& state, bool joint) {
                               "drift_deg_per_sqrt_m: 0.05}\n";
   }
   const RegistrationController controller(loadRegistrationConfig(config));
-  if (config) std::filesystem::remove(*config);
+  if (joint) std::filesystem::remove(*config);
   int registered = 0;
   double position_rmse = 0;
   for (auto _ : state) {
