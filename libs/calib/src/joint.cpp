@@ -74,6 +74,7 @@ struct JointCamera {
   CameraRegistration* registration = nullptr;
   const Camera* model = nullptr;  // env camera calibration (corners), may be null
   double pose[7];
+  Rigid3d start;         // the pose the joint started from (look_up's, or the restart's)
   double offset_s = 0;   // node - robot [s]
   double offset0_s = 0;  // configured (associate) [s]
   std::vector<std::size_t> detections;
@@ -272,6 +273,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     const auto model = env_models.find(c.label);
     jc.model = model == env_models.end() ? nullptr : model->second;
     poseToParams(start, jc.pose);
+    jc.start = start;
     const auto offset = configured_offsets.find(c.label);
     jc.offset0_s = offset == configured_offsets.end() ? 0.0 : nsToSeconds(offset->second);
     jc.offset_s = jc.offset0_s;
@@ -866,6 +868,79 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     if (jc.blobs > 0 && jc.blobs < options.min_blobs) {
       camera.warnings.push_back("joint: only " + std::to_string(jc.blobs) +
                                 " blobs associated; not used");
+    }
+  }
+
+  // ---- fisheye reprojection of the camera positions ----
+  // The paper's Table I for the final result: "before" = look_down's position
+  // on the input trajectory (motion_calibration's scale), "after" = the joint
+  // estimate on the corrected trajectory, over the blobs associated at the
+  // joint estimate. They replace look_up's statistics and rows of
+  // blob_associations.csv for the cameras of this stage.
+  if (use_blobs) {
+    associateBlobs();
+    auto projectFrom = [&](const Rigid3d& world_from_fisheye,
+                           const Eigen::Vector3d& p_in_world) -> std::optional<Eigen::Vector2d> {
+      const Eigen::Vector3d p = world_from_fisheye.inverse() * p_in_world;
+      if (p.z() <= 0) return std::nullopt;
+      return fisheye->project(p);
+    };
+    std::set<std::string> labels;
+    std::vector<BlobAssociation> rows;
+    for (std::size_t c = 0; c < cameras.size(); ++c) {
+      CameraRegistration& camera = *cameras[c].registration;
+      labels.insert(camera.label);
+      camera.reprojection.reset();
+      if (camera.status == CameraStatus::kUnregistered) continue;
+      const auto look_down = camera.stage_poses.find("look_down");
+      const Rigid3d before_pose =
+          look_down != camera.stage_poses.end() ? look_down->second : cameras[c].start;
+      const Eigen::Vector3d before_in_world = before_pose * options.blob_offset_in_camera_m;
+      const Eigen::Vector3d after_in_world =
+          camera.world_from_camera * options.blob_offset_in_camera_m;
+      int n = 0;
+      double sum_before = 0, sum_after = 0;
+      for (const BlobMatch& m : matches[c]) {
+        const Frame& f = frames[m.frame];
+        const Blob& blob = f.blobs->blobs[m.blob];
+        const auto before = projectFrom(f.bracket.reference, before_in_world);
+        const auto after = projectFrom(evalPose(f.bracket, f.bracket.tau_ref_s), after_in_world);
+        if (!before || !after) continue;
+        const Eigen::Vector2d observed(blob.u, blob.v);
+        sum_before += (*before - observed).squaredNorm();
+        sum_after += (*after - observed).squaredNorm();
+        ++n;
+        rows.push_back({f.blobs->t, camera.label, blob.u, blob.v, before->x(), before->y(),
+                        after->x(), after->y()});
+      }
+      if (n == 0) continue;
+      camera.reprojection =
+          ReprojectionStats{n, std::sqrt(sum_before / n), std::sqrt(sum_after / n), "joint"};
+    }
+    std::vector<BlobAssociation>& all = result.blob_associations;
+    all.erase(std::remove_if(all.begin(), all.end(),
+                             [&](const BlobAssociation& a) { return labels.count(a.camera) > 0; }),
+              all.end());
+    all.insert(all.end(), rows.begin(), rows.end());
+    std::sort(all.begin(), all.end(), [](const BlobAssociation& a, const BlobAssociation& b) {
+      return a.t != b.t ? a.t < b.t : a.camera < b.camera;
+    });
+    // Totals over every camera that has statistics (this stage's, and
+    // look_up's of cameras the stage did not take).
+    int blobs = 0;
+    double before2 = 0, after2 = 0;
+    for (const CameraRegistration& camera : result.cameras) {
+      if (!camera.reprojection || camera.reprojection->blobs == 0) continue;
+      const ReprojectionStats& st = *camera.reprojection;
+      blobs += st.blobs;
+      before2 += st.rms_px_before * st.rms_px_before * st.blobs;
+      after2 += st.rms_px_after * st.rms_px_after * st.blobs;
+    }
+    if (blobs > 0) {
+      result.reprojection =
+          ReprojectionStats{blobs, std::sqrt(before2 / blobs), std::sqrt(after2 / blobs), "joint"};
+    } else {
+      result.reprojection.reset();
     }
   }
   progress.report("joint", options.rounds, options.rounds);

@@ -377,7 +377,8 @@ std::string registrationSummary(const Registration& r) {
   if (r.reprojection) {
     out << "reprojection: " << r.reprojection->blobs << " blobs, RMS "
         << formatFixed(r.reprojection->rms_px_before, 2) << " px before, "
-        << formatFixed(r.reprojection->rms_px_after, 2) << " px after look_up\n";
+        << formatFixed(r.reprojection->rms_px_after, 2) << " px after "
+        << r.reprojection->after_stage << "\n";
   }
   for (const std::string& w : r.warnings) out << "warning: " << w << "\n";
   for (const CameraRegistration& c : r.cameras) {

@@ -101,6 +101,7 @@ void emitReprojection(YAML::Emitter& out, const ReprojectionStats& stats) {
   out << YAML::Key << "blobs" << YAML::Value << stats.blobs;
   out << YAML::Key << "rms_px_before" << YAML::Value << formatDouble(stats.rms_px_before);
   out << YAML::Key << "rms_px_after" << YAML::Value << formatDouble(stats.rms_px_after);
+  out << YAML::Key << "after_stage" << YAML::Value << stats.after_stage;
   out << YAML::EndMap;
 }
 
@@ -172,13 +173,17 @@ struct Reader : YamlReader {
   }
 
   ReprojectionStats reprojection(const YAML::Node& node, const std::string& field) const {
-    rejectUnknownKeys(node, {"blobs", "rms_px_before", "rms_px_after"}, field);
+    rejectUnknownKeys(node, {"blobs", "rms_px_before", "rms_px_after", "after_stage"}, field);
     ReprojectionStats stats;
     stats.blobs = count(require(node, "blobs", field + ".blobs"), field + ".blobs");
     stats.rms_px_before =
         number(require(node, "rms_px_before", field + ".rms_px_before"), field + ".rms_px_before");
     stats.rms_px_after =
         number(require(node, "rms_px_after", field + ".rms_px_after"), field + ".rms_px_after");
+    // Absent in files written before the joint stage computed its own (look_up's then).
+    if (node["after_stage"]) {
+      stats.after_stage = text(node["after_stage"], field + ".after_stage");
+    }
     return stats;
   }
 };

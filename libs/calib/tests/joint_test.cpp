@@ -273,6 +273,32 @@ TEST(Joint, NoisyCornersAndPosesBothWork) {
   EXPECT_LT(with_corners.rotation_rmse_deg, 0.15);
 }
 
+// Table I for the final result: the fisheye reprojection of each camera
+// before (look_down's position on the input trajectory) and after the joint
+// estimate, with blob_associations.csv's rows from the same blobs.
+TEST(Joint, ReportsTheReprojectionOfItsOwnEstimate) {
+  const SyntheticScene scene = makeSyntheticScene(noisyOptions(6));
+  const RegistrationProblem problem = solve(scene, forExactTrajectory());
+  const Registration& r = problem.result;
+  ASSERT_TRUE(r.reprojection.has_value());
+  EXPECT_EQ(r.reprojection->after_stage, "joint");
+  EXPECT_LT(r.reprojection->rms_px_after, r.reprojection->rms_px_before);
+  EXPECT_LT(r.reprojection->rms_px_after, 1.5);  // blob noise 0.7 px (noisyOptions)
+  int blobs = 0;
+  for (const CameraRegistration& c : r.cameras) {
+    ASSERT_TRUE(c.reprojection.has_value()) << c.label;
+    EXPECT_EQ(c.reprojection->after_stage, "joint");
+    blobs += c.reprojection->blobs;
+  }
+  EXPECT_EQ(blobs, r.reprojection->blobs);
+  ASSERT_EQ(static_cast<int>(r.blob_associations.size()), blobs);
+  double sum_after = 0;
+  for (const BlobAssociation& a : r.blob_associations) {
+    sum_after += (a.u_after - a.u) * (a.u_after - a.u) + (a.v_after - a.v) * (a.v_after - a.v);
+  }
+  EXPECT_NEAR(std::sqrt(sum_after / blobs), r.reprojection->rms_px_after, 1e-9);
+}
+
 TEST(Joint, NamesTheMissingStage) {
   const SyntheticScene scene = makeSyntheticScene({});
   RegistrationProblem problem;

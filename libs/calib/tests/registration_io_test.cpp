@@ -68,7 +68,7 @@ Registration sampleRegistration() {
   c.status = CameraStatus::kUnregistered;
   c.reason = "never detected";
   reg.cameras = {a, b, c};
-  reg.reprojection = ReprojectionStats{3000, 2.3, 1.1};
+  reg.reprojection = ReprojectionStats{3000, 2.3, 1.1, "joint"};
   reg.observability.message = "the vertical offset is not determined by planar motion";
   reg.observability.eigenvalues = {1e-12, 0.5, 3, 4, 5, 6, 7};
   reg.warnings = {"one", "two"};
@@ -151,6 +151,7 @@ TEST_F(RegistrationIoTest, RoundTripsEveryField) {
       EXPECT_EQ(y.reprojection->blobs, x.reprojection->blobs);
       EXPECT_EQ(y.reprojection->rms_px_before, x.reprojection->rms_px_before);
       EXPECT_EQ(y.reprojection->rms_px_after, x.reprojection->rms_px_after);
+      EXPECT_EQ(y.reprojection->after_stage, x.reprojection->after_stage);
     }
     ASSERT_EQ(y.clock_offset.has_value(), x.clock_offset.has_value());
     if (x.clock_offset) {
@@ -162,6 +163,7 @@ TEST_F(RegistrationIoTest, RoundTripsEveryField) {
   }
   ASSERT_TRUE(back.reprojection);
   EXPECT_EQ(back.reprojection->blobs, 3000);
+  EXPECT_EQ(back.reprojection->after_stage, "joint");
   EXPECT_EQ(back.observability.message, reg.observability.message);
   EXPECT_EQ(back.observability.eigenvalues, reg.observability.eigenvalues);
   EXPECT_EQ(back.warnings, reg.warnings);

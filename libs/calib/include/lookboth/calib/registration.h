@@ -56,8 +56,11 @@ struct ResidualStats {
 /// Fisheye reprojection of camera positions (stage 4, eq. 4-5) [px].
 struct ReprojectionStats {
   int blobs = 0;             ///< Associated blob detections.
-  double rms_px_before = 0;  ///< RMS before the looking-up refinement.
+  double rms_px_before = 0;  ///< RMS before the refinement (look_down's position).
   double rms_px_after = 0;   ///< RMS after it.
+  /// The stage whose estimate "after" is: "look_up", or "joint" (its
+  /// corrected trajectory and cameras) when the pipeline ends with it.
+  std::string after_stage = "look_up";
 };
 
 /// A camera's clock offset (node clock - robot clock) as estimated by the
