@@ -144,11 +144,10 @@ TEST_F(PipelineTest, FaultsCompleteWithFaultsReported) {
   for (const bool paper : {true, false}) {
     SCOPED_TRACE(paper ? "paper.yaml" : "default");
     RegistrationInput input;
-    const RegistrationRun run =
-        registerDataset("faults", TrajectoryMode::kMetric, "odometry", &input,
-                        paper ? std::optional<fs::path>(fs::path(LOOKBOTH_SHARE_DIR) / "config" /
-                                                        "paper.yaml")
-                              : std::nullopt);
+    const RegistrationRun run = registerDataset(
+        "faults", TrajectoryMode::kMetric, "odometry", &input,
+        paper ? std::optional<fs::path>(fs::path(LOOKBOTH_SHARE_DIR) / "config" / "paper.yaml")
+              : std::nullopt);
     const Registration& r = run.registration;
     ASSERT_EQ(r.cameras.size(), 7u);
     // The unvisited camera: unregistered, with the reason.
