@@ -199,6 +199,8 @@ struct MarkerCornersCost {
   }
 };
 
+// A blob's residual written directly, all in Jets: the stage uses
+// CachedBlobCost below, and tests/joint_costs_test.cpp checks that the two agree.
 struct BlobCost {
   Bracket bracket;  // tau_ref_s = the frame's time, zero velocity
   const Camera* fisheye = nullptr;
@@ -237,7 +239,6 @@ class FramePoseCache : public ceres::EvaluationCallback {
     have_values_ = have_jacobians_ = false;
     return slots_.size() - 1;
   }
-  std::size_t size() const { return slots_.size(); }
 
   void PrepareForEvaluation(bool evaluate_jacobians, bool new_evaluation_point) override {
     if (new_evaluation_point) have_values_ = have_jacobians_ = false;
