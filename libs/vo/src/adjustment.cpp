@@ -1,7 +1,9 @@
 // Bundle adjustment on bearings and the Sim(3) pose graph, in Ceres.
 #include <ceres/ceres.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "lookboth/geometry/lie.h"
 #include "lookboth/vo/bearing_geometry.h"
@@ -88,7 +90,10 @@ struct Sim3EdgeResidual {
 }  // namespace
 
 int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& fixed,
-                 const AdjustmentOptions& options) {
+                 const AdjustmentOptions& options, bool variable_observations_only) {
+  const auto used = [&](const Observation& o) {
+    return !variable_observations_only || variable.count(o.keyframe) > 0;
+  };
   // Parameter blocks: per keyframe [qx qy qz qw] and camera centre; per landmark its point.
   struct Pose {
     Eigen::Quaterniond q;
@@ -99,6 +104,16 @@ int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& f
   for (int k : variable) {
     for (int l : map.keyframes[k].landmarks) {
       if (map.landmarks[l].valid) landmark_ids.insert(l);
+    }
+  }
+  if (variable_observations_only) {
+    // A point seen by one of them would only pin that keyframe to where the
+    // point was: left out.
+    for (auto it = landmark_ids.begin(); it != landmark_ids.end();) {
+      const auto& observations = map.landmarks[size_t(*it)].observations;
+      it = std::count_if(observations.begin(), observations.end(), used) < 2
+               ? landmark_ids.erase(it)
+               : std::next(it);
     }
   }
   if (landmark_ids.empty()) return 0;
@@ -122,6 +137,7 @@ int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& f
   for (int l : landmark_ids) {
     Landmark& landmark = map.landmarks[l];
     for (const Observation& o : landmark.observations) {
+      if (!used(o)) continue;
       Pose& pose = pose_of(o.keyframe);
       problem.AddResidualBlock(TangentResidual::Create(o.bearing, options.focal_px), loss,
                                pose.q.coeffs().data(), pose.c.data(), landmark.p_in_world.data());
@@ -137,7 +153,8 @@ int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& f
   }
   // Landmarks seen by a single keyframe only have no depth constraint: hold them.
   for (int l : landmark_ids) {
-    if (map.landmarks[l].observations.size() < 2) {
+    const auto& observations = map.landmarks[l].observations;
+    if (std::count_if(observations.begin(), observations.end(), used) < 2) {
       problem.SetParameterBlockConstant(map.landmarks[l].p_in_world.data());
     }
   }
@@ -162,6 +179,10 @@ int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& f
     Landmark& landmark = map.landmarks[l];
     std::vector<Observation> kept;
     for (const Observation& o : landmark.observations) {
+      if (!used(o)) {
+        kept.push_back(o);
+        continue;
+      }
       const Rigid3d camera_from_world = map.keyframes[o.keyframe].world_from_camera.inverse();
       if (angularError(o.bearing, camera_from_world * landmark.p_in_world) < outlier_rad) {
         kept.push_back(o);
@@ -176,6 +197,84 @@ int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& f
       kept.shrink_to_fit();
     }
     landmark.observations.swap(kept);
+  }
+  return removed;
+}
+
+int bundleAdjustWindowed(Map& map, const std::set<int>& ids, int gauge, int window, int sweeps,
+                         const AdjustmentOptions& options) {
+  if (window <= 0 || static_cast<int>(ids.size()) <= window) {
+    return bundleAdjust(map, ids, {gauge}, options);
+  }
+  const std::vector<int> order(ids.begin(), ids.end());
+  const size_t n = order.size();
+  const size_t size = static_cast<size_t>(window);
+  const size_t stride = std::max<size_t>(1, size / 2);
+  int removed = 0;
+
+  // 1. Coarse: every step-th keyframe (and the last), their observations only.
+  {
+    const size_t step = (n + size - 2) / (size - 1);
+    std::vector<size_t> picked;
+    for (size_t i = 0; i < n; i += step) picked.push_back(i);
+    if (picked.back() != n - 1) picked.push_back(n - 1);
+    std::set<int> coarse;
+    for (size_t i : picked) coarse.insert(order[i]);
+    std::map<int, Rigid3d> before;
+    for (int k : ids) before[k] = map.keyframes[size_t(k)].world_from_camera;
+    // The outlier check waits for the fine pass (the others have not moved yet).
+    AdjustmentOptions coarse_options = options;
+    coarse_options.outlier_px = std::numeric_limits<double>::infinity();
+    bundleAdjust(map, coarse, {gauge}, coarse_options, true);
+    // new world from old world, per keyframe: picked ones from the solve,
+    // the ones between interpolated.
+    std::map<int, Rigid3d> correction;
+    const auto solved = [&](size_t i) {
+      const int k = order[i];
+      return map.keyframes[size_t(k)].world_from_camera * before[k].inverse();
+    };
+    for (size_t j = 0; j + 1 < picked.size(); ++j) {
+      const Rigid3d a = solved(picked[j]), b = solved(picked[j + 1]);
+      for (size_t i = picked[j]; i <= picked[j + 1]; ++i) {
+        const double alpha = double(i - picked[j]) / double(picked[j + 1] - picked[j]);
+        correction[order[i]] = interpolateLinearSlerp(a, b, alpha);
+      }
+    }
+    std::set<int> coarse_landmarks;
+    {
+      // The landmarks the coarse solve moved: those two or more of its keyframes see.
+      std::map<int, int> seen;
+      for (int k : coarse) {
+        for (int l : map.keyframes[size_t(k)].landmarks) ++seen[l];
+      }
+      for (const auto& [l, count] : seen) {
+        if (count >= 2) coarse_landmarks.insert(l);
+      }
+    }
+    for (size_t l = 0; l < map.landmarks.size(); ++l) {
+      Landmark& landmark = map.landmarks[l];
+      if (!landmark.valid || coarse_landmarks.count(int(l))) continue;
+      const auto it = correction.find(landmark.reference_keyframe);
+      if (it != correction.end()) landmark.p_in_world = it->second * landmark.p_in_world;
+    }
+    for (int k : ids) {
+      if (!coarse.count(k)) map.keyframes[size_t(k)].world_from_camera = correction[k] * before[k];
+    }
+  }
+
+  // 2. Fine: overlapping windows of consecutive keyframes.
+  for (int sweep = 0; sweep < sweeps; ++sweep) {
+    for (size_t begin = 0; begin < n; begin += stride) {
+      // The last window is a full one ending at the last keyframe.
+      const size_t end = std::min(n, begin + size);
+      const size_t first = end - std::min(n, size);
+      const std::set<int> variable(order.begin() + static_cast<std::ptrdiff_t>(first),
+                                   order.begin() + static_cast<std::ptrdiff_t>(end));
+      std::set<int> fixed;
+      if (variable.count(gauge)) fixed.insert(gauge);
+      removed += bundleAdjust(map, variable, fixed, options);
+      if (end == n) break;
+    }
   }
   return removed;
 }

@@ -94,8 +94,26 @@ struct AdjustmentOptions {
 /// other keyframes that see those landmarks stay fixed, as do the keyframes
 /// in `fixed` (the gauge). Removes outlier observations afterwards. Returns
 /// the number of observations removed.
+/// With `variable_observations_only`, only the observations made by the
+/// keyframes `variable` enter the problem (and the outlier check): the other
+/// keyframes neither hold the landmarks nor are checked.
 int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& fixed,
-                 const AdjustmentOptions& options);
+                 const AdjustmentOptions& options, bool variable_observations_only = false);
+
+/// Bundle adjustment of the keyframes `ids` with `gauge` (their first) fixed,
+/// in bounded memory: when there are more than `window` keyframes (and
+/// `window` > 0),
+///  1. a coarse adjustment of at most `window` keyframes evenly spread over
+///     `ids` (their own observations only) takes out the long-wavelength
+///     errors, and the keyframes between them follow by interpolating the
+///     correction (their landmarks with their reference keyframe);
+///  2. `sweeps` passes over overlapping windows of `window` consecutive
+///     keyframes (in id order, stride window / 2), each adjusted with
+///     bundleAdjust while the keyframes around it stay fixed.
+/// Otherwise one bundleAdjust over all. Returns the number of observations
+/// removed.
+int bundleAdjustWindowed(Map& map, const std::set<int>& ids, int gauge, int window, int sweeps,
+                         const AdjustmentOptions& options);
 
 struct PoseGraphEdge {
   int from = -1, to = -1;

@@ -584,7 +584,8 @@ struct VisualOdometry::Impl {
       for (const Keyframe& kf : map.keyframes) {
         if (kf.segment == segment_old) all.insert(kf.id);
       }
-      bundleAdjust(map, all, {first_old}, adjustment(options.global_iterations));
+      bundleAdjustWindowed(map, all, first_old, options.global_window, options.global_sweeps,
+                           adjustment(options.global_iterations));
     }
     dropInvalidTrackLandmarks();
     last_pose = map.keyframes[size_t(k)].world_from_camera;
@@ -747,7 +748,8 @@ struct VisualOdometry::Impl {
       for (const Keyframe& kf : map.keyframes) by_segment[kf.segment].insert(kf.id);
       for (const auto& [segment, ids] : by_segment) {
         if (ids.size() < 2) continue;
-        bundleAdjust(map, ids, {*ids.begin()}, adjustment(options.global_iterations));
+        bundleAdjustWindowed(map, ids, *ids.begin(), options.global_window, options.global_sweeps,
+                             adjustment(options.global_iterations));
       }
     }
     for (const Keyframe& kf : map.keyframes) result.keyframes.append(kf.t, kf.world_from_camera);

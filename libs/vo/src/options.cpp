@@ -49,6 +49,7 @@ std::string OdometryOptions::check() const {
       {"loop_candidates", double(loop_candidates)},
       {"loop_features", double(loop_features)},
       {"global_iterations", double(global_iterations)},
+      {"global_sweeps", double(global_sweeps)},
       {"relocalisation_keyframes", double(relocalisation_keyframes)},
       {"max_lost_frames", double(max_lost_frames)},
       {"threads", double(threads)},
@@ -64,6 +65,8 @@ std::string OdometryOptions::check() const {
   if (init_min_inliers < 8) return "'init_min_inliers': must be at least 8";
   if (loop_min_inliers < 6) return "'loop_min_inliers': must be at least 6";
   if (local_window < 2) return "'local_window': must be at least 2";
+  if (global_window != 0 && global_window < 2 * local_window)
+    return "'global_window': must be 0 (one problem) or at least twice 'local_window'";
   return "";
 }
 
@@ -128,6 +131,8 @@ OdometryOptions loadOdometryOptions(const std::filesystem::path& yaml,
   integer("loop_candidates", &o.loop_candidates);
   integer("loop_features", &o.loop_features);
   integer("global_iterations", &o.global_iterations);
+  integer("global_window", &o.global_window);
+  integer("global_sweeps", &o.global_sweeps);
   integer("relocalisation_keyframes", &o.relocalisation_keyframes);
   integer("max_lost_frames", &o.max_lost_frames);
   boolean("all_frames", &o.all_frames);
