@@ -32,8 +32,12 @@
 #include <cstdint>
 #include <cstdlib>
 #include <ctime>
+#include <iomanip>
 #include <iostream>
+#include <limits>
+#include <optional>
 #include <set>
+#include <sstream>
 #include <type_traits>
 #include <variant>
 
@@ -207,6 +211,12 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   for (const Association& a : problem.associations) {
     configured_offsets[problem.marker(a).camera] = problem.marker(a).t - a.t_robot;
   }
+  // The fisheye model when the blobs can be used (the offset search below).
+  const Camera* blob_fisheye = nullptr;
+  if (options.use_blobs && !input.blobs.empty()) {
+    const CameraSensor* f = input.manifest.fisheye();
+    if (f && f->camera) blob_fisheye = &*f->camera;
+  }
   std::vector<JointCamera> cameras;
   // Unregistered by look_down, given another chance here: label -> offset
   // found by the search below, relative to the configured one [s].
@@ -246,19 +256,87 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
         std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
         return d[d.size() / 2];
       };
+      // The fisheye's view of a trial position: over the blob frames around
+      // the camera's detections, the mean distance from its projection to
+      // the nearest blob, truncated [px]; NaN with too few frames seeing it.
+      // (A pass in one direction moves every per-detection pose alike when the
+      // clock shifts: their spread cannot tell the offset, the blobs can.)
+      TimeNs t_first = std::numeric_limits<TimeNs>::max(), t_last = 0;
+      for (std::size_t a : found->second) {
+        t_first = std::min(t_first, problem.associations[a].t_robot);
+        t_last = std::max(t_last, problem.associations[a].t_robot);
+      }
+      std::vector<std::pair<const BlobObservation*, Rigid3d>> views;  // frame, world_from_fisheye
+      if (blob_fisheye != nullptr) {
+        const TimeNs margin = 3'000'000'000;
+        std::vector<const BlobObservation*> near;
+        for (const BlobObservation& b : input.blobs) {
+          if (!b.blobs.empty() && b.t >= t_first - margin && b.t <= t_last + margin) {
+            near.push_back(&b);
+          }
+        }
+        const std::size_t step = std::max<std::size_t>(1, near.size() / 300);
+        for (std::size_t i = 0; i < near.size(); i += step) {
+          if (const auto w = refAt(near[i]->t)) views.emplace_back(near[i], *w);
+        }
+      }
+      const double kNone = std::numeric_limits<double>::quiet_NaN();
+      auto blobScore = [&](const Eigen::Vector3d& p_in_world) -> double {
+        constexpr double kTruncate = 30.0;
+        double sum = 0;
+        int seen = 0;
+        for (const auto& [frame, world_from_fisheye] : views) {
+          const Eigen::Vector3d p = world_from_fisheye.inverse() * p_in_world;
+          if (p.z() <= 0) continue;
+          const auto pixel = blob_fisheye->project(p);
+          if (!pixel || !blob_fisheye->isInImage(*pixel)) continue;
+          double d = kTruncate;
+          for (const Blob& b : frame->blobs) {
+            d = std::min(d, (Eigen::Vector2d(b.u, b.v) - *pixel).norm());
+          }
+          sum += d;
+          ++seen;
+        }
+        if (seen < 10) return kNone;
+        return sum / seen;
+      };
       // With estimated clocks: the offset within +-0.5 s (10 ms steps) that
-      // makes the detections agree best.
+      // makes the detections agree among themselves (their spread within
+      // 1.5x or 2 cm of the least) and, of those, the fisheye's blobs agree
+      // best with the camera they put there; without blobs the least spread.
       double best_shift = 0;
       std::vector<Rigid3d> candidates;
       Eigen::Vector3d median;
       double best = trial(0.0, candidates, median);
       if (options.estimate_clock_offsets) {
+        std::vector<double> shifts, spreads, blob_scores;
         for (int k = -50; k <= 50; ++k) {
           const double spread = trial(0.01 * k, candidates, median);
-          if (spread < best) {
-            best = spread;
-            best_shift = 0.01 * k;
+          if (spread >= 1e300) continue;
+          shifts.push_back(0.01 * k);
+          spreads.push_back(spread);
+          blob_scores.push_back(blobScore(median));
+        }
+        if (!shifts.empty()) {
+          const double least = *std::min_element(spreads.begin(), spreads.end());
+          const double admissible = std::max(1.5 * least, least + 0.02);
+          std::size_t chosen = 0;
+          double chosen_blobs = kNone, chosen_spread = 1e300;
+          for (std::size_t i = 0; i < shifts.size(); ++i) {
+            if (spreads[i] > admissible) continue;
+            const bool better = !std::isnan(blob_scores[i]) && !std::isnan(chosen_blobs)
+                                    ? blob_scores[i] < chosen_blobs
+                                : !std::isnan(blob_scores[i]) != !std::isnan(chosen_blobs)
+                                    ? !std::isnan(blob_scores[i])
+                                    : spreads[i] < chosen_spread;
+            if (better) {
+              chosen = i;
+              chosen_blobs = blob_scores[i];
+              chosen_spread = spreads[i];
+            }
           }
+          best = chosen_spread;
+          best_shift = shifts[chosen];
         }
       }
       if (best >= 1e300) continue;
@@ -407,8 +485,15 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       detections[i].in_range = det_bracket[i].has_value();
     }
   };
+  // Variance factor of the marker measurements (pose, corners): how much
+  // larger their residuals are, in variance, than the detector's covariance
+  // says (the trajectory between nodes, a detector that underrates its
+  // noise). Estimated from the median chi-square between rounds, never
+  // below 1; the costs and the rejection are scaled by it.
+  double variance_factor[2] = {1.0, 1.0};
   auto markerCost = [&](std::size_t i) -> ceres::CostFunction* {
     const Detection& d = detections[i];
+    const double factor = variance_factor[d.corners ? 1 : 0];
     const Bracket& b = *det_bracket[i];
     const MarkerObservation& m = problem.marker(problem.associations[d.association]);
     const double tau_camera = nsToSeconds(d.t_camera - node_t[b.k]);
@@ -419,14 +504,14 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       cost->camera_model = cameras[d.camera].model;
       cost->corners_in_marker = corners_in_marker;
       for (int c = 0; c < 4; ++c) cost->observed[c] = m.corners_px[c];
-      cost->sigma_px = m.corner_sigma_px;
+      cost->sigma_px = m.corner_sigma_px * std::sqrt(factor);
       return new ceres::AutoDiffCostFunction<MarkerCornersCost, 8, 7, 7, 7, 7, 1>(cost);
     }
     auto* cost = new MarkerPoseCost;
     cost->bracket = b;
     cost->tau_camera_s = tau_camera;
     cost->measured = m.camera_from_marker;
-    cost->sqrt_info = d.sqrt_info;
+    cost->sqrt_info = d.sqrt_info / std::sqrt(factor);
     return new ceres::AutoDiffCostFunction<MarkerPoseCost, 6, 7, 7, 7, 7, 1>(cost);
   };
   auto markerChi2 = [&](std::size_t i) {
@@ -477,12 +562,33 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     progress.report("joint", round, options.rounds, "round " + std::to_string(round + 1));
     bracketDetections();
     if (round > 0) {
-      // Outliers at the current estimate (every detection is reconsidered).
+      // Outliers at the current estimate (every detection is reconsidered),
+      // after the variance factors are re-estimated from the medians.
+      std::vector<double> chi2(detections.size(), 0.0);
+      std::vector<double> by_kind[2];
       for (std::size_t i = 0; i < detections.size(); ++i) {
         if (!detections[i].in_range) continue;
-        const double bound =
-            detections[i].corners ? options.reject_chi2_corners : options.reject_chi2_pose;
-        detections[i].inlier = markerChi2(i) <= bound;
+        const int kind = detections[i].corners ? 1 : 0;
+        chi2[i] = markerChi2(i) * variance_factor[kind];  // as with factor 1
+        by_kind[kind].push_back(chi2[i]);
+      }
+      // Medians of the chi-square distribution with 6 and 8 degrees of freedom.
+      const double expected_median[2] = {5.3481, 7.3441};
+      for (int kind = 0; kind < 2; ++kind) {
+        std::vector<double>& v = by_kind[kind];
+        if (v.size() < 10 || !options.estimate_variance_factor) continue;
+        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+        variance_factor[kind] = std::max(1.0, v[v.size() / 2] / expected_median[kind]);
+      }
+      for (std::size_t i = 0; i < detections.size(); ++i) {
+        if (!detections[i].in_range) continue;
+        const int kind = detections[i].corners ? 1 : 0;
+        const double bound = kind ? options.reject_chi2_corners : options.reject_chi2_pose;
+        detections[i].inlier = chi2[i] / variance_factor[kind] <= bound;
+      }
+      if (verbose) {
+        std::cerr << "joint round " << round + 1 << ": variance factors pose " << variance_factor[0]
+                  << ", corners " << variance_factor[1] << "\n";
       }
     }
     associateBlobs();
@@ -648,9 +754,23 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
                 << Q.NumResidualBlocks() << ", time " << summary.total_time_in_seconds
                 << " s (jacobians " << summary.jacobian_evaluation_time_in_seconds
                 << " s, linear solver " << summary.linear_solver_time_in_seconds << " s)\n";
+      if (round == 0 || std::getenv("LOOKBOTH_JOINT_VERBOSE")[0] == '2') {
+        std::cerr << summary.FullReport() << "\n";
+      }
     }
     if (!summary.IsSolutionUsable()) {
       throw Error("joint: the solver failed: " + summary.message);
+    }
+  }
+
+  for (int kind = 0; kind < 2; ++kind) {
+    if (variance_factor[kind] > 1.5) {
+      std::ostringstream w;
+      w << std::setprecision(3) << "joint: the marker " << (kind ? "corners'" : "poses'")
+        << " residuals are " << variance_factor[kind]
+        << "x (in variance) what the detector's covariance says (median chi-square); they were "
+           "weighted and rejected with that factor";
+      result.warnings.push_back(w.str());
     }
   }
 

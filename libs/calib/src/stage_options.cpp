@@ -237,6 +237,7 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
                        "huber",
                        "reject_chi2_pose",
                        "reject_chi2_corners",
+                       "estimate_variance_factor",
                        "default_translation_sigma_m",
                        "default_rotation_sigma_deg",
                        "min_detections",
@@ -282,6 +283,7 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
   s.number("huber", huber);
   s.number("reject_chi2_pose", reject_chi2_pose);
   s.number("reject_chi2_corners", reject_chi2_corners);
+  flag("estimate_variance_factor", estimate_variance_factor);
   s.number("default_translation_sigma_m", default_translation_sigma_m);
   s.number("default_rotation_sigma_deg", default_rotation_sigma_deg);
   s.integer("min_detections", min_detections);

@@ -90,9 +90,13 @@ struct Sim3EdgeResidual {
 }  // namespace
 
 int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& fixed,
-                 const AdjustmentOptions& options, bool variable_observations_only) {
+                 const AdjustmentOptions& options, ObservationScope scope) {
+  const bool variable_observations_only = scope == ObservationScope::kVariableKeyframes;
   const auto used = [&](const Observation& o) {
     return !variable_observations_only || variable.count(o.keyframe) > 0;
+  };
+  const auto checked = [&](const Observation& o) {
+    return scope == ObservationScope::kAll || variable.count(o.keyframe) > 0;
   };
   // Parameter blocks: per keyframe [qx qy qz qw] and camera centre; per landmark its point.
   struct Pose {
@@ -179,7 +183,7 @@ int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& f
     Landmark& landmark = map.landmarks[l];
     std::vector<Observation> kept;
     for (const Observation& o : landmark.observations) {
-      if (!used(o)) {
+      if (!checked(o)) {
         kept.push_back(o);
         continue;
       }
@@ -225,7 +229,7 @@ int bundleAdjustWindowed(Map& map, const std::set<int>& ids, int gauge, int wind
     // The outlier check waits for the fine pass (the others have not moved yet).
     AdjustmentOptions coarse_options = options;
     coarse_options.outlier_px = std::numeric_limits<double>::infinity();
-    bundleAdjust(map, coarse, {gauge}, coarse_options, true);
+    bundleAdjust(map, coarse, {gauge}, coarse_options, ObservationScope::kVariableKeyframes);
     // new world from old world, per keyframe: picked ones from the solve,
     // the ones between interpolated.
     std::map<int, Rigid3d> correction;
@@ -262,7 +266,10 @@ int bundleAdjustWindowed(Map& map, const std::set<int>& ids, int gauge, int wind
     }
   }
 
-  // 2. Fine: overlapping windows of consecutive keyframes.
+  // 2. Fine: overlapping windows of consecutive keyframes. They start close
+  // to their solution: a third of the iterations.
+  AdjustmentOptions window_options = options;
+  window_options.iterations = std::max(5, options.iterations / 3);
   for (int sweep = 0; sweep < sweeps; ++sweep) {
     for (size_t begin = 0; begin < n; begin += stride) {
       // The last window is a full one ending at the last keyframe.
@@ -272,7 +279,10 @@ int bundleAdjustWindowed(Map& map, const std::set<int>& ids, int gauge, int wind
                                    order.begin() + static_cast<std::ptrdiff_t>(end));
       std::set<int> fixed;
       if (variable.count(gauge)) fixed.insert(gauge);
-      removed += bundleAdjust(map, variable, fixed, options);
+      // Only the window's own observations are checked for outliers: the
+      // keyframes around it may not be refined yet.
+      removed += bundleAdjust(map, variable, fixed, window_options,
+                              ObservationScope::kCheckVariableKeyframes);
       if (end == n) break;
     }
   }

@@ -90,15 +90,20 @@ struct AdjustmentOptions {
   double outlier_px = 6;  ///< Observations worse than this after the solve are removed.
 };
 
+/// Which observations of the landmarks take part.
+enum class ObservationScope {
+  kAll,                     ///< All, and all are checked for outliers.
+  kCheckVariableKeyframes,  ///< All; only those of `variable` keyframes are checked.
+  kVariableKeyframes,       ///< Only those of `variable` keyframes (the others
+                            ///< neither hold the landmarks nor are checked).
+};
+
 /// Bundle adjustment of the keyframes `variable` and their landmarks; the
 /// other keyframes that see those landmarks stay fixed, as do the keyframes
 /// in `fixed` (the gauge). Removes outlier observations afterwards. Returns
 /// the number of observations removed.
-/// With `variable_observations_only`, only the observations made by the
-/// keyframes `variable` enter the problem (and the outlier check): the other
-/// keyframes neither hold the landmarks nor are checked.
 int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& fixed,
-                 const AdjustmentOptions& options, bool variable_observations_only = false);
+                 const AdjustmentOptions& options, ObservationScope scope = ObservationScope::kAll);
 
 /// Bundle adjustment of the keyframes `ids` with `gauge` (their first) fixed,
 /// in bounded memory: when there are more than `window` keyframes (and

@@ -170,6 +170,12 @@ struct JointOptions {
   /// (chi-square 99.9 %: 6 dof for poses, 8 for corners).
   double reject_chi2_pose = 22.46;
   double reject_chi2_corners = 26.12;
+  /// Between rounds, scale the marker measurements' covariance (pose and
+  /// corners apart) by the median chi-square over its expected value, when
+  /// above 1: the detector's covariance leaves out what the model does not
+  /// hold (the trajectory between nodes), and rejecting against it alone
+  /// throws good detections away. Reported in the warnings.
+  bool estimate_variance_factor = true;
   /// Marker pose noise for detections without an information matrix [m], [deg].
   double default_translation_sigma_m = 0.01;
   double default_rotation_sigma_deg = 2.0;
