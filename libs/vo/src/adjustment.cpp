@@ -266,10 +266,7 @@ int bundleAdjustWindowed(Map& map, const std::set<int>& ids, int gauge, int wind
     }
   }
 
-  // 2. Fine: overlapping windows of consecutive keyframes. They start close
-  // to their solution: a third of the iterations.
-  AdjustmentOptions window_options = options;
-  window_options.iterations = std::max(5, options.iterations / 3);
+  // 2. Fine: overlapping windows of consecutive keyframes.
   for (int sweep = 0; sweep < sweeps; ++sweep) {
     for (size_t begin = 0; begin < n; begin += stride) {
       // The last window is a full one ending at the last keyframe.
@@ -281,8 +278,8 @@ int bundleAdjustWindowed(Map& map, const std::set<int>& ids, int gauge, int wind
       if (variable.count(gauge)) fixed.insert(gauge);
       // Only the window's own observations are checked for outliers: the
       // keyframes around it may not be refined yet.
-      removed += bundleAdjust(map, variable, fixed, window_options,
-                              ObservationScope::kCheckVariableKeyframes);
+      removed +=
+          bundleAdjust(map, variable, fixed, options, ObservationScope::kCheckVariableKeyframes);
       if (end == n) break;
     }
   }

@@ -53,10 +53,12 @@ struct OdometryOptions {
   int loop_features = 500;                 ///< ORB features per keyframe for place recognition.
   int global_iterations = 30;              ///< Solver iterations of the global adjustment.
   /// Keyframes per problem of the global adjustment: a longer segment is
-  /// adjusted in overlapping windows of this many keyframes (half-window
-  /// stride, the keyframes around each window held fixed) so that its memory
-  /// does not grow with the length of the run. 0 = one problem over all.
-  int global_window = 150;
+  /// adjusted in overlapping windows of this many keyframes (after a coarse
+  /// pass over at most this many, spread over the segment), so that its
+  /// memory does not grow with the length of the run. 0 = one problem over
+  /// all keyframes (the default: the windows cost accuracy on some
+  /// recordings, doc/benchmarks.md).
+  int global_window = 0;
   int global_sweeps = 2;  ///< Passes over the windows when the segment is longer than one.
 
   // Tracking loss.
