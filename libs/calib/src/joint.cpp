@@ -335,6 +335,21 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
               chosen_spread = spreads[i];
             }
           }
+          // The configured offset stays unless the chosen one is clearly
+          // better: by the blobs, 1 px or 10 % of its score, else by the
+          // spread, 1.5x (the scores are noisy and flat along one pass).
+          const auto zero = std::find(shifts.begin(), shifts.end(), 0.0);
+          if (zero != shifts.end() && chosen != static_cast<std::size_t>(zero - shifts.begin())) {
+            const std::size_t z = static_cast<std::size_t>(zero - shifts.begin());
+            const bool clearly =
+                !std::isnan(blob_scores[z]) && !std::isnan(chosen_blobs)
+                    ? chosen_blobs < blob_scores[z] - std::max(1.0, 0.1 * blob_scores[z])
+                    : chosen_spread * 1.5 < spreads[z];
+            if (!clearly) {
+              chosen = z;
+              chosen_spread = spreads[z];
+            }
+          }
           best = chosen_spread;
           best_shift = shifts[chosen];
         }
