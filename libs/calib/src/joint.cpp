@@ -320,37 +320,32 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
         if (!shifts.empty()) {
           const double least = *std::min_element(spreads.begin(), spreads.end());
           const double admissible = std::max(1.5 * least, least + 0.02);
-          std::size_t chosen = 0;
-          double chosen_blobs = kNone, chosen_spread = 1e300;
+          // Whether shift i beats shift j: by the blobs when both have a
+          // score (by more than `margin_px` or `ratio` of j's), else by the
+          // spread (`factor` times smaller); `by_score`: a score beats none.
+          auto beats = [&](std::size_t i, std::size_t j, double margin_px, double ratio,
+                           double factor, bool by_score) {
+            const bool si = !std::isnan(blob_scores[i]), sj = !std::isnan(blob_scores[j]);
+            if (si && sj) {
+              return blob_scores[i] < blob_scores[j] - std::max(margin_px, ratio * blob_scores[j]);
+            }
+            if (by_score && si != sj) return si;
+            return factor * spreads[i] < spreads[j];
+          };
+          std::size_t chosen = shifts.size();
           for (std::size_t i = 0; i < shifts.size(); ++i) {
             if (spreads[i] > admissible) continue;
-            const bool better = !std::isnan(blob_scores[i]) && !std::isnan(chosen_blobs)
-                                    ? blob_scores[i] < chosen_blobs
-                                : !std::isnan(blob_scores[i]) != !std::isnan(chosen_blobs)
-                                    ? !std::isnan(blob_scores[i])
-                                    : spreads[i] < chosen_spread;
-            if (better) {
-              chosen = i;
-              chosen_blobs = blob_scores[i];
-              chosen_spread = spreads[i];
-            }
+            if (chosen == shifts.size() || beats(i, chosen, 0.0, 0.0, 1.0, true)) chosen = i;
           }
           // The configured offset stays unless the chosen one is clearly
           // better: by the blobs, 1 px or 10 % of its score, else by the
           // spread, 1.5x (the scores are noisy and flat along one pass).
           const auto zero = std::find(shifts.begin(), shifts.end(), 0.0);
-          if (zero != shifts.end() && chosen != static_cast<std::size_t>(zero - shifts.begin())) {
+          if (zero != shifts.end()) {
             const std::size_t z = static_cast<std::size_t>(zero - shifts.begin());
-            const bool clearly =
-                !std::isnan(blob_scores[z]) && !std::isnan(chosen_blobs)
-                    ? chosen_blobs < blob_scores[z] - std::max(1.0, 0.1 * blob_scores[z])
-                    : chosen_spread * 1.5 < spreads[z];
-            if (!clearly) {
-              chosen = z;
-              chosen_spread = spreads[z];
-            }
+            if (!beats(chosen, z, 1.0, 0.1, 1.5, false)) chosen = z;
           }
-          best = chosen_spread;
+          best = spreads[chosen];
           best_shift = shifts[chosen];
         }
       }
