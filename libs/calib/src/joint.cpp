@@ -347,6 +347,14 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
           }
           best = spreads[chosen];
           best_shift = shifts[chosen];
+          if (std::getenv("LOOKBOTH_JOINT_VERBOSE")) {
+            std::cerr << "joint clock search " << c.label << ": chose " << best_shift * 1e3
+                      << " ms (spread admissible below " << admissible << " m)\n";
+            for (std::size_t i = 0; i < shifts.size(); i += 5) {
+              std::cerr << "  " << shifts[i] * 1e3 << " ms: spread " << spreads[i] << " m, blobs "
+                        << blob_scores[i] << " px\n";
+            }
+          }
         }
       }
       if (best >= 1e300) continue;
