@@ -102,6 +102,10 @@ const char* kComponentNames[6] = {
 
 void runJoint(RegistrationProblem& problem, const JointOptions& options,
               const ProgressReporter& progress) {
+  // LOOKBOTH_JOINT_VERBOSE=1: diagnostics on stderr; =2: Ceres' full report of every round.
+  const char* verbose_env = std::getenv("LOOKBOTH_JOINT_VERBOSE");
+  const bool verbose = verbose_env != nullptr;
+  const bool verbose_every_round = verbose && verbose_env[0] == '2';
   // ---- what the earlier stages must have produced ----
   if (!problem.associated) {
     throw Error("joint needs associated detections: put 'associate' before it");
@@ -347,7 +351,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
           }
           best = spreads[chosen];
           best_shift = shifts[chosen];
-          if (std::getenv("LOOKBOTH_JOINT_VERBOSE")) {
+          if (verbose) {
             std::cerr << "joint clock search " << c.label << ": chose " << best_shift * 1e3
                       << " ms (spread admissible below " << admissible << " m)\n";
             for (std::size_t i = 0; i < shifts.size(); i += 5) {
@@ -563,7 +567,6 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   std::unique_ptr<ceres::LossFunction> huber, cauchy;
   std::unique_ptr<FramePoseCache> frame_poses;  // the blob frames' poses at each evaluation point
   std::unique_ptr<ceres::Problem> ceres_problem;
-  const bool verbose = std::getenv("LOOKBOTH_JOINT_VERBOSE") != nullptr;
   // Process CPU time [s], for the verbose breakdown.
   auto cpu = []() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; };
   double cpu_mark = cpu();
@@ -772,7 +775,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
                 << Q.NumResidualBlocks() << ", time " << summary.total_time_in_seconds
                 << " s (jacobians " << summary.jacobian_evaluation_time_in_seconds
                 << " s, linear solver " << summary.linear_solver_time_in_seconds << " s)\n";
-      if (round == 0 || std::getenv("LOOKBOTH_JOINT_VERBOSE")[0] == '2') {
+      if (round == 0 || verbose_every_round) {
         std::cerr << summary.FullReport() << "\n";
       }
     }
