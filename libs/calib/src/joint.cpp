@@ -520,21 +520,21 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     const MarkerObservation& m = problem.marker(problem.associations[d.association]);
     const double tau_camera = nsToSeconds(d.t_camera - node_t[b.k]);
     if (d.corners) {
-      auto* cost = new MarkerCornersCost;
-      cost->bracket = b;
-      cost->tau_camera_s = tau_camera;
-      cost->camera_model = cameras[d.camera].model;
-      cost->corners_in_marker = corners_in_marker;
-      for (int c = 0; c < 4; ++c) cost->observed[c] = m.corners_px[c];
-      cost->sigma_px = m.corner_sigma_px * std::sqrt(factor);
-      return new ceres::AutoDiffCostFunction<MarkerCornersCost, 8, 7, 7, 7, 7, 1>(cost);
+      MarkerCornersCost cost;
+      cost.bracket = b;
+      cost.tau_camera_s = tau_camera;
+      cost.camera_model = cameras[d.camera].model;
+      cost.corners_in_marker = corners_in_marker;
+      for (int c = 0; c < 4; ++c) cost.observed[c] = m.corners_px[c];
+      cost.sigma_px = m.corner_sigma_px * std::sqrt(factor);
+      return new AnalyticMarkerCornersCost(cost);
     }
-    auto* cost = new MarkerPoseCost;
-    cost->bracket = b;
-    cost->tau_camera_s = tau_camera;
-    cost->measured = m.camera_from_marker;
-    cost->sqrt_info = d.sqrt_info / std::sqrt(factor);
-    return new ceres::AutoDiffCostFunction<MarkerPoseCost, 6, 7, 7, 7, 7, 1>(cost);
+    MarkerPoseCost cost;
+    cost.bracket = b;
+    cost.tau_camera_s = tau_camera;
+    cost.measured = m.camera_from_marker;
+    cost.sqrt_info = d.sqrt_info / std::sqrt(factor);
+    return new AnalyticMarkerPoseCost(cost);
   };
   auto markerChi2 = [&](std::size_t i) {
     std::unique_ptr<ceres::CostFunction> cost(markerCost(i));
@@ -563,6 +563,8 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   solver.function_tolerance = options.function_tolerance;
   solver.gradient_tolerance = 1e-12;
   solver.parameter_tolerance = 1e-9;
+  solver.initial_trust_region_radius = options.initial_trust_region_radius;
+  solver.minimizer_progress_to_stdout = verbose_every_round;  // =2: every iteration
 
   std::unique_ptr<ceres::LossFunction> huber, cauchy;
   std::unique_ptr<FramePoseCache> frame_poses;  // the blob frames' poses at each evaluation point

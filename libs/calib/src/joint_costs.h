@@ -174,6 +174,90 @@ bool projectChained(const Camera& camera, const Eigen::Matrix<T, 3, 1>& p, T* pi
   }
 }
 
+// The pixel of a point and its 2x3 derivative with respect to the point
+// (the model differentiated with Jets of 3).
+inline bool projectWithJacobian(const Camera& camera, const Eigen::Vector3d& p,
+                                Eigen::Vector2d* pixel, Eigen::Matrix<double, 2, 3>* d_pixel) {
+  using J3 = ceres::Jet<double, 3>;
+  const Eigen::Matrix<J3, 3, 1> q(J3(p[0], 0), J3(p[1], 1), J3(p[2], 2));
+  J3 out[2];
+  if (!projectWith(camera, q, out)) return false;
+  for (int r = 0; r < 2; ++r) {
+    (*pixel)[r] = out[r].a;
+    d_pixel->row(r) = out[r].v.transpose();
+  }
+  return true;
+}
+
+// The analytic costs below differentiate with respect to each pose block's
+// tangent [dt; dtheta] (the manifold of pose_costs.h: t + dt, R Exp(dtheta)),
+// then give Ceres a Jacobian with respect to the 7 stored numbers whose
+// product with the manifold's PlusJacobian is that tangent Jacobian, which
+// is all Ceres uses: for the quaternion, d q/d theta = 1/2 q (x) [theta; 0]
+// has orthogonal columns of norm 1/2, so its pseudo-inverse is 4x its
+// transpose. (Tests compare the products with the autodiff costs.)
+template <int R>
+void liftPoseJacobian(const Eigen::Matrix<double, R, 6>& tangent, const Eigen::Quaterniond& q,
+                      double* out) {
+  Eigen::Map<Eigen::Matrix<double, R, 7, Eigen::RowMajor>> j(out);
+  j.template leftCols<3>() = tangent.template leftCols<3>();
+  j.template rightCols<4>().setZero();
+  for (int i = 0; i < 3; ++i) {
+    Eigen::Quaterniond e(0, 0, 0, 0);
+    e.vec()[i] = 1;
+    const Eigen::Vector4d c = (q * e).coeffs();
+    j.template rightCols<4>() += 2.0 * tangent.col(3 + i) * c.transpose();
+  }
+}
+
+// world_from_fisheye at t_camera - offset and its derivative (7 stored
+// numbers by [node_k (7), node_k+1 (7), offset]), for the marker costs.
+inline Rigid3d fisheyePoseWithJacobian(const Bracket& b, const double* nk, const double* nk1,
+                                       double offset, double tau_camera_s,
+                                       Eigen::Matrix<double, 7, 15, Eigen::RowMajor>* d) {
+  using J = ceres::Jet<double, 15>;
+  J a[7], c[7];
+  for (int i = 0; i < 7; ++i) {
+    a[i] = J(nk[i], i);
+    c[i] = J(nk1[i], 7 + i);
+  }
+  const Rigid3<J> w = poseAt(b, a, c, J(tau_camera_s) - J(offset, 14));
+  const J out[7] = {w.translation.x(),      w.translation.y(),      w.translation.z(),
+                    w.rotation.coeffs()[0], w.rotation.coeffs()[1], w.rotation.coeffs()[2],
+                    w.rotation.coeffs()[3]};
+  double v[7];
+  for (int r = 0; r < 7; ++r) {
+    v[r] = out[r].a;
+    d->row(r) = out[r].v.transpose();
+  }
+  return poseFromParams(v);
+}
+
+// Spreads a cost's Jacobian with respect to world_from_fisheye (tangent,
+// R x 6) onto the blocks node_k, node_k+1 and, when given, the offset
+// (d_pose: the pose's 7 stored numbers by [node_k, node_k+1(, offset)]).
+template <int R, typename DPose>
+void chainFisheyeJacobian(const Eigen::Matrix<double, R, 6>& d_fisheye, const Rigid3d& fisheye,
+                          const DPose& d_pose, double* node_k, double* node_k1, double* offset) {
+  Eigen::Matrix<double, R, 7, Eigen::RowMajor> stored;
+  liftPoseJacobian<R>(d_fisheye, fisheye.rotation, stored.data());
+  const Eigen::Matrix<double, R, DPose::ColsAtCompileTime> d = stored * d_pose;
+  if (node_k != nullptr) {
+    Eigen::Map<Eigen::Matrix<double, R, 7, Eigen::RowMajor>> out(node_k);
+    out = d.template middleCols<7>(0);
+  }
+  if (node_k1 != nullptr) {
+    Eigen::Map<Eigen::Matrix<double, R, 7, Eigen::RowMajor>> out(node_k1);
+    out = d.template middleCols<7>(7);
+  }
+  if constexpr (DPose::ColsAtCompileTime == 15) {
+    if (offset != nullptr) {
+      Eigen::Map<Eigen::Matrix<double, R, 1>> out(offset);
+      out = d.col(14);
+    }
+  }
+}
+
 struct MarkerCornersCost {
   Bracket bracket;
   double tau_camera_s = 0;
@@ -197,6 +281,111 @@ struct MarkerCornersCost {
     }
     return true;
   }
+};
+
+// MarkerPoseCost with the derivatives written out (the stage's; the
+// autodiff struct is the tests' reference). Blocks: node_k, node_k+1,
+// fisheye_from_marker, world_from_camera, the camera's clock offset.
+class AnalyticMarkerPoseCost : public ceres::SizedCostFunction<6, 7, 7, 7, 7, 1> {
+ public:
+  explicit AnalyticMarkerPoseCost(const MarkerPoseCost& c) : c_(c) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    if (jacobians == nullptr) {
+      return c_(parameters[0], parameters[1], parameters[2], parameters[3], parameters[4],
+                residuals);
+    }
+    Eigen::Matrix<double, 7, 15, Eigen::RowMajor> d_pose;
+    const Rigid3d F = fisheyePoseWithJacobian(c_.bracket, parameters[0], parameters[1],
+                                              parameters[4][0], c_.tau_camera_s, &d_pose);
+    const Rigid3d X = poseFromParams(parameters[2]);
+    const Rigid3d C = poseFromParams(parameters[3]);
+    const Eigen::Matrix3d rc_t = C.rotation.toRotationMatrix().transpose();
+    const Eigen::Matrix3d rf = F.rotation.toRotationMatrix();
+    const Eigen::Matrix3d rx = X.rotation.toRotationMatrix();
+    // predicted camera_from_marker = C^-1 F X
+    const Eigen::Vector3d t_p = rc_t * (rf * X.translation + F.translation - C.translation);
+    const Eigen::Quaterniond q_p = C.rotation.conjugate() * F.rotation * X.rotation;
+    Eigen::Matrix<double, 6, 1> e;
+    e.head<3>() = t_p - c_.measured.translation;
+    e.tail<3>() = so3Log(Eigen::Quaterniond(c_.measured.rotation.conjugate() * q_p));
+    Eigen::Map<Eigen::Matrix<double, 6, 1>> r(residuals);
+    r = c_.sqrt_info * e;
+    // Tangent derivatives of e; the rotation error's through Jr^-1(e_r).
+    const Eigen::Matrix3d jr_inv = so3LeftJacobianInverse<double>(-e.tail<3>());
+    const Eigen::Matrix3d rp_t = q_p.toRotationMatrix().transpose();
+    Matrix6d d_c = Matrix6d::Zero(), d_f = Matrix6d::Zero(), d_x = Matrix6d::Zero();
+    d_c.block<3, 3>(0, 0) = -rc_t;
+    d_c.block<3, 3>(0, 3) = skew(t_p);
+    d_c.block<3, 3>(3, 3) = -jr_inv * rp_t;
+    d_f.block<3, 3>(0, 0) = rc_t;
+    d_f.block<3, 3>(0, 3) = -rc_t * rf * skew(X.translation);
+    d_f.block<3, 3>(3, 3) = jr_inv * rx.transpose();
+    d_x.block<3, 3>(0, 0) = rc_t * rf;
+    d_x.block<3, 3>(3, 3) = jr_inv;
+    if (jacobians[2] != nullptr) {
+      liftPoseJacobian<6>(c_.sqrt_info * d_x, X.rotation, jacobians[2]);
+    }
+    if (jacobians[3] != nullptr) {
+      liftPoseJacobian<6>(c_.sqrt_info * d_c, C.rotation, jacobians[3]);
+    }
+    if (jacobians[0] != nullptr || jacobians[1] != nullptr || jacobians[4] != nullptr) {
+      chainFisheyeJacobian<6>(c_.sqrt_info * d_f, F, d_pose, jacobians[0], jacobians[1],
+                              jacobians[4]);
+    }
+    return true;
+  }
+
+ private:
+  MarkerPoseCost c_;
+};
+
+// MarkerCornersCost with the derivatives written out (blocks as above).
+class AnalyticMarkerCornersCost : public ceres::SizedCostFunction<8, 7, 7, 7, 7, 1> {
+ public:
+  explicit AnalyticMarkerCornersCost(const MarkerCornersCost& c) : c_(c) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    if (jacobians == nullptr) {
+      return c_(parameters[0], parameters[1], parameters[2], parameters[3], parameters[4],
+                residuals);
+    }
+    Eigen::Matrix<double, 7, 15, Eigen::RowMajor> d_pose;
+    const Rigid3d F = fisheyePoseWithJacobian(c_.bracket, parameters[0], parameters[1],
+                                              parameters[4][0], c_.tau_camera_s, &d_pose);
+    const Rigid3d X = poseFromParams(parameters[2]);
+    const Rigid3d C = poseFromParams(parameters[3]);
+    const Eigen::Matrix3d rc_t = C.rotation.toRotationMatrix().transpose();
+    const Eigen::Matrix3d rf = F.rotation.toRotationMatrix();
+    const Eigen::Matrix3d rx = X.rotation.toRotationMatrix();
+    Eigen::Matrix<double, 8, 6> d_c, d_f, d_x;
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector3d m = rx * c_.corners_in_marker[k] + X.translation;  // in the fisheye
+      const Eigen::Vector3d p = rc_t * (rf * m + F.translation - C.translation);
+      if (p.z() <= 0) return false;
+      Eigen::Vector2d pixel;
+      Eigen::Matrix<double, 2, 3> d_pixel;
+      if (!projectWithJacobian(*c_.camera_model, p, &pixel, &d_pixel)) return false;
+      residuals[2 * k] = (c_.observed[k].x() - pixel.x()) / c_.sigma_px;
+      residuals[2 * k + 1] = (c_.observed[k].y() - pixel.y()) / c_.sigma_px;
+      const Eigen::Matrix<double, 2, 3> d_p = -d_pixel / c_.sigma_px;
+      d_c.block<2, 3>(2 * k, 0) = d_p * -rc_t;
+      d_c.block<2, 3>(2 * k, 3) = d_p * skew(p);
+      d_f.block<2, 3>(2 * k, 0) = d_p * rc_t;
+      d_f.block<2, 3>(2 * k, 3) = d_p * (-rc_t * rf * skew(m));
+      d_x.block<2, 3>(2 * k, 0) = d_p * (rc_t * rf);
+      d_x.block<2, 3>(2 * k, 3) = d_p * (-rc_t * rf * rx * skew(c_.corners_in_marker[k]));
+    }
+    if (jacobians[2] != nullptr) liftPoseJacobian<8>(d_x, X.rotation, jacobians[2]);
+    if (jacobians[3] != nullptr) liftPoseJacobian<8>(d_c, C.rotation, jacobians[3]);
+    if (jacobians[0] != nullptr || jacobians[1] != nullptr || jacobians[4] != nullptr) {
+      chainFisheyeJacobian<8>(d_f, F, d_pose, jacobians[0], jacobians[1], jacobians[4]);
+    }
+    return true;
+  }
+
+ private:
+  MarkerCornersCost c_;
 };
 
 // A blob's residual written directly, all in Jets: the stage uses
@@ -287,8 +476,9 @@ class FramePoseCache : public ceres::EvaluationCallback {
   bool have_values_ = false, have_jacobians_ = false;
 };
 
-// BlobCost through a FramePoseCache: the same residual, with the Jacobian
-// with respect to the nodes chained from the cached frame-pose derivative.
+// BlobCost through a FramePoseCache: the same residual, with the derivatives
+// written out and those with respect to the nodes chained from the cached
+// frame-pose derivative.
 // Its parameter blocks must be the slot's two nodes, then the camera.
 class CachedBlobCost : public ceres::SizedCostFunction<2, 7, 7, 7> {
  public:
@@ -319,29 +509,26 @@ class CachedBlobCost : public ceres::SizedCostFunction<2, 7, 7, 7> {
     const std::array<double, 7>& f = cache_->pose(slot_);
     const double* camera = parameters[2];
     if (jacobians == nullptr) return residualOf(f.data(), camera, residuals);
-    using J = ceres::Jet<double, 14>;
-    J fj[7], cj[7], r[2];
-    for (int i = 0; i < 7; ++i) {
-      fj[i] = J(f[i], i);
-      cj[i] = J(camera[i], 7 + i);
-    }
-    if (!residualOf(fj, cj, r)) return false;
-    Eigen::Matrix<double, 2, 7, Eigen::RowMajor> d_fisheye;
-    for (int row = 0; row < 2; ++row) {
-      residuals[row] = r[row].a;
-      d_fisheye.row(row) = r[row].v.template head<7>().transpose();
-      if (jacobians[2] != nullptr) {
-        for (int i = 0; i < 7; ++i) jacobians[2][7 * row + i] = r[row].v[7 + i];
-      }
-    }
+    // p = R_f^T (R_c o + t_c - t_f); tangent derivatives, then lifted and
+    // chained through the cached frame pose's derivative.
+    const Rigid3d F = poseFromParams(f.data()), C = poseFromParams(camera);
+    const Eigen::Matrix3d rf_t = F.rotation.toRotationMatrix().transpose();
+    const Eigen::Matrix3d rc = C.rotation.toRotationMatrix();
+    const Eigen::Vector3d p = rf_t * (rc * offset_in_camera_ + C.translation - F.translation);
+    Eigen::Vector2d pixel;
+    Eigen::Matrix<double, 2, 3> d_pixel;
+    if (!projectWithJacobian(*fisheye_, p, &pixel, &d_pixel)) return false;
+    residuals[0] = (observed_.x() - pixel.x()) / sigma_px_;
+    residuals[1] = (observed_.y() - pixel.y()) / sigma_px_;
+    const Eigen::Matrix<double, 2, 3> d_p = -d_pixel / sigma_px_;
+    Eigen::Matrix<double, 2, 6> d_f, d_c;
+    d_f.leftCols<3>() = d_p * -rf_t;
+    d_f.rightCols<3>() = d_p * skew(p);
+    d_c.leftCols<3>() = d_p * rf_t;
+    d_c.rightCols<3>() = d_p * (-rf_t * rc * skew(offset_in_camera_));
+    if (jacobians[2] != nullptr) liftPoseJacobian<2>(d_c, C.rotation, jacobians[2]);
     if (jacobians[0] != nullptr || jacobians[1] != nullptr) {
-      const Eigen::Matrix<double, 2, 14, Eigen::RowMajor> d_nodes =
-          d_fisheye * cache_->jacobian(slot_);
-      for (int b = 0; b < 2; ++b) {
-        if (jacobians[b] == nullptr) continue;
-        Eigen::Map<Eigen::Matrix<double, 2, 7, Eigen::RowMajor>> out(jacobians[b]);
-        out = d_nodes.template middleCols<7>(7 * b);
-      }
+      chainFisheyeJacobian<2>(d_f, F, cache_->jacobian(slot_), jacobians[0], jacobians[1], nullptr);
     }
     return true;
   }

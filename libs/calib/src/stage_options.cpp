@@ -253,6 +253,7 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
                        "rounds",
                        "max_iterations",
                        "function_tolerance",
+                       "initial_trust_region_radius",
                        "linear_solver",
                        "covariance",
                        "threads"},
@@ -299,6 +300,7 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
   s.integer("rounds", rounds);
   s.integer("max_iterations", max_iterations);
   s.number("function_tolerance", function_tolerance);
+  s.number("initial_trust_region_radius", initial_trust_region_radius);
   if (node["linear_solver"]) linear_solver = r.text(node["linear_solver"], s.path("linear_solver"));
   flag("covariance", covariance);
   s.integer("threads", threads);
@@ -345,6 +347,10 @@ std::string JointOptions::check() const {
   if (rounds < 1) return "'rounds': must be at least 1";
   if (max_iterations < 1) return "'max_iterations': must be at least 1";
   if (threads < 1) return "'threads': must be at least 1";
+  if (!(initial_trust_region_radius > 0 && std::isfinite(initial_trust_region_radius))) {
+    return "'initial_trust_region_radius': must be positive and finite, got " +
+           formatDouble(initial_trust_region_radius);
+  }
   if (!(function_tolerance > 0 && function_tolerance < 1)) {
     return "'function_tolerance': must be in (0, 1), got " + formatDouble(function_tolerance);
   }

@@ -196,6 +196,13 @@ struct JointOptions {
   /// A round stops when an iteration changes the cost by less than this
   /// fraction (Ceres' function_tolerance).
   double function_tolerance = 1e-6;
+  /// Levenberg-Marquardt's first trust-region radius (the inverse of its
+  /// first damping; Ceres' default is 1e4). The problem starts near its
+  /// solution (the paper's stages) and is nearly quadratic there, so a large
+  /// radius takes Gauss-Newton steps from the start, and the long trajectory's
+  /// weakly determined bending converges in a few iterations instead of
+  /// waiting for the damping to shrink. A step that fails shrinks it anyway.
+  double initial_trust_region_radius = 1e10;
   /// "sparse_normal_cholesky", "sparse_schur" or "iterative_schur".
   std::string linear_solver = "sparse_schur";
   /// Per-camera 6x6 covariance (sparse LDL^T of the problem's J^T J; src/sparse_covariance.h).
