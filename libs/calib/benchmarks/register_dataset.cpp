@@ -135,6 +135,22 @@ int main(int argc_in, char** argv_in) {
               << formatFixed(aligned.position_max_m * 1000, 2) << "), rotation RMSE "
               << formatFixed(aligned.rotation_rmse_deg, 3) << " deg (max "
               << formatFixed(aligned.rotation_max_deg, 3) << ")\n";
+    {
+      // What the estimate's own covariance predicts for the first line's
+      // RMSE (the same gauge): sqrt of the mean trace of the cameras'
+      // position covariances.
+      double sum = 0;
+      int n = 0;
+      for (const CameraRegistration& c : r.cameras) {
+        if (!c.covariance) continue;
+        sum += c.covariance->topLeftCorner<3, 3>().trace();
+        ++n;
+      }
+      if (n > 0) {
+        std::cout << "position RMSE predicted by the covariance: "
+                  << formatFixed(std::sqrt(sum / n) * 1000, 2) << " mm (" << n << " cameras)\n";
+      }
+    }
     const Rigid3d& x = r.fisheye_from_marker;
     if (input.manifest.ground_truth.fisheye_from_marker) {
       const Rigid3d& gx = *input.manifest.ground_truth.fisheye_from_marker;
