@@ -6,6 +6,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
@@ -39,10 +40,15 @@ void registerFacility(benchmark::State& state, bool joint) {
   if (joint) {
     config = std::filesystem::temp_directory_path() /
              ("lookboth-bench-joint-" + std::to_string(::getpid()) + ".yaml");
-    // The drift model the doc/benchmarks.md scaling table was measured with.
+    // The drift model the doc/benchmarks.md scaling table was measured with;
+    // LOOKBOTH_BENCH_JOINT_OPTIONS adds options (YAML flow entries, e.g.
+    // "initial_trust_region_radius: 1.0e4") for comparisons.
+    const char* extra = std::getenv("LOOKBOTH_BENCH_JOINT_OPTIONS");
     std::ofstream(*config) << "register:\n  pipeline: [associate, motion_calibration, look_down, "
                               "look_up, joint]\n  joint: {drift_m_per_sqrt_m: 0.002, "
-                              "drift_deg_per_sqrt_m: 0.05}\n";
+                              "drift_deg_per_sqrt_m: 0.05"
+                           << (extra != nullptr && *extra ? std::string(", ") + extra : "")
+                           << "}\n";
   }
   const RegistrationController controller(loadRegistrationConfig(config));
   if (joint) std::filesystem::remove(*config);
