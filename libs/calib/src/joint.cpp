@@ -580,9 +580,114 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   std::vector<char> previous_inlier;
   std::vector<double> previous_offset;
   std::size_t previous_blobs = 0;
+  // The clock search of the restarted cameras again after the first round,
+  // on the trajectory that round corrected: there a camera put at the right
+  // offset projects within a pixel or two of its blob, where on the input
+  // trajectory the score was tens of pixels and flat (one pass in one
+  // direction trades a clock shift for a tilt of the camera). The offset
+  // moves only when another is clearly better (1 px or 20 % of the score).
+  auto researchRestartedClocks = [&]() {
+    auto poseNow = [&](TimeNs t) -> std::optional<Rigid3d> {
+      const auto b = bracketAt(t, false);
+      if (!b) return std::nullopt;
+      return poseAt<double>(*b, nodes[b->k].data(), nodes[b->k + 1].data(), b->tau_ref_s);
+    };
+    const Rigid3d X = paramsToPose(x_params);
+    for (JointCamera& jc : cameras) {
+      const std::string& label = jc.registration->label;
+      if (restarted.count(label) == 0) continue;
+      const auto found = problem.associations_by_camera.find(label);
+      if (found == problem.associations_by_camera.end()) continue;
+      TimeNs t_first = std::numeric_limits<TimeNs>::max(), t_last = 0;
+      for (std::size_t a : found->second) {
+        t_first = std::min(t_first, problem.marker(problem.associations[a]).t);
+        t_last = std::max(t_last, problem.marker(problem.associations[a]).t);
+      }
+      const TimeNs shift_now = static_cast<TimeNs>(std::llround(jc.offset_s * 1e9));
+      const TimeNs margin = 3'000'000'000;
+      std::vector<std::pair<const BlobObservation*, Rigid3d>> views;
+      {
+        std::vector<const BlobObservation*> near;
+        for (const BlobObservation& b : input.blobs) {
+          if (!b.blobs.empty() && b.t >= t_first - shift_now - margin &&
+              b.t <= t_last - shift_now + margin) {
+            near.push_back(&b);
+          }
+        }
+        const std::size_t step = std::max<std::size_t>(1, near.size() / 300);
+        for (std::size_t i = 0; i < near.size(); i += step) {
+          if (const auto w = poseNow(near[i]->t)) views.emplace_back(near[i], *w);
+        }
+      }
+      // At an offset [s]: the per-detection camera poses, their median
+      // position, and the mean distance from its projection to the nearest
+      // blob, truncated at 10 px (NaN: too few views).
+      auto score = [&](double offset_s, std::vector<Rigid3d>& candidates, Eigen::Vector3d& median) {
+        candidates.clear();
+        for (std::size_t a : found->second) {
+          const MarkerObservation& m = problem.marker(problem.associations[a]);
+          const auto w = poseNow(m.t - static_cast<TimeNs>(std::llround(offset_s * 1e9)));
+          if (w) candidates.push_back(*w * X * m.camera_from_marker.inverse());
+        }
+        if (static_cast<int>(candidates.size()) < options.min_detections) {
+          return std::numeric_limits<double>::quiet_NaN();
+        }
+        for (int i = 0; i < 3; ++i) {
+          std::vector<double> v;
+          for (const Rigid3d& r : candidates) v.push_back(r.translation[i]);
+          std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+          median[i] = v[v.size() / 2];
+        }
+        constexpr double kTruncate = 10.0;
+        double sum = 0;
+        int seen = 0;
+        for (const auto& [frame, world_from_fisheye] : views) {
+          const Eigen::Vector3d p = world_from_fisheye.inverse() * median;
+          if (p.z() <= 0) continue;
+          const auto pixel = blob_fisheye->project(p);
+          if (!pixel || !blob_fisheye->isInImage(*pixel)) continue;
+          double d = kTruncate;
+          for (const Blob& b : frame->blobs) {
+            d = std::min(d, (Eigen::Vector2d(b.u, b.v) - *pixel).norm());
+          }
+          sum += d;
+          ++seen;
+        }
+        return seen < 10 ? std::numeric_limits<double>::quiet_NaN() : sum / seen;
+      };
+      std::vector<Rigid3d> candidates;
+      Eigen::Vector3d median;
+      const double now = score(jc.offset_s, candidates, median);
+      double best = now, best_offset = jc.offset_s;
+      for (int k = -50; k <= 50; ++k) {
+        const double offset = jc.offset_s + 0.01 * k;
+        const double v = score(offset, candidates, median);
+        if (!std::isnan(v) && (std::isnan(best) || v < best)) {
+          best = v;
+          best_offset = offset;
+        }
+      }
+      const bool move = !std::isnan(best) && best_offset != jc.offset_s &&
+                        (std::isnan(now) || best < now - std::max(1.0, 0.2 * now));
+      if (verbose) {
+        std::cerr << "joint clock search after round 1 " << label << ": offset "
+                  << jc.offset_s * 1e3 << " ms scores " << now << " px; best " << best_offset * 1e3
+                  << " ms " << best << " px" << (move ? " (moved)" : "") << "\n";
+      }
+      if (!move) continue;
+      score(best_offset, candidates, median);
+      std::vector<Eigen::Quaterniond> rotations;
+      for (const Rigid3d& r : candidates) rotations.push_back(r.rotation);
+      poseToParams(Rigid3d(calib_detail::meanRotation(rotations), median), jc.pose);
+      jc.offset_s = best_offset;
+    }
+  };
   for (int round = 0; round < options.rounds; ++round) {
     progress.checkStop();
     progress.report("joint", round, options.rounds, "round " + std::to_string(round + 1));
+    if (round == 1 && blob_fisheye != nullptr && options.estimate_clock_offsets) {
+      researchRestartedClocks();
+    }
     bracketDetections();
     if (round > 0) {
       // Outliers at the current estimate (every detection is reconsidered),
