@@ -657,6 +657,18 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       };
       std::vector<Rigid3d> candidates;
       Eigen::Vector3d median;
+      // The detections must agree among themselves at the current offset
+      // (their median distance from their median below 10 cm: else they do
+      // not say where the camera is) and as well at the new one.
+      constexpr double kMaxSpread = 0.1;
+      auto spread = [&](double offset_s) {
+        score(offset_s, candidates, median);
+        std::vector<double> d;
+        for (const Rigid3d& r : candidates) d.push_back((r.translation - median).norm());
+        if (d.empty()) return std::numeric_limits<double>::infinity();
+        std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
+        return d[d.size() / 2];
+      };
       const double now = score(jc.offset_s, candidates, median);
       double best = now, best_offset = jc.offset_s;
       for (int k = -50; k <= 50; ++k) {
@@ -667,12 +679,15 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
           best_offset = offset;
         }
       }
+      const double spread_now = spread(jc.offset_s), spread_best = spread(best_offset);
       const bool move = !std::isnan(best) && best_offset != jc.offset_s &&
-                        (std::isnan(now) || best < now - std::max(1.0, 0.2 * now));
+                        (std::isnan(now) || best < now - std::max(1.0, 0.2 * now)) &&
+                        spread_now < kMaxSpread && spread_best <= 1.2 * spread_now + 0.005;
       if (verbose) {
         std::cerr << "joint clock search after round 1 " << label << ": offset "
-                  << jc.offset_s * 1e3 << " ms scores " << now << " px; best " << best_offset * 1e3
-                  << " ms " << best << " px" << (move ? " (moved)" : "") << "\n";
+                  << jc.offset_s * 1e3 << " ms scores " << now << " px (spread " << spread_now
+                  << " m); best " << best_offset * 1e3 << " ms " << best << " px (spread "
+                  << spread_best << " m)" << (move ? " (moved)" : "") << "\n";
       }
       if (!move) continue;
       score(best_offset, candidates, median);
