@@ -954,7 +954,8 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     frame_poses->PrepareForEvaluation(true, true);  // (Problem::Evaluate calls it too)
     lap();
     have_covariance = covariance.compute(blocks, ceres_problem.get(), options.threads);
-    if (verbose) std::cerr << "joint covariance: CPU " << lap() << " s\n";
+    if (verbose)
+      std::cerr << "joint covariance: CPU " << lap() << " s" << covariance.describe() << "\n";
     if (!have_covariance) {
       result.warnings.push_back("joint: the covariance could not be computed (" +
                                 covariance.message() + ")");

@@ -3,134 +3,354 @@
 #include <ceres/crs_matrix.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <cmath>
-#include <set>
+#include <ctime>
+#include <memory>
+#include <sstream>
 #include <stdexcept>
 
 namespace lookboth::calib_detail {
+namespace {
+
+using Sparse = Eigen::SparseMatrix<double>;
+constexpr const char* kSingular =
+    "the information matrix is singular (a direction the data does not determine)";
+
+// Pivots all finite and above 1e-14 of the largest.
+bool definite(const Eigen::VectorXd& d) {
+  if (d.size() == 0) return true;
+  const double largest = d.cwiseAbs().maxCoeff();
+  return std::isfinite(largest) && largest > 0 && d.minCoeff() > 1e-14 * largest;
+}
+
+// The entries of A^-1 on the pattern of the unit lower factor L (A = L D L^T,
+// L strictly lower and column-major with sorted rows; its pattern is closed
+// under elimination), by the Takahashi recursion from the last column:
+//   Z(i, j) = -sum_{k in col j} Z(i, k) L(k, j)   for i in col j,
+//   Z(j, j) = 1 / D(j) - sum_{k in col j} L(k, j) Z(k, j).
+// Z(i, k) for i, k in column j lies in column min(i, k), since its pattern
+// holds column j's rows below it.
+class SelectedInverse {
+ public:
+  SelectedInverse(const Sparse& l, const Eigen::VectorXd& d)
+      : lp_(l.outerIndexPtr()), li_(l.innerIndexPtr()) {
+    const int n = static_cast<int>(l.cols());
+    const double* lx = l.valuePtr();
+    diagonal_.resize(n);
+    values_.assign(static_cast<std::size_t>(lp_[n]), 0.0);
+    std::vector<int> slot(static_cast<std::size_t>(n), -1);  // row -> place in column j
+    std::vector<double> sum;
+    for (int j = n - 1; j >= 0; --j) {
+      const int p0 = lp_[j], m = lp_[j + 1] - p0;
+      sum.assign(static_cast<std::size_t>(m), 0.0);
+      for (int a = 0; a < m; ++a) slot[li_[p0 + a]] = a;
+      for (int b = 0; b < m; ++b) {
+        const int k = li_[p0 + b];
+        const double l_kj = lx[p0 + b];
+        double own = diagonal_[k] * l_kj;  // Z(k, k) L(k, j)
+        for (int q = lp_[k]; q < lp_[k + 1]; ++q) {
+          const int a = slot[li_[q]];
+          if (a < 0) continue;
+          const double z = values_[q];  // Z(i, k), i = row a of column j, i > k
+          sum[a] += z * l_kj;
+          own += z * lx[p0 + a];
+        }
+        sum[b] += own;
+      }
+      double dot = 0;
+      for (int a = 0; a < m; ++a) {
+        values_[p0 + a] = -sum[a];
+        dot += lx[p0 + a] * values_[p0 + a];
+        slot[li_[p0 + a]] = -1;
+      }
+      diagonal_[j] = 1.0 / d[j] - dot;
+    }
+  }
+  /// Z(i, j); false when (i, j) is not on the pattern.
+  bool at(int i, int j, double* z) const {
+    if (i == j) {
+      *z = diagonal_[i];
+      return true;
+    }
+    if (i < j) std::swap(i, j);
+    const int* begin = li_ + lp_[j];
+    const int* end = li_ + lp_[j + 1];
+    const int* f = std::lower_bound(begin, end, i);
+    if (f == end || *f != i) return false;
+    *z = values_[static_cast<std::size_t>(f - li_)];
+    return true;
+  }
+
+ private:
+  const int* lp_;
+  const int* li_;
+  Eigen::VectorXd diagonal_;
+  std::vector<double> values_;
+};
+
+}  // namespace
 
 bool SparseCovariance::compute(const std::vector<std::pair<const double*, const double*>>& pairs,
-                               ceres::Problem* problem, int threads) {
+                               ceres::Problem* problem, int threads, Method method) {
   blocks_.clear();
   message_.clear();
+  stats_ = Stats();
   // Columns: the problem's free blocks in its order.
   std::vector<double*> all;
   problem->GetParameterBlocks(&all);
   ceres::Problem::EvaluateOptions evaluate;
-  std::map<const double*, std::pair<int, int>> column;  // block -> (first column, tangent size)
+  std::map<const double*, int> index;  // block -> position in evaluate.parameter_blocks
+  std::vector<int> first, size;        // per block: first column, tangent size
   int n = 0;
   for (double* p : all) {
     if (problem->IsParameterBlockConstant(p)) continue;
-    const int size = problem->ParameterBlockTangentSize(p);
+    index[p] = static_cast<int>(first.size());
     evaluate.parameter_blocks.push_back(p);
-    column[p] = {n, size};
-    n += size;
+    first.push_back(n);
+    size.push_back(problem->ParameterBlockTangentSize(p));
+    n += size.back();
   }
   for (const auto& [a, b] : pairs) {
-    if (!column.count(a) || !column.count(b)) {
+    if (!index.count(a) || !index.count(b)) {
       message_ = "a requested block is constant or not in the problem";
       return false;
     }
   }
   if (pairs.empty()) return true;
+  const std::clock_t start = std::clock();
   evaluate.num_threads = std::max(1, threads);
   ceres::CRSMatrix crs;
   if (!problem->Evaluate(evaluate, nullptr, nullptr, nullptr, &crs)) {
     message_ = "the Jacobian could not be evaluated";
     return false;
   }
-  using Sparse = Eigen::SparseMatrix<double>;
   const Eigen::Map<const Eigen::SparseMatrix<double, Eigen::RowMajor, int>> jacobian(
       crs.num_rows, crs.num_cols, static_cast<int>(crs.values.size()), crs.rows.data(),
       crs.cols.data(), crs.values.data());
-  const Sparse jt = Sparse(jacobian.transpose());
-  const Sparse information = jt * jacobian;
+  const Sparse information = Sparse(jacobian.transpose()) * jacobian;
+  const std::clock_t evaluated = std::clock();
+  stats_.evaluate_cpu_s = static_cast<double>(evaluated - start) / CLOCKS_PER_SEC;
 
-  // The requested blocks' columns c, the others r. The covariance of c is the
-  // inverse of the Schur complement S = H_cc - H_cr H_rr^-1 H_rc: one sparse
-  // factorisation of H_rr (the trajectory: banded) and dense products, instead
-  // of a sparse factorisation of all of H whose camera rows fill in.
-  std::set<const double*> wanted;
-  for (const auto& [a, b] : pairs) {
-    wanted.insert(a);
-    wanted.insert(b);
+  // The block graph of H.
+  const int blocks = static_cast<int>(first.size());
+  std::vector<int> block_of(static_cast<std::size_t>(n));
+  for (int b = 0; b < blocks; ++b) {
+    std::fill_n(block_of.begin() + first[b], size[b], b);
   }
-  std::vector<int> c_index, r_index;  // problem column -> position in c or r
-  std::vector<int> place(static_cast<std::size_t>(n), -1);
-  std::vector<bool> in_c(static_cast<std::size_t>(n), false);
-  std::map<const double*, int> c_first;  // block -> first column in c
-  for (double* p : evaluate.parameter_blocks) {
-    const auto [first, size] = column[p];
-    if (wanted.count(p)) {
-      c_first[p] = static_cast<int>(c_index.size());
-      for (int k = 0; k < size; ++k) {
-        place[first + k] = static_cast<int>(c_index.size());
-        in_c[first + k] = true;
-        c_index.push_back(first + k);
+  std::vector<std::vector<int>> neighbours(static_cast<std::size_t>(blocks));
+  {
+    std::vector<int> seen(static_cast<std::size_t>(blocks), -1);
+    for (int b = 0; b < blocks; ++b) {
+      for (int col = first[b]; col < first[b] + size[b]; ++col) {
+        for (Sparse::InnerIterator it(information, col); it; ++it) {
+          const int o = block_of[static_cast<std::size_t>(it.row())];
+          if (o != b && seen[o] != b) {
+            seen[o] = b;
+            neighbours[b].push_back(o);
+          }
+        }
       }
+      std::sort(neighbours[b].begin(), neighbours[b].end());
+    }
+  }
+  auto coupled = [&](int a, int b) {
+    return a == b || std::binary_search(neighbours[a].begin(), neighbours[a].end(), b);
+  };
+
+  // The dense group G.
+  std::vector<bool> wanted(static_cast<std::size_t>(blocks), false);
+  for (const auto& [a, b] : pairs) {
+    for (const int k : {index[a], index[b]}) {
+      wanted[k] = true;
+    }
+  }
+  std::vector<bool> dense(static_cast<std::size_t>(blocks), false);
+  if (method == Method::kSchur) {
+    dense = wanted;
+  } else {
+    // A block touching many others fills its factor rows: dense anyway (the
+    // threshold of approximate minimum degree's dense rows).
+    const std::size_t crowded =
+        static_cast<std::size_t>(std::max(16.0, 10.0 * std::sqrt(static_cast<double>(blocks))));
+    for (int b = 0; b < blocks; ++b) {
+      if (wanted[b] && neighbours[b].size() > crowded) dense[b] = true;
+    }
+    for (const auto& [a, b] : pairs) {
+      if (!coupled(index[a], index[b])) dense[index[a]] = dense[index[b]] = true;
+    }
+  }
+  stats_.method = method;
+
+  // Order A by approximate minimum degree on its block graph, then G.
+  std::vector<int> sparse_blocks, dense_blocks, place(static_cast<std::size_t>(blocks), -1);
+  for (int b = 0; b < blocks; ++b) {
+    if (dense[b]) {
+      dense_blocks.push_back(b);
     } else {
-      for (int k = 0; k < size; ++k) {
-        place[first + k] = static_cast<int>(r_index.size());
-        r_index.push_back(first + k);
-      }
+      place[b] = static_cast<int>(sparse_blocks.size());
+      sparse_blocks.push_back(b);
     }
   }
-  const int m = static_cast<int>(c_index.size()), nr = static_cast<int>(r_index.size());
-  std::vector<Eigen::Triplet<double>> rr, rc;
-  Eigen::MatrixXd s = Eigen::MatrixXd::Zero(m, m);
-  for (int col = 0; col < information.outerSize(); ++col) {
+  std::vector<int> order = sparse_blocks;  // new position -> block
+  if (!sparse_blocks.empty()) {
+    std::vector<Eigen::Triplet<double>> graph;
+    for (const int b : sparse_blocks) {
+      graph.emplace_back(place[b], place[b], 1.0);
+      for (const int o : neighbours[b]) {
+        if (!dense[o]) graph.emplace_back(place[o], place[b], 1.0);
+      }
+    }
+    const int m = static_cast<int>(sparse_blocks.size());
+    Sparse pattern(m, m);
+    pattern.setFromTriplets(graph.begin(), graph.end());
+    Eigen::AMDOrdering<int> amd;
+    Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> permutation;
+    amd(pattern, permutation);  // indices()[new] = old
+    for (int k = 0; k < m; ++k) order[k] = sparse_blocks[permutation.indices()[k]];
+  }
+  order.insert(order.end(), dense_blocks.begin(), dense_blocks.end());
+  std::vector<int> renumber(static_cast<std::size_t>(n));  // problem column -> new column
+  std::vector<int> new_first(static_cast<std::size_t>(blocks));
+  {
+    int next = 0;
+    for (const int b : order) {
+      new_first[b] = next;
+      for (int k = 0; k < size[b]; ++k) renumber[first[b] + k] = next++;
+    }
+  }
+  int na = 0;
+  for (const int b : sparse_blocks) na += size[b];
+  const int ng = n - na;
+  stats_.sparse_columns = na;
+  stats_.dense_columns = ng;
+
+  // H = [A B; B^T C] in the new order (A: lower triangle).
+  std::vector<Eigen::Triplet<double>> a_entries, b_entries;
+  Eigen::MatrixXd s = Eigen::MatrixXd::Zero(ng, ng);
+  for (int col = 0; col < n; ++col) {
+    const int c = renumber[col];
     for (Sparse::InnerIterator it(information, col); it; ++it) {
-      const int row = static_cast<int>(it.row());
-      const int pr = place[row], pc = place[col];
-      if (in_c[row] && in_c[col]) {
-        s(pr, pc) = it.value();
-      } else if (!in_c[row] && !in_c[col]) {
-        rr.emplace_back(pr, pc, it.value());
-      } else if (!in_c[row]) {
-        rc.emplace_back(pr, pc, it.value());  // H_rc: rows r, columns c
+      const int r = renumber[static_cast<std::size_t>(it.row())];
+      if (r < na && c < na) {
+        if (r >= c) a_entries.emplace_back(r, c, it.value());
+      } else if (r < na) {
+        b_entries.emplace_back(r, c - na, it.value());
+      } else if (c >= na) {
+        s(r - na, c - na) = it.value();
       }
     }
   }
-  if (nr > 0) {
-    Sparse h_rr(nr, nr), h_rc(nr, m);
-    h_rr.setFromTriplets(rr.begin(), rr.end());
-    h_rc.setFromTriplets(rc.begin(), rc.end());
-    Eigen::SimplicialLDLT<Sparse> ldlt(h_rr);
-    if (ldlt.info() != Eigen::Success) {
-      message_ = "the information matrix could not be factorised";
+  // Every entry of a requested block pair in A on the pattern (explicit
+  // zeros where H has none).
+  for (const auto& [pa, pb] : pairs) {
+    const int a = index[pa], b = index[pb];
+    if (dense[a] || dense[b]) continue;
+    for (int u = 0; u < size[a]; ++u) {
+      for (int v = 0; v < size[b]; ++v) {
+        const int r = new_first[a] + u, c = new_first[b] + v;
+        a_entries.emplace_back(std::max(r, c), std::min(r, c), 0.0);
+      }
+    }
+  }
+
+  Eigen::SimplicialLDLT<Sparse, Eigen::Lower, Eigen::NaturalOrdering<int>> ldlt;
+  if (na > 0) {
+    Sparse h_aa(na, na);
+    h_aa.setFromTriplets(a_entries.begin(), a_entries.end());
+    a_entries = {};
+    ldlt.compute(h_aa);
+    if (ldlt.info() != Eigen::Success || !definite(ldlt.vectorD())) {
+      message_ = kSingular;
       return false;
     }
-    const Eigen::VectorXd d = ldlt.vectorD();
-    const double largest = d.cwiseAbs().maxCoeff();
-    if (!std::isfinite(largest) || largest <= 0 || d.minCoeff() <= 1e-14 * largest) {
-      message_ = "the information matrix is singular (a direction the data does not determine)";
+    stats_.factor_nonzeros = ldlt.matrixL().nestedExpression().nonZeros();
+  }
+
+  // Rows of W = A^-1 B kept: the requested blocks in A.
+  std::vector<int> kept_row(static_cast<std::size_t>(na), -1);
+  std::vector<int> kept;
+  for (const int b : sparse_blocks) {
+    if (!wanted[b]) continue;
+    for (int k = 0; k < size[b]; ++k) {
+      kept_row[new_first[b] + k] = static_cast<int>(kept.size());
+      kept.push_back(new_first[b] + k);
+    }
+  }
+  Eigen::MatrixXd cov_gg, w, w_cov;  // S^-1; W and W S^-1 (kept rows)
+  if (ng > 0) {
+    w.setZero(static_cast<Eigen::Index>(kept.size()), ng);
+    if (na > 0) {
+      Sparse h_ag(na, ng);
+      h_ag.setFromTriplets(b_entries.begin(), b_entries.end());
+      b_entries = {};
+      // S = C - B^T (A^-1 B), by batches of columns.
+      constexpr int kBatch = 64;
+      for (int f = 0; f < ng; f += kBatch) {
+        const int width = std::min(kBatch, ng - f);
+        const Eigen::MatrixXd y = ldlt.solve(Eigen::MatrixXd(h_ag.middleCols(f, width)));
+        s.middleCols(f, width).noalias() -= h_ag.transpose() * y;
+        for (std::size_t k = 0; k < kept.size(); ++k) {
+          w.row(static_cast<Eigen::Index>(k)).segment(f, width) = y.row(kept[k]);
+        }
+      }
+    }
+    s = 0.5 * (s + s.transpose());
+    const Eigen::LDLT<Eigen::MatrixXd> s_ldlt(s);
+    if (s_ldlt.info() != Eigen::Success || !definite(s_ldlt.vectorD())) {
+      message_ = kSingular;
       return false;
     }
-    // S -= H_cr (H_rr^-1 H_rc), by batches of columns.
-    constexpr int kBatch = 256;
-    for (int first = 0; first < m; first += kBatch) {
-      const int width = std::min(kBatch, m - first);
-      const Eigen::MatrixXd y = ldlt.solve(Eigen::MatrixXd(h_rc.middleCols(first, width)));
-      s.middleCols(first, width).noalias() -= h_rc.transpose() * y;
+    cov_gg = s_ldlt.solve(Eigen::MatrixXd::Identity(ng, ng));
+    w_cov = w * cov_gg;
+  }
+
+  bool selected = false;
+  for (const auto& [a, b] : pairs) selected |= !dense[index[a]] && !dense[index[b]];
+  std::unique_ptr<SelectedInverse> z;
+  if (selected)
+    z = std::make_unique<SelectedInverse>(ldlt.matrixL().nestedExpression(), ldlt.vectorD());
+
+  for (const auto& [pa, pb] : pairs) {
+    const int a = index[pa], b = index[pb];
+    Eigen::MatrixXd out(size[a], size[b]);
+    for (int u = 0; u < size[a]; ++u) {
+      for (int v = 0; v < size[b]; ++v) {
+        const int r = new_first[a] + u, c = new_first[b] + v;
+        double value = 0;
+        if (r >= na && c >= na) {
+          value = cov_gg(r - na, c - na);
+        } else if (r >= na) {
+          value = -w_cov(kept_row[c], r - na);
+        } else if (c >= na) {
+          value = -w_cov(kept_row[r], c - na);
+        } else {
+          if (!z->at(r, c, &value)) {
+            message_ = "internal: a requested entry is not on the factor's pattern";
+            blocks_.clear();
+            return false;
+          }
+          if (ng > 0) value += w_cov.row(kept_row[r]).dot(w.row(kept_row[c]));
+        }
+        out(u, v) = value;
+      }
     }
+    blocks_[{pa, pb}] = out;
   }
-  s = 0.5 * (s + s.transpose());
-  const Eigen::LDLT<Eigen::MatrixXd> s_ldlt(s);
-  const Eigen::VectorXd sd = s_ldlt.vectorD();
-  const double s_largest = m > 0 ? sd.cwiseAbs().maxCoeff() : 1.0;
-  if (s_ldlt.info() != Eigen::Success || !std::isfinite(s_largest) || s_largest <= 0 ||
-      (m > 0 && sd.minCoeff() <= 1e-14 * s_largest)) {
-    message_ = "the information matrix is singular (a direction the data does not determine)";
-    return false;
-  }
-  const Eigen::MatrixXd cov = s_ldlt.solve(Eigen::MatrixXd::Identity(m, m));
-  for (const auto& [a, b] : pairs) {
-    blocks_[{a, b}] = cov.block(c_first[a], c_first[b], column[a].second, column[b].second);
-  }
+  stats_.rest_cpu_s = static_cast<double>(std::clock() - evaluated) / CLOCKS_PER_SEC;
   return true;
+}
+
+std::string SparseCovariance::describe() const {
+  std::ostringstream out;
+  out << " (" << (stats_.method == Method::kSchur ? "Schur complement" : "selected inversion")
+      << ": " << stats_.sparse_columns << " sparse + " << stats_.dense_columns << " dense columns, "
+      << stats_.factor_nonzeros << " factor nonzeros; CPU " << stats_.evaluate_cpu_s
+      << " s Jacobian and J^T J, " << stats_.rest_cpu_s << " s the rest)";
+  return out.str();
 }
 
 Eigen::MatrixXd SparseCovariance::block(const double* a, const double* b) const {
