@@ -1,10 +1,9 @@
-// SparseCovariance alone on the joint stage's shape (doc/covariance-notes.md):
-// a chain of 10 nodes per camera along a loop driven twice, each camera seen
-// from 3 consecutive nodes of the first lap and 1 of the second through one
-// global block (as fisheye_from_marker), each with a scalar (as its clock
-// offset). Requested: each camera, each clock, each camera x clock, the
-// global block. Arguments: cameras, route (1 Schur: all requested columns
-// dense; 2 selected inversion).
+// SparseCovariance alone on the joint stage's shape (doc/benchmarks.md, "The covariance by selected
+// inversion"): a chain of 10 nodes per camera along a loop driven twice, each camera seen from 3
+// consecutive nodes of the first lap and 1 of the second through one global block (as
+// fisheye_from_marker), each with a scalar (as its clock offset). Requested: each camera, each
+// clock, each camera x clock, the global block. Arguments: cameras, route (1 Schur: all requested
+// columns dense; 2 selected inversion).
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
 

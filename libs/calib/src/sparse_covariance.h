@@ -18,7 +18,7 @@
 // The older route, every requested block in G and A the rest (a Schur
 // complement, nothing to invert selectively), is kept as Method::kSchur for
 // comparisons: it is no faster on `paper_det` (43 cameras) and grows like
-// the cube of the requested columns (doc/covariance-notes.md).
+// the cube of the requested columns (doc/benchmarks.md, "The covariance by selected inversion").
 //
 // The information must be positive definite: a pivot of D or of S below
 // 1e-14 of the largest (a direction the data does not determine) makes
