@@ -195,7 +195,7 @@ struct JointOptions {
   int max_iterations = 50;
   /// A round stops when an iteration changes the cost by less than this
   /// fraction (Ceres' function_tolerance).
-  double function_tolerance = 1e-6;
+  double function_tolerance = 1e-5;
   /// Levenberg-Marquardt's first trust-region radius (the inverse of its
   /// first damping; Ceres' default is 1e4). The problem starts near its
   /// solution (the paper's stages) and is nearly quadratic there, so a large
