@@ -173,6 +173,10 @@ int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& f
 
   ceres::Solver::Options solver;
   solver.linear_solver_type = variable.size() <= 20 ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
+  if (options.implicit_schur) {
+    solver.linear_solver_type = ceres::ITERATIVE_SCHUR;
+    solver.preconditioner_type = ceres::SCHUR_JACOBI;
+  }
   solver.max_num_iterations = options.iterations;
   solver.num_threads = options.threads;
   solver.logging_type = ceres::SILENT;
@@ -335,8 +339,13 @@ int bundleAdjustSampled(Map& map, const std::set<int>& ids, int gauge,
   }
   std::map<int, Rigid3d> before;
   for (int k : ids) before[k] = map.keyframes[size_t(k)].world_from_camera;
+  // The reduced camera system over all keyframes, factorised, grows with
+  // them and their covisibility: applied implicitly instead (memory:
+  // doc/vo-memory-notes.md).
+  AdjustmentOptions sampled = options;
+  sampled.implicit_schur = true;
   const int removed =
-      bundleAdjust(map, ids, {gauge}, options, ObservationScope::kAll, report, &selected);
+      bundleAdjust(map, ids, {gauge}, sampled, ObservationScope::kAll, report, &selected);
   // The landmarks left out follow the keyframe that made them.
   for (int l : seen) {
     Landmark& landmark = map.landmarks[size_t(l)];

@@ -88,6 +88,10 @@ struct AdjustmentOptions {
   int iterations = 10;
   int threads = 1;
   double outlier_px = 6;  ///< Observations worse than this after the solve are removed.
+  /// Solve with the Schur complement applied implicitly (conjugate gradients,
+  /// Schur-Jacobi preconditioner) instead of factorising it: its memory does
+  /// not grow with the keyframes' covisibility.
+  bool implicit_schur = false;
 };
 
 /// Which observations of the landmarks take part.
@@ -141,8 +145,9 @@ struct ObservationBudget {
 /// observations: when their landmarks hold more, a subset of landmarks is
 /// taken (longest tracks first) so that every keyframe keeps about
 /// max_observations / ids.size() observations (at least
-/// `budget.min_per_keyframe`); the landmarks left out then follow the
-/// correction of their reference keyframe. Within the budget, the same as
+/// `budget.min_per_keyframe`), solved with the Schur complement applied
+/// implicitly (AdjustmentOptions::implicit_schur); the landmarks left out
+/// then follow the correction of their reference keyframe. Within the budget, the same as
 /// bundleAdjust(map, ids, {gauge}). Returns the observations removed.
 int bundleAdjustSampled(Map& map, const std::set<int>& ids, int gauge,
                         const ObservationBudget& budget, const AdjustmentOptions& options,

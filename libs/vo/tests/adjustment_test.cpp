@@ -207,7 +207,9 @@ TEST(GlobalAdjustmentTest, SampledAdjustmentRecoversNoiseFreeSceneFromDrift) {
   // problem overshoots the budget (x2 here; x1.2 on `revisit x2`).
   EXPECT_LT(report.largest_residual_blocks, 2.5 * budget.max_observations);
   EXPECT_GT(before, 0.05);
-  EXPECT_LT(after, 1e-6);
+  // (The implicit Schur complement's conjugate gradients stop short of the
+  // direct solve: 2e-6 m here, the factorisation 2e-11 m.)
+  EXPECT_LT(after, 1e-5);
   // The landmarks left out followed their keyframes: the map still fits the
   // keyframes (median angular error of all observations).
   std::vector<double> errors;

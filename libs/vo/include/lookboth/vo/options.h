@@ -61,10 +61,10 @@ struct OdometryOptions {
   int global_window = 0;
   int global_sweeps = 2;  ///< Passes over the windows when the segment is longer than one.
   /// Bound on the observations (residual blocks) of the global adjustment's
-  /// one problem (global_window 0), i.e. on its memory (~1 KB each with the
-  /// solver's work space): a segment whose landmarks hold more is adjusted,
-  /// still as one problem over all its keyframes, on a subset of its
-  /// landmarks (longest tracks first) that gives each keyframe about
+  /// one problem (global_window 0), i.e. on its memory: a segment whose
+  /// landmarks hold more is adjusted, still as one problem over all its
+  /// keyframes (Schur complement applied implicitly, not factorised), on a
+  /// subset of its landmarks (longest tracks first) that gives each keyframe about
   /// global_max_observations / keyframes observations, and at least
   /// global_min_observations_per_keyframe (beyond global_max_observations /
   /// that many keyframes the problem grows again, by that many observations
