@@ -78,6 +78,9 @@ int runOdometryCommand(const OdometryArgs& args) {
                                  std::max<double>(1, static_cast<double>(st.keyframes)),
                              2)
               << " KiB per keyframe)\n";
+    std::cout << "  global BA:   " << st.global_problems << " problems, the largest "
+              << st.global_largest_observations << " observations of "
+              << st.global_largest_keyframes << " keyframes\n";
     for (const std::string& e : st.events) std::cout << "  event:       " << e << "\n";
     const double n = std::max<double>(1, static_cast<double>(st.frames));
     std::cout << "  time (CPU):  decode " << formatFixed(s.decode_seconds, 2)

@@ -90,7 +90,8 @@ struct Sim3EdgeResidual {
 }  // namespace
 
 int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& fixed,
-                 const AdjustmentOptions& options, ObservationScope scope) {
+                 const AdjustmentOptions& options, ObservationScope scope, AdjustmentReport* report,
+                 const std::set<int>* only_landmarks) {
   const bool variable_observations_only = scope == ObservationScope::kVariableKeyframes;
   const auto used = [&](const Observation& o) {
     return !variable_observations_only || variable.count(o.keyframe) > 0;
@@ -107,7 +108,8 @@ int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& f
   std::set<int> landmark_ids;
   for (int k : variable) {
     for (int l : map.keyframes[k].landmarks) {
-      if (map.landmarks[l].valid) landmark_ids.insert(l);
+      if (map.landmarks[l].valid && (!only_landmarks || only_landmarks->count(l)))
+        landmark_ids.insert(l);
     }
   }
   if (variable_observations_only) {
@@ -163,8 +165,18 @@ int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& f
     }
   }
 
+  if (report) {
+    ++report->problems;
+    report->largest_residual_blocks = std::max(report->largest_residual_blocks, residuals);
+    report->largest_keyframes = std::max(report->largest_keyframes, static_cast<int>(poses.size()));
+  }
+
   ceres::Solver::Options solver;
   solver.linear_solver_type = variable.size() <= 20 ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
+  if (options.implicit_schur) {
+    solver.linear_solver_type = ceres::ITERATIVE_SCHUR;
+    solver.preconditioner_type = ceres::SCHUR_JACOBI;
+  }
   solver.max_num_iterations = options.iterations;
   solver.num_threads = options.threads;
   solver.logging_type = ceres::SILENT;
@@ -206,9 +218,9 @@ int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& f
 }
 
 int bundleAdjustWindowed(Map& map, const std::set<int>& ids, int gauge, int window, int sweeps,
-                         const AdjustmentOptions& options) {
+                         const AdjustmentOptions& options, AdjustmentReport* report) {
   if (window <= 0 || static_cast<int>(ids.size()) <= window) {
-    return bundleAdjust(map, ids, {gauge}, options);
+    return bundleAdjust(map, ids, {gauge}, options, ObservationScope::kAll, report);
   }
   const std::vector<int> order(ids.begin(), ids.end());
   const size_t n = order.size();
@@ -229,7 +241,8 @@ int bundleAdjustWindowed(Map& map, const std::set<int>& ids, int gauge, int wind
     // The outlier check waits for the fine pass (the others have not moved yet).
     AdjustmentOptions coarse_options = options;
     coarse_options.outlier_px = std::numeric_limits<double>::infinity();
-    bundleAdjust(map, coarse, {gauge}, coarse_options, ObservationScope::kVariableKeyframes);
+    bundleAdjust(map, coarse, {gauge}, coarse_options, ObservationScope::kVariableKeyframes,
+                 report);
     // new world from old world, per keyframe: picked ones from the solve,
     // the ones between interpolated.
     std::map<int, Rigid3d> correction;
@@ -278,10 +291,69 @@ int bundleAdjustWindowed(Map& map, const std::set<int>& ids, int gauge, int wind
       if (variable.count(gauge)) fixed.insert(gauge);
       // Only the window's own observations are checked for outliers: the
       // keyframes around it may not be refined yet.
-      removed +=
-          bundleAdjust(map, variable, fixed, options, ObservationScope::kCheckVariableKeyframes);
+      removed += bundleAdjust(map, variable, fixed, options,
+                              ObservationScope::kCheckVariableKeyframes, report);
       if (end == n) break;
     }
+  }
+  return removed;
+}
+
+int bundleAdjustSampled(Map& map, const std::set<int>& ids, int gauge,
+                        const ObservationBudget& budget, const AdjustmentOptions& options,
+                        AdjustmentReport* report) {
+  // The landmarks the one problem would hold, and its size.
+  std::vector<std::pair<int, int>> candidates;  // (observations, landmark)
+  std::set<int> seen;
+  std::size_t total = 0;
+  for (int k : ids) {
+    for (int l : map.keyframes[size_t(k)].landmarks) {
+      const Landmark& landmark = map.landmarks[size_t(l)];
+      if (!landmark.valid || !seen.insert(l).second) continue;
+      const int n = static_cast<int>(landmark.observations.size());
+      total += size_t(n);
+      if (n >= 2) candidates.emplace_back(n, l);
+    }
+  }
+  if (budget.max_observations <= 0 || total <= size_t(budget.max_observations)) {
+    return bundleAdjust(map, ids, {gauge}, options, ObservationScope::kAll, report);
+  }
+  // Longest tracks first (the widest baselines, and the points seen again
+  // across a loop); a landmark is taken while one of its keyframes has fewer
+  // than `quota` observations taken.
+  const int quota = std::max(budget.min_per_keyframe,
+                             budget.max_observations / std::max<int>(1, int(ids.size())));
+  std::sort(candidates.begin(), candidates.end(), [](const auto& a, const auto& b) {
+    return a.first != b.first ? a.first > b.first : a.second < b.second;
+  });
+  std::map<int, int> taken;  // per keyframe of ids
+  std::set<int> selected;
+  for (const auto& [n, l] : candidates) {
+    const auto& observations = map.landmarks[size_t(l)].observations;
+    const bool wanted = std::any_of(observations.begin(), observations.end(), [&](const auto& o) {
+      return ids.count(o.keyframe) && taken[o.keyframe] < quota;
+    });
+    if (!wanted) continue;
+    selected.insert(l);
+    for (const Observation& o : observations) ++taken[o.keyframe];
+  }
+  std::map<int, Rigid3d> before;
+  for (int k : ids) before[k] = map.keyframes[size_t(k)].world_from_camera;
+  // The reduced camera system over all keyframes, factorised, grows with
+  // them and their covisibility: applied implicitly instead (memory:
+  // doc/vo-memory-notes.md).
+  AdjustmentOptions sampled = options;
+  sampled.implicit_schur = true;
+  const int removed =
+      bundleAdjust(map, ids, {gauge}, sampled, ObservationScope::kAll, report, &selected);
+  // The landmarks left out follow the keyframe that made them.
+  for (int l : seen) {
+    Landmark& landmark = map.landmarks[size_t(l)];
+    if (!landmark.valid || selected.count(l)) continue;
+    const auto it = before.find(landmark.reference_keyframe);
+    if (it == before.end()) continue;
+    landmark.p_in_world = map.keyframes[size_t(it->first)].world_from_camera *
+                          (it->second.inverse() * landmark.p_in_world);
   }
   return removed;
 }

@@ -88,6 +88,10 @@ struct AdjustmentOptions {
   int iterations = 10;
   int threads = 1;
   double outlier_px = 6;  ///< Observations worse than this after the solve are removed.
+  /// Solve with the Schur complement applied implicitly (conjugate gradients,
+  /// Schur-Jacobi preconditioner) instead of factorising it: its memory does
+  /// not grow with the keyframes' covisibility.
+  bool implicit_schur = false;
 };
 
 /// Which observations of the landmarks take part.
@@ -98,12 +102,22 @@ enum class ObservationScope {
                             ///< neither hold the landmarks nor are checked).
 };
 
+/// The size of the problems solved (what their memory grows with).
+struct AdjustmentReport {
+  int problems = 0;                 ///< Ceres problems solved.
+  int largest_residual_blocks = 0;  ///< Residual blocks (observations) of the largest.
+  int largest_keyframes = 0;        ///< Keyframes (variable or held) of the largest.
+};
+
 /// Bundle adjustment of the keyframes `variable` and their landmarks; the
 /// other keyframes that see those landmarks stay fixed, as do the keyframes
 /// in `fixed` (the gauge). Removes outlier observations afterwards. Returns
-/// the number of observations removed.
+/// the number of observations removed; `report`, if given, is updated with
+/// the size of the problem. With `only_landmarks`, only those of the
+/// landmarks take part (and only their observations are checked).
 int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& fixed,
-                 const AdjustmentOptions& options, ObservationScope scope = ObservationScope::kAll);
+                 const AdjustmentOptions& options, ObservationScope scope = ObservationScope::kAll,
+                 AdjustmentReport* report = nullptr, const std::set<int>* only_landmarks = nullptr);
 
 /// Bundle adjustment of the keyframes `ids` with `gauge` (their first) fixed,
 /// in bounded memory: when there are more than `window` keyframes (and
@@ -116,9 +130,28 @@ int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& f
 ///     keyframes (in id order, stride window / 2), each adjusted with
 ///     bundleAdjust while the keyframes around it stay fixed.
 /// Otherwise one bundleAdjust over all. Returns the number of observations
-/// removed.
+/// removed; `report`, if given, is updated with the size of each problem.
 int bundleAdjustWindowed(Map& map, const std::set<int>& ids, int gauge, int window, int sweeps,
-                         const AdjustmentOptions& options);
+                         const AdjustmentOptions& options, AdjustmentReport* report = nullptr);
+
+/// A bound on the size of the global adjustment's problem.
+struct ObservationBudget {
+  int max_observations = 0;  ///< Residual blocks of the problem; 0 = no bound.
+  int min_per_keyframe = 0;  ///< ... but at least this many observations per keyframe.
+};
+
+/// Global bundle adjustment of the keyframes `ids` (`gauge` fixed) as one
+/// problem over all keyframes with at most `budget.max_observations`
+/// observations: when their landmarks hold more, a subset of landmarks is
+/// taken (longest tracks first) so that every keyframe keeps about
+/// max_observations / ids.size() observations (at least
+/// `budget.min_per_keyframe`), solved with the Schur complement applied
+/// implicitly (AdjustmentOptions::implicit_schur); the landmarks left out
+/// then follow the correction of their reference keyframe. Within the budget, the same as
+/// bundleAdjust(map, ids, {gauge}). Returns the observations removed.
+int bundleAdjustSampled(Map& map, const std::set<int>& ids, int gauge,
+                        const ObservationBudget& budget, const AdjustmentOptions& options,
+                        AdjustmentReport* report = nullptr);
 
 struct PoseGraphEdge {
   int from = -1, to = -1;

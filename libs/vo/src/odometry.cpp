@@ -503,6 +503,21 @@ struct VisualOdometry::Impl {
     dropInvalidTrackLandmarks();
   }
 
+  /// The global bundle adjustment of a segment: one problem over all its
+  /// keyframes within the observation budget, or windows (global_window).
+  void globalAdjustment(const std::set<int>& ids, int gauge) {
+    if (options.global_window > 0) {
+      bundleAdjustWindowed(map, ids, gauge, options.global_window, options.global_sweeps,
+                           adjustment(options.global_iterations), &global_report);
+      return;
+    }
+    ObservationBudget budget;
+    budget.max_observations = options.global_max_observations;
+    budget.min_per_keyframe = options.global_min_observations_per_keyframe;
+    bundleAdjustSampled(map, ids, gauge, budget, adjustment(options.global_iterations),
+                        &global_report);
+  }
+
   // ---- loop closure -------------------------------------------------------------
 
   void applyLoopClosure(const LoopClosure& closure) {
@@ -584,8 +599,7 @@ struct VisualOdometry::Impl {
       for (const Keyframe& kf : map.keyframes) {
         if (kf.segment == segment_old) all.insert(kf.id);
       }
-      bundleAdjustWindowed(map, all, first_old, options.global_window, options.global_sweeps,
-                           adjustment(options.global_iterations));
+      globalAdjustment(all, first_old);
     }
     dropInvalidTrackLandmarks();
     last_pose = map.keyframes[size_t(k)].world_from_camera;
@@ -748,8 +762,7 @@ struct VisualOdometry::Impl {
       for (const Keyframe& kf : map.keyframes) by_segment[kf.segment].insert(kf.id);
       for (const auto& [segment, ids] : by_segment) {
         if (ids.size() < 2) continue;
-        bundleAdjustWindowed(map, ids, *ids.begin(), options.global_window, options.global_sweeps,
-                             adjustment(options.global_iterations));
+        globalAdjustment(ids, *ids.begin());
       }
     }
     for (const Keyframe& kf : map.keyframes) result.keyframes.append(kf.t, kf.world_from_camera);
@@ -778,6 +791,9 @@ struct VisualOdometry::Impl {
       stats.segments_at_end = static_cast<std::int64_t>(segments.size());
     }
     stats.map_bytes = static_cast<std::int64_t>(map.memoryBytes() + loop->memoryBytes());
+    stats.global_problems = global_report.problems;
+    stats.global_largest_observations = global_report.largest_residual_blocks;
+    stats.global_largest_keyframes = global_report.largest_keyframes;
     if (stats.tracked_frames > 0) {
       stats.mean_inliers = sum_inliers / static_cast<double>(stats.tracked_frames);
       stats.mean_tracked_features = sum_tracked / static_cast<double>(stats.tracked_frames);
@@ -811,8 +827,9 @@ struct VisualOdometry::Impl {
   double last_median_depth = 1.0;
   int segment_count = 0;
   int lost_frames = 0;
-  int fresh_released = 0;  ///< Keyframes below this have released their fresh ORB features.
-  int compacted = 0;       ///< Keyframes below this are compacted (compactMap).
+  int fresh_released = 0;          ///< Keyframes below this have released their fresh ORB features.
+  int compacted = 0;               ///< Keyframes below this are compacted (compactMap).
+  AdjustmentReport global_report;  ///< Sizes of the global adjustment's problems.
 
   OdometryStatistics stats;
   double sum_inliers = 0, sum_tracked = 0;

@@ -59,6 +59,9 @@ std::string OdometryOptions::check() const {
   }
   if (border_px < 0) return "'border_px': must not be negative";
   if (klt_levels < 0) return "'klt_levels': must not be negative";
+  if (global_max_observations < 0) return "'global_max_observations': must not be negative";
+  if (global_min_observations_per_keyframe < 10)
+    return "'global_min_observations_per_keyframe': must be at least 10";
   if (max_incidence_deg > 120) return "'max_incidence_deg': must be at most 120";
   if (keyframe_tracked_ratio >= 1) return "'keyframe_tracked_ratio': must be below 1";
   if (min_tracking_inliers < 6) return "'min_tracking_inliers': must be at least 6";
@@ -133,6 +136,8 @@ OdometryOptions loadOdometryOptions(const std::filesystem::path& yaml,
   integer("global_iterations", &o.global_iterations);
   integer("global_window", &o.global_window);
   integer("global_sweeps", &o.global_sweeps);
+  integer("global_max_observations", &o.global_max_observations);
+  integer("global_min_observations_per_keyframe", &o.global_min_observations_per_keyframe);
   integer("relocalisation_keyframes", &o.relocalisation_keyframes);
   integer("max_lost_frames", &o.max_lost_frames);
   boolean("all_frames", &o.all_frames);

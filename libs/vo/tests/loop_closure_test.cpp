@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <opencv2/imgcodecs.hpp>
 
 #include "lookboth/core/progress.h"
@@ -60,6 +61,40 @@ TEST(OdometryTest, LoopClosedWhenRevisitedInTheOppositeDirection) {
   ASSERT_TRUE(without.ate);
   EXPECT_EQ(without.result.statistics.loop_closures, 0);
   EXPECT_LT(with_loops.ate->rmse, without.ate->rmse);
+}
+
+// The global adjustment on an observation budget a third of what the one
+// problem holds: the problems stay within it (up to whole landmarks), and the
+// loop still brings the error down.
+TEST(OdometryTest, ObservationBudgetBoundsTheGlobalAdjustment) {
+  const auto dataset = renderedScene(aisle());
+  OdometryRunOptions options;
+  options.dataset = dataset;
+  options.write_dataset = false;
+  options.odometry.global_max_observations = 0;
+  const OdometryRunSummary all = runOdometry(options, ProgressReporter());
+  const OdometryStatistics& a = all.result.statistics;
+  ASSERT_GE(a.loop_closures, 1);
+  ASSERT_TRUE(all.ate);
+  options.odometry.global_max_observations = static_cast<int>(a.global_largest_observations / 3);
+  options.odometry.global_min_observations_per_keyframe = 10;
+  const OdometryRunSummary budget = runOdometry(options, ProgressReporter());
+  const OdometryStatistics& b = budget.result.statistics;
+  ASSERT_TRUE(budget.ate);
+  options.odometry.loop_closure = false;
+  const OdometryRunSummary without = runOdometry(options, ProgressReporter());
+  ASSERT_TRUE(without.ate);
+  std::printf(
+      "one problem: %lld observations, ATE %.3f %%; budget %d: %lld, ATE %.3f %%; "
+      "without loop closure %.3f %%\n",
+      static_cast<long long>(a.global_largest_observations), all.ate->percent(),
+      options.odometry.global_max_observations,
+      static_cast<long long>(b.global_largest_observations), budget.ate->percent(),
+      without.ate->percent());
+  EXPECT_GE(b.loop_closures, 1);
+  EXPECT_LT(b.global_largest_observations, 1.5 * options.odometry.global_max_observations);
+  EXPECT_EQ(b.global_largest_keyframes, b.keyframes);
+  EXPECT_LT(budget.ate->rmse, without.ate->rmse);
 }
 
 // Blank frames (a lens cap) for longer than relocalisation is tried: the

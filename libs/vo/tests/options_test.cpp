@@ -21,6 +21,13 @@ TEST(OdometryOptionsTest, CheckNamesTheField) {
   OdometryOptions o;
   o.max_features = 0;
   EXPECT_NE(o.check().find("'max_features'"), std::string::npos);
+  OdometryOptions budget;
+  budget.global_max_observations = -1;
+  EXPECT_NE(budget.check().find("'global_max_observations'"), std::string::npos);
+  budget.global_max_observations = 0;  // no bound
+  EXPECT_EQ(budget.check(), "");
+  budget.global_min_observations_per_keyframe = 5;
+  EXPECT_NE(budget.check().find("'global_min_observations_per_keyframe'"), std::string::npos);
 }
 
 TEST(OdometryOptionsTest, ShippedDefaultConfigReadsAsTheDefaults) {
@@ -32,6 +39,10 @@ TEST(OdometryOptionsTest, ShippedDefaultConfigReadsAsTheDefaults) {
   EXPECT_DOUBLE_EQ(loaded.ransac_threshold_px, defaults.ransac_threshold_px);
   EXPECT_EQ(loaded.loop_closure, defaults.loop_closure);
   EXPECT_EQ(loaded.seed, defaults.seed);
+  EXPECT_EQ(loaded.global_window, defaults.global_window);
+  EXPECT_EQ(loaded.global_max_observations, defaults.global_max_observations);
+  EXPECT_EQ(loaded.global_min_observations_per_keyframe,
+            defaults.global_min_observations_per_keyframe);
 }
 
 TEST(OdometryOptionsTest, ReadsValuesAndRejectsUnknownKeys) {

@@ -43,6 +43,11 @@ struct OdometryStatistics {
   /// Heap bytes held by the map and the place-recognition index at the end
   /// (capacity of their containers; grows with the keyframes).
   std::int64_t map_bytes = 0;
+  /// Problems the global adjustment solved, and the size of the largest: its
+  /// observations (residual blocks) and keyframes (what its memory grows with).
+  std::int64_t global_problems = 0;
+  std::int64_t global_largest_observations = 0;
+  std::int64_t global_largest_keyframes = 0;
   double mean_tracked_features = 0;  ///< Per tracked frame.
   double mean_inliers = 0;           ///< Pose inliers per tracked frame.
   /// CPU seconds (of the tracking thread) spent per stage: "klt", "pose", "keyframe", "local_ba",

@@ -56,10 +56,21 @@ struct OdometryOptions {
   /// adjusted in overlapping windows of this many keyframes (after a coarse
   /// pass over at most this many, spread over the segment), so that its
   /// memory does not grow with the length of the run. 0 = one problem over
-  /// all keyframes (the default: the windows cost accuracy on some
-  /// recordings, doc/benchmarks.md).
+  /// all keyframes, bounded by global_max_observations (the default: the
+  /// windows cost accuracy on some recordings, doc/vo-memory-notes.md).
   int global_window = 0;
   int global_sweeps = 2;  ///< Passes over the windows when the segment is longer than one.
+  /// Bound on the observations (residual blocks) of the global adjustment's
+  /// one problem (global_window 0), i.e. on its memory: a segment whose
+  /// landmarks hold more is adjusted, still as one problem over all its
+  /// keyframes (Schur complement applied implicitly, not factorised), on a
+  /// subset of its landmarks (longest tracks first) that gives each keyframe about
+  /// global_max_observations / keyframes observations, and at least
+  /// global_min_observations_per_keyframe (beyond global_max_observations /
+  /// that many keyframes the problem grows again, by that many observations
+  /// per keyframe); the landmarks left out follow their keyframe. 0 = all.
+  int global_max_observations = 25000;
+  int global_min_observations_per_keyframe = 40;
 
   // Tracking loss.
   int relocalisation_keyframes = 30;  ///< Recent keyframes matched when relocalising.
