@@ -580,6 +580,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   std::vector<char> previous_inlier;
   std::vector<double> previous_offset;
   std::size_t previous_blobs = 0;
+  bool previous_converged = true;  // the last round's solve converged (not stopped at its cap)
   // The clock search of the restarted cameras again after the first round,
   // on the trajectory that round corrected: there a camera put at the right
   // offset projects within a pixel or two of its blob, where on the input
@@ -753,7 +754,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       for (std::size_t c = 0; c < cameras.size(); ++c) {
         moved = std::max(moved, std::abs(offsets[c] - previous_offset[c]));
       }
-      if (moved < 1e-4) break;
+      if (moved < 1e-4 && previous_converged) break;
     }
     previous_inlier = inlier;
     previous_offset = offsets;
@@ -887,7 +888,15 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
 
     const double cpu_setup = lap();
     ceres::Solver::Summary summary;
+    // Rounds before the last only prepare the next association, outlier
+    // rejection and weights: they stop at early_round_max_iterations.
+    const bool last_round = round + 1 == options.rounds;
+    solver.max_num_iterations =
+        last_round || options.early_round_max_iterations == 0
+            ? options.max_iterations
+            : std::min(options.max_iterations, options.early_round_max_iterations);
     ceres::Solve(solver, &Q, &summary);
+    previous_converged = summary.termination_type == ceres::CONVERGENCE;
     if (verbose) {
       std::cerr << "joint round " << round + 1 << ": CPU " << cpu_setup
                 << " s association and setup, " << lap() << " s solve (preprocessor "

@@ -252,6 +252,7 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
                        "blob_offset_in_camera_m",
                        "rounds",
                        "max_iterations",
+                       "early_round_max_iterations",
                        "function_tolerance",
                        "initial_trust_region_radius",
                        "linear_solver",
@@ -299,6 +300,7 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
   s.vector3("blob_offset_in_camera_m", blob_offset_in_camera_m);
   s.integer("rounds", rounds);
   s.integer("max_iterations", max_iterations);
+  s.integer("early_round_max_iterations", early_round_max_iterations);
   s.number("function_tolerance", function_tolerance);
   s.number("initial_trust_region_radius", initial_trust_region_radius);
   if (node["linear_solver"]) linear_solver = r.text(node["linear_solver"], s.path("linear_solver"));
@@ -346,6 +348,9 @@ std::string JointOptions::check() const {
   if (max_blobs_per_camera < 0) return "'max_blobs_per_camera': must not be negative";
   if (rounds < 1) return "'rounds': must be at least 1";
   if (max_iterations < 1) return "'max_iterations': must be at least 1";
+  if (early_round_max_iterations < 0) {
+    return "'early_round_max_iterations': must not be negative (0 = max_iterations)";
+  }
   if (threads < 1) return "'threads': must be at least 1";
   if (!(initial_trust_region_radius > 0 && std::isfinite(initial_trust_region_radius))) {
     return "'initial_trust_region_radius': must be positive and finite, got " +

@@ -193,6 +193,10 @@ struct JointOptions {
   // --- solver ---
   int rounds = 3;  ///< Association (detections' node brackets, blobs, outliers) + solve rounds.
   int max_iterations = 50;
+  /// Iterations of each round before the last (0 = max_iterations): those
+  /// rounds only prepare the next association, outlier rejection and
+  /// weights, and a round that stops here is never the last one run.
+  int early_round_max_iterations = 10;
   /// A round stops when an iteration changes the cost by less than this
   /// fraction (Ceres' function_tolerance).
   double function_tolerance = 1e-5;
