@@ -98,6 +98,67 @@ Matrix6d detectionSqrtInfo(const MarkerObservation& m, double dt, double dr) {
 const char* kComponentNames[6] = {
     "x", "y", "z", "roll (about x)", "pitch (about y)", "yaw (about z)"};
 
+// The clock searches' pieces. A blob frame and world_from_fisheye there.
+using BlobView = std::pair<const BlobObservation*, Rigid3d>;
+
+// The frames with blobs from `first` - 3 s to `last` + 3 s (robot clock), at
+// most 300 evenly spread, with their pose from `pose_at` (none: left out).
+template <typename PoseAt>
+std::vector<BlobView> blobViews(const std::vector<BlobObservation>& blobs, TimeNs first,
+                                TimeNs last, const PoseAt& pose_at) {
+  const TimeNs margin = 3'000'000'000;
+  std::vector<const BlobObservation*> near;
+  for (const BlobObservation& b : blobs) {
+    if (!b.blobs.empty() && b.t >= first - margin && b.t <= last + margin) near.push_back(&b);
+  }
+  std::vector<BlobView> views;
+  const std::size_t step = std::max<std::size_t>(1, near.size() / 300);
+  for (std::size_t i = 0; i < near.size(); i += step) {
+    if (const auto w = pose_at(near[i]->t)) views.emplace_back(near[i], *w);
+  }
+  return views;
+}
+
+// Over the views that see p_in_world, the mean distance from its projection
+// to the nearest blob, truncated at `truncate_px`; NaN when fewer than 10 do.
+double nearestBlobScore(const Camera& fisheye, const std::vector<BlobView>& views,
+                        const Eigen::Vector3d& p_in_world, double truncate_px) {
+  double sum = 0;
+  int seen = 0;
+  for (const auto& [frame, world_from_fisheye] : views) {
+    const Eigen::Vector3d p = world_from_fisheye.inverse() * p_in_world;
+    if (p.z() <= 0) continue;
+    const auto pixel = fisheye.project(p);
+    if (!pixel || !fisheye.isInImage(*pixel)) continue;
+    double d = truncate_px;
+    for (const Blob& b : frame->blobs) d = std::min(d, (Eigen::Vector2d(b.u, b.v) - *pixel).norm());
+    sum += d;
+    ++seen;
+  }
+  return seen < 10 ? std::numeric_limits<double>::quiet_NaN() : sum / seen;
+}
+
+// Component-wise median of the poses' positions (not empty).
+Eigen::Vector3d medianPosition(const std::vector<Rigid3d>& poses) {
+  Eigen::Vector3d median;
+  for (int i = 0; i < 3; ++i) {
+    std::vector<double> v;
+    for (const Rigid3d& r : poses) v.push_back(r.translation[i]);
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+    median[i] = v[v.size() / 2];
+  }
+  return median;
+}
+
+// The median distance of the poses' positions from `centre` (infinity: none).
+double medianDistance(const std::vector<Rigid3d>& poses, const Eigen::Vector3d& centre) {
+  std::vector<double> d;
+  for (const Rigid3d& r : poses) d.push_back((r.translation - centre).norm());
+  if (d.empty()) return std::numeric_limits<double>::infinity();
+  std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
+  return d[d.size() / 2];
+}
+
 }  // namespace
 
 void runJoint(RegistrationProblem& problem, const JointOptions& options,
@@ -249,16 +310,8 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
           candidates.push_back(*w * X0 * problem.marker(as).camera_from_marker.inverse());
         }
         if (static_cast<int>(candidates.size()) < options.min_detections) return 1e300;
-        for (int i = 0; i < 3; ++i) {
-          std::vector<double> v;
-          for (const Rigid3d& r : candidates) v.push_back(r.translation[i]);
-          std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-          median[i] = v[v.size() / 2];
-        }
-        std::vector<double> d;
-        for (const Rigid3d& r : candidates) d.push_back((r.translation - median).norm());
-        std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
-        return d[d.size() / 2];
+        median = medianPosition(candidates);
+        return medianDistance(candidates, median);
       };
       // The fisheye's view of a trial position: over the blob frames around
       // the camera's detections, the mean distance from its projection to
@@ -270,39 +323,11 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
         t_first = std::min(t_first, problem.associations[a].t_robot);
         t_last = std::max(t_last, problem.associations[a].t_robot);
       }
-      std::vector<std::pair<const BlobObservation*, Rigid3d>> views;  // frame, world_from_fisheye
-      if (blob_fisheye != nullptr) {
-        const TimeNs margin = 3'000'000'000;
-        std::vector<const BlobObservation*> near;
-        for (const BlobObservation& b : input.blobs) {
-          if (!b.blobs.empty() && b.t >= t_first - margin && b.t <= t_last + margin) {
-            near.push_back(&b);
-          }
-        }
-        const std::size_t step = std::max<std::size_t>(1, near.size() / 300);
-        for (std::size_t i = 0; i < near.size(); i += step) {
-          if (const auto w = refAt(near[i]->t)) views.emplace_back(near[i], *w);
-        }
-      }
-      const double kNone = std::numeric_limits<double>::quiet_NaN();
+      std::vector<BlobView> views;
+      if (blob_fisheye != nullptr) views = blobViews(input.blobs, t_first, t_last, refAt);
       auto blobScore = [&](const Eigen::Vector3d& p_in_world) -> double {
-        constexpr double kTruncate = 30.0;
-        double sum = 0;
-        int seen = 0;
-        for (const auto& [frame, world_from_fisheye] : views) {
-          const Eigen::Vector3d p = world_from_fisheye.inverse() * p_in_world;
-          if (p.z() <= 0) continue;
-          const auto pixel = blob_fisheye->project(p);
-          if (!pixel || !blob_fisheye->isInImage(*pixel)) continue;
-          double d = kTruncate;
-          for (const Blob& b : frame->blobs) {
-            d = std::min(d, (Eigen::Vector2d(b.u, b.v) - *pixel).norm());
-          }
-          sum += d;
-          ++seen;
-        }
-        if (seen < 10) return kNone;
-        return sum / seen;
+        if (blob_fisheye == nullptr) return std::numeric_limits<double>::quiet_NaN();
+        return nearestBlobScore(*blob_fisheye, views, p_in_world, 30.0);
       };
       // With estimated clocks: the offset within +-0.5 s (10 ms steps) that
       // makes the detections agree among themselves (their spread within
@@ -605,21 +630,8 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
         t_last = std::max(t_last, problem.marker(problem.associations[a]).t);
       }
       const TimeNs shift_now = static_cast<TimeNs>(std::llround(jc.offset_s * 1e9));
-      const TimeNs margin = 3'000'000'000;
-      std::vector<std::pair<const BlobObservation*, Rigid3d>> views;
-      {
-        std::vector<const BlobObservation*> near;
-        for (const BlobObservation& b : input.blobs) {
-          if (!b.blobs.empty() && b.t >= t_first - shift_now - margin &&
-              b.t <= t_last - shift_now + margin) {
-            near.push_back(&b);
-          }
-        }
-        const std::size_t step = std::max<std::size_t>(1, near.size() / 300);
-        for (std::size_t i = 0; i < near.size(); i += step) {
-          if (const auto w = poseNow(near[i]->t)) views.emplace_back(near[i], *w);
-        }
-      }
+      const std::vector<BlobView> views =
+          blobViews(input.blobs, t_first - shift_now, t_last - shift_now, poseNow);
       // At an offset [s]: the per-detection camera poses, their median
       // position, and the mean distance from its projection to the nearest
       // blob, truncated at 10 px (NaN: too few views).
@@ -633,28 +645,8 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
         if (static_cast<int>(candidates.size()) < options.min_detections) {
           return std::numeric_limits<double>::quiet_NaN();
         }
-        for (int i = 0; i < 3; ++i) {
-          std::vector<double> v;
-          for (const Rigid3d& r : candidates) v.push_back(r.translation[i]);
-          std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-          median[i] = v[v.size() / 2];
-        }
-        constexpr double kTruncate = 10.0;
-        double sum = 0;
-        int seen = 0;
-        for (const auto& [frame, world_from_fisheye] : views) {
-          const Eigen::Vector3d p = world_from_fisheye.inverse() * median;
-          if (p.z() <= 0) continue;
-          const auto pixel = blob_fisheye->project(p);
-          if (!pixel || !blob_fisheye->isInImage(*pixel)) continue;
-          double d = kTruncate;
-          for (const Blob& b : frame->blobs) {
-            d = std::min(d, (Eigen::Vector2d(b.u, b.v) - *pixel).norm());
-          }
-          sum += d;
-          ++seen;
-        }
-        return seen < 10 ? std::numeric_limits<double>::quiet_NaN() : sum / seen;
+        median = medianPosition(candidates);
+        return nearestBlobScore(*blob_fisheye, views, median, 10.0);
       };
       std::vector<Rigid3d> candidates;
       Eigen::Vector3d median;
@@ -664,11 +656,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       constexpr double kMaxSpread = 0.1;
       auto spread = [&](double offset_s) {
         score(offset_s, candidates, median);
-        std::vector<double> d;
-        for (const Rigid3d& r : candidates) d.push_back((r.translation - median).norm());
-        if (d.empty()) return std::numeric_limits<double>::infinity();
-        std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
-        return d[d.size() / 2];
+        return medianDistance(candidates, median);
       };
       const double now = score(jc.offset_s, candidates, median);
       double best = now, best_offset = jc.offset_s;

@@ -283,6 +283,35 @@ struct MarkerCornersCost {
   }
 };
 
+// What both analytic marker costs need at a point where Jacobians are
+// asked for: the poses of parameters [node_k, node_k+1, fisheye_from_marker,
+// world_from_camera, offset], their rotations, and the fisheye pose's
+// derivative; then writeJacobians() lifts and chains their tangent ones.
+struct MarkerPoint {
+  MarkerPoint(const Bracket& bracket, double tau_camera_s, double const* const* parameters)
+      : fisheye(fisheyePoseWithJacobian(bracket, parameters[0], parameters[1], parameters[4][0],
+                                        tau_camera_s, &d_fisheye)),
+        x(poseFromParams(parameters[2])),
+        camera(poseFromParams(parameters[3])),
+        rc_t(camera.rotation.toRotationMatrix().transpose()),
+        rf(fisheye.rotation.toRotationMatrix()),
+        rx(x.rotation.toRotationMatrix()) {}
+  template <int R>
+  void writeJacobians(const Eigen::Matrix<double, R, 6>& d_fisheye_tangent,
+                      const Eigen::Matrix<double, R, 6>& d_x,
+                      const Eigen::Matrix<double, R, 6>& d_camera, double** jacobians) const {
+    if (jacobians[2] != nullptr) liftPoseJacobian<R>(d_x, x.rotation, jacobians[2]);
+    if (jacobians[3] != nullptr) liftPoseJacobian<R>(d_camera, camera.rotation, jacobians[3]);
+    if (jacobians[0] != nullptr || jacobians[1] != nullptr || jacobians[4] != nullptr) {
+      chainFisheyeJacobian<R>(d_fisheye_tangent, fisheye, d_fisheye, jacobians[0], jacobians[1],
+                              jacobians[4]);
+    }
+  }
+  Eigen::Matrix<double, 7, 15, Eigen::RowMajor> d_fisheye;  // (declared first: set first)
+  Rigid3d fisheye, x, camera;    // world_from_fisheye, fisheye_from_marker, world_from_camera
+  Eigen::Matrix3d rc_t, rf, rx;  // R_camera^T, R_fisheye, R_x
+};
+
 // MarkerPoseCost with the derivatives written out (the stage's; the
 // autodiff struct is the tests' reference). Blocks: node_k, node_k+1,
 // fisheye_from_marker, world_from_camera, the camera's clock offset.
@@ -295,17 +324,12 @@ class AnalyticMarkerPoseCost : public ceres::SizedCostFunction<6, 7, 7, 7, 7, 1>
       return c_(parameters[0], parameters[1], parameters[2], parameters[3], parameters[4],
                 residuals);
     }
-    Eigen::Matrix<double, 7, 15, Eigen::RowMajor> d_pose;
-    const Rigid3d F = fisheyePoseWithJacobian(c_.bracket, parameters[0], parameters[1],
-                                              parameters[4][0], c_.tau_camera_s, &d_pose);
-    const Rigid3d X = poseFromParams(parameters[2]);
-    const Rigid3d C = poseFromParams(parameters[3]);
-    const Eigen::Matrix3d rc_t = C.rotation.toRotationMatrix().transpose();
-    const Eigen::Matrix3d rf = F.rotation.toRotationMatrix();
-    const Eigen::Matrix3d rx = X.rotation.toRotationMatrix();
+    const MarkerPoint m(c_.bracket, c_.tau_camera_s, parameters);
     // predicted camera_from_marker = C^-1 F X
-    const Eigen::Vector3d t_p = rc_t * (rf * X.translation + F.translation - C.translation);
-    const Eigen::Quaterniond q_p = C.rotation.conjugate() * F.rotation * X.rotation;
+    const Eigen::Vector3d t_p =
+        m.rc_t * (m.rf * m.x.translation + m.fisheye.translation - m.camera.translation);
+    const Eigen::Quaterniond q_p =
+        m.camera.rotation.conjugate() * m.fisheye.rotation * m.x.rotation;
     Eigen::Matrix<double, 6, 1> e;
     e.head<3>() = t_p - c_.measured.translation;
     e.tail<3>() = so3Log(Eigen::Quaterniond(c_.measured.rotation.conjugate() * q_p));
@@ -315,24 +339,15 @@ class AnalyticMarkerPoseCost : public ceres::SizedCostFunction<6, 7, 7, 7, 7, 1>
     const Eigen::Matrix3d jr_inv = so3LeftJacobianInverse<double>(-e.tail<3>());
     const Eigen::Matrix3d rp_t = q_p.toRotationMatrix().transpose();
     Matrix6d d_c = Matrix6d::Zero(), d_f = Matrix6d::Zero(), d_x = Matrix6d::Zero();
-    d_c.block<3, 3>(0, 0) = -rc_t;
+    d_c.block<3, 3>(0, 0) = -m.rc_t;
     d_c.block<3, 3>(0, 3) = skew(t_p);
     d_c.block<3, 3>(3, 3) = -jr_inv * rp_t;
-    d_f.block<3, 3>(0, 0) = rc_t;
-    d_f.block<3, 3>(0, 3) = -rc_t * rf * skew(X.translation);
-    d_f.block<3, 3>(3, 3) = jr_inv * rx.transpose();
-    d_x.block<3, 3>(0, 0) = rc_t * rf;
+    d_f.block<3, 3>(0, 0) = m.rc_t;
+    d_f.block<3, 3>(0, 3) = -m.rc_t * m.rf * skew(m.x.translation);
+    d_f.block<3, 3>(3, 3) = jr_inv * m.rx.transpose();
+    d_x.block<3, 3>(0, 0) = m.rc_t * m.rf;
     d_x.block<3, 3>(3, 3) = jr_inv;
-    if (jacobians[2] != nullptr) {
-      liftPoseJacobian<6>(c_.sqrt_info * d_x, X.rotation, jacobians[2]);
-    }
-    if (jacobians[3] != nullptr) {
-      liftPoseJacobian<6>(c_.sqrt_info * d_c, C.rotation, jacobians[3]);
-    }
-    if (jacobians[0] != nullptr || jacobians[1] != nullptr || jacobians[4] != nullptr) {
-      chainFisheyeJacobian<6>(c_.sqrt_info * d_f, F, d_pose, jacobians[0], jacobians[1],
-                              jacobians[4]);
-    }
+    m.writeJacobians<6>(c_.sqrt_info * d_f, c_.sqrt_info * d_x, c_.sqrt_info * d_c, jacobians);
     return true;
   }
 
@@ -350,18 +365,11 @@ class AnalyticMarkerCornersCost : public ceres::SizedCostFunction<8, 7, 7, 7, 7,
       return c_(parameters[0], parameters[1], parameters[2], parameters[3], parameters[4],
                 residuals);
     }
-    Eigen::Matrix<double, 7, 15, Eigen::RowMajor> d_pose;
-    const Rigid3d F = fisheyePoseWithJacobian(c_.bracket, parameters[0], parameters[1],
-                                              parameters[4][0], c_.tau_camera_s, &d_pose);
-    const Rigid3d X = poseFromParams(parameters[2]);
-    const Rigid3d C = poseFromParams(parameters[3]);
-    const Eigen::Matrix3d rc_t = C.rotation.toRotationMatrix().transpose();
-    const Eigen::Matrix3d rf = F.rotation.toRotationMatrix();
-    const Eigen::Matrix3d rx = X.rotation.toRotationMatrix();
+    const MarkerPoint m(c_.bracket, c_.tau_camera_s, parameters);
     Eigen::Matrix<double, 8, 6> d_c, d_f, d_x;
     for (int k = 0; k < 4; ++k) {
-      const Eigen::Vector3d m = rx * c_.corners_in_marker[k] + X.translation;  // in the fisheye
-      const Eigen::Vector3d p = rc_t * (rf * m + F.translation - C.translation);
+      const Eigen::Vector3d q = m.rx * c_.corners_in_marker[k] + m.x.translation;  // in the fisheye
+      const Eigen::Vector3d p = m.rc_t * (m.rf * q + m.fisheye.translation - m.camera.translation);
       if (p.z() <= 0) return false;
       Eigen::Vector2d pixel;
       Eigen::Matrix<double, 2, 3> d_pixel;
@@ -369,18 +377,14 @@ class AnalyticMarkerCornersCost : public ceres::SizedCostFunction<8, 7, 7, 7, 7,
       residuals[2 * k] = (c_.observed[k].x() - pixel.x()) / c_.sigma_px;
       residuals[2 * k + 1] = (c_.observed[k].y() - pixel.y()) / c_.sigma_px;
       const Eigen::Matrix<double, 2, 3> d_p = -d_pixel / c_.sigma_px;
-      d_c.block<2, 3>(2 * k, 0) = d_p * -rc_t;
+      d_c.block<2, 3>(2 * k, 0) = d_p * -m.rc_t;
       d_c.block<2, 3>(2 * k, 3) = d_p * skew(p);
-      d_f.block<2, 3>(2 * k, 0) = d_p * rc_t;
-      d_f.block<2, 3>(2 * k, 3) = d_p * (-rc_t * rf * skew(m));
-      d_x.block<2, 3>(2 * k, 0) = d_p * (rc_t * rf);
-      d_x.block<2, 3>(2 * k, 3) = d_p * (-rc_t * rf * rx * skew(c_.corners_in_marker[k]));
+      d_f.block<2, 3>(2 * k, 0) = d_p * m.rc_t;
+      d_f.block<2, 3>(2 * k, 3) = d_p * (-m.rc_t * m.rf * skew(q));
+      d_x.block<2, 3>(2 * k, 0) = d_p * (m.rc_t * m.rf);
+      d_x.block<2, 3>(2 * k, 3) = d_p * (-m.rc_t * m.rf * m.rx * skew(c_.corners_in_marker[k]));
     }
-    if (jacobians[2] != nullptr) liftPoseJacobian<8>(d_x, X.rotation, jacobians[2]);
-    if (jacobians[3] != nullptr) liftPoseJacobian<8>(d_c, C.rotation, jacobians[3]);
-    if (jacobians[0] != nullptr || jacobians[1] != nullptr || jacobians[4] != nullptr) {
-      chainFisheyeJacobian<8>(d_f, F, d_pose, jacobians[0], jacobians[1], jacobians[4]);
-    }
+    m.writeJacobians<8>(d_f, d_x, d_c, jacobians);
     return true;
   }
 

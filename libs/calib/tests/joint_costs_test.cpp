@@ -45,6 +45,21 @@ Rigid3d randomPose(std::mt19937& rng, double translation, double angle) {
   return Rigid3d(so3Exp(Eigen::Vector3d(w * angle)), t * translation);
 }
 
+// A time between two nodes 0.1 s apart whose corrections differ from the
+// reference trajectory; ref_k / ref_k1: the reference at the nodes.
+Bracket randomBracket(std::mt19937& rng, Rigid3d* ref_k, Rigid3d* ref_k1) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Bracket b;
+  b.duration_s = 0.1;
+  b.tau_ref_s = 0.1 * u(rng);
+  *ref_k = randomPose(rng, 2.0, 0.3);
+  *ref_k1 = *ref_k * randomPose(rng, 0.05, 0.02);
+  b.ref_inverse_k = ref_k->inverse();
+  b.ref_inverse_k1 = ref_k1->inverse();
+  b.reference = *ref_k * randomPose(rng, 0.02, 0.01);
+  return b;
+}
+
 TEST(JointCosts, CachedBlobCostMatchesTheAutodiffReference) {
   const Camera fisheye =
       loadCamera(std::string(LOOKBOTH_SHARE_DIR) + "/cameras/fisheye_640x360_calib_results.txt");
@@ -52,15 +67,8 @@ TEST(JointCosts, CachedBlobCostMatchesTheAutodiffReference) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   int compared = 0;
   for (int trial = 0; trial < 50; ++trial) {
-    // A frame between two nodes whose corrections differ from the reference.
-    Bracket b;
-    b.duration_s = 0.1;
-    b.tau_ref_s = 0.1 * u(rng);
-    const Rigid3d ref_k = randomPose(rng, 2.0, 0.3);
-    const Rigid3d ref_k1 = ref_k * randomPose(rng, 0.05, 0.02);
-    b.ref_inverse_k = ref_k.inverse();
-    b.ref_inverse_k1 = ref_k1.inverse();
-    b.reference = ref_k * randomPose(rng, 0.02, 0.01);
+    Rigid3d ref_k, ref_k1;
+    Bracket b = randomBracket(rng, &ref_k, &ref_k1);
     double nk[7], nk1[7], camera[7];
     calib_detail::poseToParams(ref_k * randomPose(rng, 0.01, 0.005), nk);
     calib_detail::poseToParams(ref_k1 * randomPose(rng, 0.01, 0.005), nk1);
@@ -118,14 +126,8 @@ TEST(JointCosts, AnalyticMarkerCostsMatchTheAutodiffReference) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   int compared = 0;
   for (int trial = 0; trial < 50; ++trial) {
-    Bracket b;
-    b.duration_s = 0.1;
-    b.tau_ref_s = 0.1 * u(rng);
-    const Rigid3d ref_k = randomPose(rng, 2.0, 0.3);
-    const Rigid3d ref_k1 = ref_k * randomPose(rng, 0.05, 0.02);
-    b.ref_inverse_k = ref_k.inverse();
-    b.ref_inverse_k1 = ref_k1.inverse();
-    b.reference = ref_k * randomPose(rng, 0.02, 0.01);
+    Rigid3d ref_k, ref_k1;
+    Bracket b = randomBracket(rng, &ref_k, &ref_k1);
     b.velocity_world = Eigen::Vector3d(0.8, -0.3, 0.01);
     b.omega_body = Eigen::Vector3d(0.01, -0.02, 0.3);
     double nk[7], nk1[7], x[7], camera[7], offset = 0.004 * (u(rng) - 0.5);
