@@ -151,6 +151,10 @@ int main(int argc_in, char** argv_in) {
                   << formatFixed(std::sqrt(sum / n) * 1000, 2) << " mm (" << n << " cameras)\n";
       }
     }
+    if (r.observability.aligned_position_rmse_m) {
+      std::cout << "position RMSE after SE(3) alignment predicted by the covariance: "
+                << formatFixed(*r.observability.aligned_position_rmse_m * 1000, 2) << " mm\n";
+    }
     const Rigid3d& x = r.fisheye_from_marker;
     if (input.manifest.ground_truth.fisheye_from_marker) {
       const Rigid3d& gx = *input.manifest.ground_truth.fisheye_from_marker;

@@ -789,6 +789,8 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
           cost->sigma_t *= 100;
           cost->sigma_r *= 100;
         }
+        cost->vertical_ratio = options.drift_vertical_ratio;
+        cost->tilt_ratio = options.drift_tilt_ratio;
         Q.AddResidualBlock(new ceres::AutoDiffCostFunction<RelativeMotionCost, 6, 7, 7, 1>(cost),
                            nullptr, nodes[k].data(), nodes[k + 1].data(),
                            &scales[segment_of_edge[k]]);
@@ -940,6 +942,22 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       blocks.emplace_back(&cameras[c].offset_s, &cameras[c].offset_s);
     }
   }
+  // Every pair of camera poses too, for the gauge-free prediction below (the
+  // pairs are dense: their cost grows like the cube of the cameras).
+  std::vector<std::size_t> aligned_cameras;
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    if (used[c] >= options.min_detections) aligned_cameras.push_back(c);
+  }
+  const bool aligned_prediction =
+      aligned_cameras.size() >= 3 &&
+      aligned_cameras.size() <= static_cast<std::size_t>(options.aligned_uncertainty_max_cameras);
+  if (aligned_prediction) {
+    for (std::size_t a = 0; a < aligned_cameras.size(); ++a) {
+      for (std::size_t b = a + 1; b < aligned_cameras.size(); ++b) {
+        blocks.emplace_back(cameras[aligned_cameras[a]].pose, cameras[aligned_cameras[b]].pose);
+      }
+    }
+  }
   if (!options.fix_fisheye_from_marker) blocks.emplace_back(x_params, x_params);
   const bool scale_covariance = visual && scales_free && n_segments <= 200;
   if (scale_covariance) {
@@ -964,6 +982,35 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   auto poseCovariance = [&](const double* block) {
     return Matrix6d(covariance.block(block, block));
   };
+  // The cameras' position RMSE the covariance predicts after a rigid
+  // alignment to any reference (what `lookboth evaluate` reports as aligned):
+  // the positions' joint covariance C with the linearised alignment
+  // (dp_i = t + w x p_i, least squares over the cameras) projected out,
+  // sqrt(trace(P C P) / n) with P = I - A (A^T A)^-1 A^T.
+  if (have_covariance && aligned_prediction) {
+    const std::size_t n = aligned_cameras.size();
+    Eigen::MatrixXd C(3 * n, 3 * n), A(3 * n, 6);
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (std::size_t c : aligned_cameras)
+      centroid += Eigen::Map<const Eigen::Vector3d>(cameras[c].pose);
+    centroid /= static_cast<double>(n);
+    for (std::size_t a = 0; a < n; ++a) {
+      const double* pa = cameras[aligned_cameras[a]].pose;
+      for (std::size_t b = a; b < n; ++b) {
+        const Eigen::Matrix3d block =
+            covariance.block(pa, cameras[aligned_cameras[b]].pose).topLeftCorner<3, 3>();
+        C.block<3, 3>(3 * a, 3 * b) = block;
+        C.block<3, 3>(3 * b, 3 * a) = block.transpose();
+      }
+      const Eigen::Vector3d p = Eigen::Map<const Eigen::Vector3d>(pa) - centroid;
+      A.block<3, 3>(3 * a, 0).setIdentity();
+      A.block<3, 3>(3 * a, 3) << 0, p.z(), -p.y(), -p.z(), 0, p.x(), p.y(), -p.x(), 0;  // -[p]x
+    }
+    const Eigen::MatrixXd P = Eigen::MatrixXd::Identity(3 * n, 3 * n) -
+                              A * (A.transpose() * A).ldlt().solve(A.transpose());
+    result.observability.aligned_position_rmse_m =
+        std::sqrt(std::max(0.0, (P * C * P.transpose()).trace() / static_cast<double>(n)));
+  }
   auto scalarVariance = [&](const double* a, const double* b) {
     return covariance.block(a, b)(0, 0);
   };

@@ -81,6 +81,7 @@ Rigid3<T> poseAtChained(const Bracket& b, const T* nk, const T* nk1, const T* of
 struct RelativeMotionCost {
   Rigid3d delta_unscaled;  // Nref_k^-1 Nref_k+1 in trajectory units
   double sigma_t = 1, sigma_r = 1;
+  double vertical_ratio = 1, tilt_ratio = 1;  // body z's sigma / sigma_t; roll's, pitch's / sigma_r
   template <typename T>
   bool operator()(const T* nk, const T* nk1, const T* scale, T* residual) const {
     const Rigid3<T> a = poseFromParams(nk), b = poseFromParams(nk1);
@@ -89,8 +90,8 @@ struct RelativeMotionCost {
     const Eigen::Matrix<T, 3, 1> dr = so3Log(Eigen::Quaternion<T>(
         delta_unscaled.rotation.cast<T>().conjugate() * a.rotation.conjugate() * b.rotation));
     for (int i = 0; i < 3; ++i) {
-      residual[i] = dt[i] / T(sigma_t);
-      residual[3 + i] = dr[i] / T(sigma_r);
+      residual[i] = dt[i] / T(i == 2 ? sigma_t * vertical_ratio : sigma_t);
+      residual[3 + i] = dr[i] / T(i < 2 ? sigma_r * tilt_ratio : sigma_r);
     }
     return true;
   }

@@ -407,6 +407,10 @@ std::string registrationToYaml(const Registration& reg) {
   out << YAML::Key << "eigenvalues" << YAML::Value;
   emitNumbers(out, reg.observability.eigenvalues.data(),
               static_cast<int>(reg.observability.eigenvalues.size()));
+  if (reg.observability.aligned_position_rmse_m) {
+    out << YAML::Key << "aligned_position_rmse_m" << YAML::Value
+        << formatDouble(*reg.observability.aligned_position_rmse_m);
+  }
   out << YAML::EndMap;
   out << YAML::Key << "warnings" << YAML::Value;
   emitStrings(out, reg.warnings);
@@ -551,7 +555,11 @@ Registration loadRegistration(const std::filesystem::path& dir) {
   }
   if (root["reprojection"]) reg.reprojection = r.reprojection(root["reprojection"], "reprojection");
   if (const YAML::Node o = root["observability"]; o) {
-    r.rejectUnknownKeys(o, {"message", "eigenvalues"}, "observability");
+    r.rejectUnknownKeys(o, {"message", "eigenvalues", "aligned_position_rmse_m"}, "observability");
+    if (o["aligned_position_rmse_m"]) {
+      reg.observability.aligned_position_rmse_m =
+          r.number(o["aligned_position_rmse_m"], "observability.aligned_position_rmse_m");
+    }
     if (o["message"]) reg.observability.message = r.text(o["message"], "observability.message");
     if (const YAML::Node e = o["eigenvalues"]; e) {
       reg.observability.eigenvalues = r.numbers(e, "observability.eigenvalues", e.size());

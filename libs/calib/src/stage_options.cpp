@@ -220,6 +220,8 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
                        "drift_deg_per_sqrt_m",
                        "min_sigma_m",
                        "min_sigma_deg",
+                       "drift_vertical_ratio",
+                       "drift_tilt_ratio",
                        "scale_segment_m",
                        "scale_walk_sigma",
                        "metric_scale_sigma",
@@ -257,6 +259,7 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
                        "initial_trust_region_radius",
                        "linear_solver",
                        "covariance",
+                       "aligned_uncertainty_max_cameras",
                        "threads"},
                       field);
   const Section s{r, node, field};
@@ -266,6 +269,8 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
   s.number("node_interval_s", node_interval_s);
   s.number("drift_m_per_sqrt_m", drift_m_per_sqrt_m);
   s.number("drift_deg_per_sqrt_m", drift_deg_per_sqrt_m);
+  s.number("drift_vertical_ratio", drift_vertical_ratio);
+  s.number("drift_tilt_ratio", drift_tilt_ratio);
   s.number("min_sigma_m", min_sigma_m);
   s.number("min_sigma_deg", min_sigma_deg);
   s.number("scale_segment_m", scale_segment_m);
@@ -305,12 +310,15 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
   s.number("initial_trust_region_radius", initial_trust_region_radius);
   if (node["linear_solver"]) linear_solver = r.text(node["linear_solver"], s.path("linear_solver"));
   flag("covariance", covariance);
+  s.integer("aligned_uncertainty_max_cameras", aligned_uncertainty_max_cameras);
   s.integer("threads", threads);
 }
 
 std::string JointOptions::check() const {
   for (const auto& [name, value] : std::initializer_list<std::pair<const char*, double>>{
            {"scale_segment_m", scale_segment_m},
+           {"drift_vertical_ratio", drift_vertical_ratio},
+           {"drift_tilt_ratio", drift_tilt_ratio},
            {"scale_walk_sigma", scale_walk_sigma},
            {"metric_scale_sigma", metric_scale_sigma},
            {"prior_translation_sigma_m", prior_translation_sigma_m},
@@ -350,6 +358,9 @@ std::string JointOptions::check() const {
   if (max_iterations < 1) return "'max_iterations': must be at least 1";
   if (early_round_max_iterations < 0) {
     return "'early_round_max_iterations': must not be negative (0 = max_iterations)";
+  }
+  if (aligned_uncertainty_max_cameras < 0) {
+    return "'aligned_uncertainty_max_cameras': must not be negative (0 = never)";
   }
   if (threads < 1) return "'threads': must be at least 1";
   if (!(initial_trust_region_radius > 0 && std::isfinite(initial_trust_region_radius))) {

@@ -60,6 +60,42 @@ Bracket randomBracket(std::mt19937& rng, Rigid3d* ref_k, Rigid3d* ref_k1) {
   return b;
 }
 
+// The drift model's anisotropy: a node displaced along the body's z (or
+// tilted about x or y) is weighed by the vertical (tilt) sigma, the other
+// axes by the horizontal (yaw) one.
+TEST(JointCosts, RelativeMotionWeighsVerticalAndTiltByTheirRatios) {
+  joint_detail::RelativeMotionCost cost;
+  cost.delta_unscaled = Rigid3d();
+  cost.sigma_t = 0.002;
+  cost.sigma_r = 0.001;
+  cost.vertical_ratio = 0.1;
+  cost.tilt_ratio = 0.25;
+  const double scale = 1.0;
+  const double a[7] = {0, 0, 0, 0, 0, 0, 1};
+  for (int axis = 0; axis < 6; ++axis) {
+    Rigid3d moved;
+    if (axis < 3) {
+      moved.translation[axis] = 1e-3;
+    } else {
+      Eigen::Vector3d w = Eigen::Vector3d::Zero();
+      w[axis - 3] = 1e-4;
+      moved.rotation = so3Exp(w);
+    }
+    double b[7];
+    calib_detail::poseToParams(moved, b);
+    double r[6];
+    ASSERT_TRUE(cost(a, b, &scale, r));
+    const double sigma = axis == 2   ? 0.002 * 0.1
+                         : axis < 2  ? 0.002
+                         : axis == 5 ? 0.001
+                                     : 0.001 * 0.25;
+    for (int k = 0; k < 6; ++k) {
+      EXPECT_NEAR(r[k], k == axis ? (axis < 3 ? 1e-3 : 1e-4) / sigma : 0.0, 1e-9)
+          << "axis " << axis << ", residual " << k;
+    }
+  }
+}
+
 TEST(JointCosts, CachedBlobCostMatchesTheAutodiffReference) {
   const Camera fisheye =
       loadCamera(std::string(LOOKBOTH_SHARE_DIR) + "/cameras/fisheye_640x360_calib_results.txt");

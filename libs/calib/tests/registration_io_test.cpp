@@ -71,6 +71,7 @@ Registration sampleRegistration() {
   reg.reprojection = ReprojectionStats{3000, 2.3, 1.1, "joint"};
   reg.observability.message = "the vertical offset is not determined by planar motion";
   reg.observability.eigenvalues = {1e-12, 0.5, 3, 4, 5, 6, 7};
+  reg.observability.aligned_position_rmse_m = 0.00138;
   reg.warnings = {"one", "two"};
   reg.statistics.detections_total = 1000;
   reg.statistics.detections_associated = 990;
@@ -166,6 +167,8 @@ TEST_F(RegistrationIoTest, RoundTripsEveryField) {
   EXPECT_EQ(back.reprojection->after_stage, "joint");
   EXPECT_EQ(back.observability.message, reg.observability.message);
   EXPECT_EQ(back.observability.eigenvalues, reg.observability.eigenvalues);
+  ASSERT_TRUE(back.observability.aligned_position_rmse_m);
+  EXPECT_DOUBLE_EQ(*back.observability.aligned_position_rmse_m, 0.00138);
   EXPECT_EQ(back.warnings, reg.warnings);
   EXPECT_EQ(back.statistics.detections_total, 1000);
   EXPECT_EQ(back.statistics.detections_associated, 990);

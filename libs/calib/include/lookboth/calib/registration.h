@@ -107,6 +107,10 @@ struct BlobAssociation {
 struct Observability {
   std::string message;              ///< Plain words: what the motion determines and what not.
   std::vector<double> eigenvalues;  ///< Of the motion calibration's information matrix, ascending.
+  /// What the covariance predicts for the cameras' position RMSE after a
+  /// rigid (SE(3)) alignment to any reference [m]: free of the gauge, which
+  /// dominates each camera's own covariance (joint, when computed).
+  std::optional<double> aligned_position_rmse_m;
 };
 
 struct RegistrationStatistics {

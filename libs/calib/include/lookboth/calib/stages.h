@@ -131,6 +131,12 @@ struct JointOptions {
   double drift_deg_per_sqrt_m = 0.2;
   double min_sigma_m = 0.0005;   ///< [m]
   double min_sigma_deg = 0.005;  ///< [deg]
+  /// Anisotropy of the drift model, in the trajectory's body frame (z up):
+  /// the vertical translation's sigma is `drift_vertical_ratio` times the
+  /// horizontal's, roll's and pitch's `drift_tilt_ratio` times yaw's. A ground
+  /// robot's wheel odometry drifts mostly in the plane and in yaw.
+  double drift_vertical_ratio = 1.0;
+  double drift_tilt_ratio = 1.0;
   /// The trajectory's scale is one parameter per segment of this length [m]
   /// (visual: VO's slowly varying scale; metric: the odometry's distance error).
   double scale_segment_m = 10;
@@ -211,6 +217,11 @@ struct JointOptions {
   std::string linear_solver = "sparse_schur";
   /// Per-camera 6x6 covariance (sparse LDL^T of the problem's J^T J; src/sparse_covariance.h).
   bool covariance = true;
+  /// Also every pair of cameras' poses, for the position RMSE predicted after
+  /// a rigid alignment (Observability::aligned_position_rmse_m), when at most
+  /// this many cameras are registered (0 = never): those pairs are a dense
+  /// matrix, its cost grows like the cube of the cameras.
+  int aligned_uncertainty_max_cameras = 200;
   int threads = 1;
   void read(const YamlReader& reader, const YAML::Node& node, const std::string& field);
   std::string check() const;
