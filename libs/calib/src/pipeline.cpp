@@ -354,6 +354,10 @@ std::string registrationSummary(const Registration& r) {
   out << "; fisheye_from_marker t = [" << formatFixed(t.x(), 4) << ", " << formatFixed(t.y(), 4)
       << ", " << formatFixed(t.z(), 4) << "] m\n";
   out << "observability: " << r.observability.message << "\n";
+  if (r.observability.aligned_position_rmse_m) {
+    out << "camera positions: RMS error predicted after a rigid alignment to any reference "
+        << formatFixed(*r.observability.aligned_position_rmse_m * 1000, 2) << " mm\n";
+  }
   out << "detections: " << r.statistics.detections_total << " total, "
       << r.statistics.detections_associated << " associated, "
       << r.statistics.dropped_outside_trajectory << " outside the trajectory, "

@@ -218,6 +218,12 @@ TEST_F(PipelineTest, WritesTheOutputDirectoryAtomically) {
   }
   const std::string summary = registrationSummary(run.registration);
   EXPECT_NE(summary.find("registered 6 of 6 cameras"), std::string::npos) << summary;
+  // The default pipeline ends with joint, which predicts the aligned error.
+  ASSERT_TRUE(run.registration.observability.aligned_position_rmse_m);
+  EXPECT_NE(summary.find("predicted after a rigid alignment"), std::string::npos) << summary;
+  ASSERT_TRUE(back.observability.aligned_position_rmse_m);
+  EXPECT_NEAR(*back.observability.aligned_position_rmse_m,
+              *run.registration.observability.aligned_position_rmse_m, 1e-12);
 }
 
 TEST(RegistrationConfig, UserFileOverridesAndErrorsNameTheField) {

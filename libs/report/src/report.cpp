@@ -415,6 +415,11 @@ ReportSummary writeReport(const fs::path& dataset, const fs::path& registration_
   if (!registration.observability.message.empty()) {
     out << "<p>" << escape(registration.observability.message) << "</p>\n";
   }
+  if (registration.observability.aligned_position_rmse_m) {
+    out << "<p>Camera positions: the covariance predicts an RMS error of "
+        << fixed(*registration.observability.aligned_position_rmse_m * 1000, 2)
+        << " mm after a rigid alignment to any reference (a survey, another registration).</p>\n";
+  }
   if (!registration.warnings.empty()) {
     out << "<h2>Warnings</h2>\n<ul>";
     for (const std::string& w : registration.warnings) out << "<li>" << escape(w) << "</li>";
