@@ -15,6 +15,7 @@ PACKAGES=(
   librosbag-storage-dev libroscpp-core-dev
   libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev libstd-msgs-dev
   chromium xvfb xauth
+  python3 python3-yaml  # scripts/*.py (benchmark helpers)
 )
 
 missing=()
