@@ -62,8 +62,9 @@ using calib_detail::sqrtInformation;
 using namespace joint_detail;
 
 constexpr double kDeg = M_PI / 180.0;
-constexpr TimeNs kMaxGapNs = 500'000'000;  // trajectory gaps longer than this are not crossed
-constexpr double kRebracketS = 0.005;      // clock offsets moved less: no new round (below)
+constexpr TimeNs kMaxGapNs = 500'000'000;        // trajectory gaps longer than this are not crossed
+constexpr TimeNs kSmoothingGapNs = 100'000'000;  // samples farther apart: not smoothed across
+constexpr double kRebracketS = 0.005;            // clock offsets moved less: no new round (below)
 
 struct Detection {
   std::size_t association = 0;
@@ -185,10 +186,35 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   }
   const RegistrationInput& input = problem.input;
   Registration& result = problem.result;
-  const std::vector<StampedPose>& samples = input.trajectory.samples();
-  if (samples.size() < 2) throw Error("joint: the trajectory has fewer than 2 samples");
   const bool visual = input.mode == TrajectoryMode::kVisual;
   const double scale0 = problem.scale;
+  // Visual mode: the input trajectory, its positions smoothed when they
+  // scatter about a smooth motion by more than smooth_input_min_rms_m (a
+  // visual odometry's frame-to-frame jitter). A smooth input is used as given,
+  // so that nothing biases an exact one, and so is a metric one (wheel
+  // odometry integrates; a fast robot's true jerk would pass for jitter).
+  double input_scatter_m = 0;
+  std::vector<StampedPose> smoothed = smoothPositions(
+      input.trajectory.samples(), options.smooth_input_s, kSmoothingGapNs, &input_scatter_m);
+  if (visual) input_scatter_m *= scale0;  // the input's units to metres
+  const bool smooth_input =
+      visual && options.smooth_input_s > 0 && input_scatter_m > options.smooth_input_min_rms_m;
+  const Trajectory reference_trajectory =
+      smooth_input ? Trajectory(std::move(smoothed)) : input.trajectory;
+  if (smooth_input) {
+    result.observability.message +=
+        (result.observability.message.empty() ? "" : " ") +
+        std::string("joint: the input trajectory's positions scatter ") +
+        formatFixed(input_scatter_m * 1e3, 2) + " mm RMS about local quadratic fits over +-" +
+        formatFixed(options.smooth_input_s, 2) + " s; they were smoothed (smooth_input_s).";
+  }
+  if (verbose) {
+    std::cerr << "joint: input positions scatter " << input_scatter_m * 1e3
+              << " mm RMS about local quadratic fits over +-" << options.smooth_input_s << " s"
+              << (smooth_input ? ": smoothed" : ": used as given") << "\n";
+  }
+  const std::vector<StampedPose>& samples = reference_trajectory.samples();
+  if (samples.size() < 2) throw Error("joint: the trajectory has fewer than 2 samples");
 
   // ---- fisheye_from_marker ----
   Rigid3d X0 = *problem.fisheye_from_marker;
@@ -233,7 +259,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   std::vector<double> scales(n_segments, visual ? scale0 : 1.0);
 
   auto refAt = [&](TimeNs t) -> std::optional<Rigid3d> {
-    const InterpolationResult r = input.trajectory.interpolate(t, kMaxGapNs);
+    const InterpolationResult r = reference_trajectory.interpolate(t, kMaxGapNs);
     if (!r.ok()) return std::nullopt;
     return problem.metricWorldFromFisheye(r.world_from_body);
   };
@@ -613,6 +639,10 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   // trajectory the score was tens of pixels and flat (one pass in one
   // direction trades a clock shift for a tilt of the camera). The offset
   // moves only when another is clearly better (1 px or 20 % of the score).
+  // Cameras the search just moved: their pose is a rough start (the median of
+  // their detections), so the next rejection keeps all of their detections
+  // and leaves them out of the variance factors; the round after judges them.
+  std::vector<bool> restarted_now(cameras.size(), false);
   auto researchRestartedClocks = [&]() {
     auto poseNow = [&](TimeNs t) -> std::optional<Rigid3d> {
       const auto b = bracketAt(t, false);
@@ -685,6 +715,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       for (const Rigid3d& r : candidates) rotations.push_back(r.rotation);
       poseToParams(Rigid3d(calib_detail::meanRotation(rotations), median), jc.pose);
       jc.offset_s = best_offset;
+      restarted_now[static_cast<std::size_t>(&jc - cameras.data())] = true;
     }
   };
   for (int round = 0; round < options.rounds; ++round) {
@@ -703,7 +734,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
         if (!detections[i].in_range) continue;
         const int kind = detections[i].corners ? 1 : 0;
         chi2[i] = markerChi2(i) * variance_factor[kind];  // as with factor 1
-        by_kind[kind].push_back(chi2[i]);
+        if (!restarted_now[detections[i].camera]) by_kind[kind].push_back(chi2[i]);
       }
       // Medians of the chi-square distribution with 6 and 8 degrees of freedom.
       const double expected_median[2] = {5.3481, 7.3441};
@@ -717,8 +748,10 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
         if (!detections[i].in_range) continue;
         const int kind = detections[i].corners ? 1 : 0;
         const double bound = kind ? options.reject_chi2_corners : options.reject_chi2_pose;
-        detections[i].inlier = chi2[i] / variance_factor[kind] <= bound;
+        detections[i].inlier =
+            restarted_now[detections[i].camera] || chi2[i] / variance_factor[kind] <= bound;
       }
+      std::fill(restarted_now.begin(), restarted_now.end(), false);
       if (verbose) {
         std::cerr << "joint round " << round + 1 << ": variance factors pose " << variance_factor[0]
                   << ", corners " << variance_factor[1] << "\n";

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "lookboth/cameras/camera.h"
+#include "lookboth/geometry/trajectory.h"
 #include "pose_costs.h"
 
 namespace lookboth::joint_detail {
@@ -546,5 +547,50 @@ class CachedBlobCost : public ceres::SizedCostFunction<2, 7, 7, 7> {
   Eigen::Vector2d observed_;
   double sigma_px_;
 };
+
+// The input trajectory's positions, each replaced by a local quadratic fit in
+// time (Savitzky-Golay) over the samples within +-half_window_s of it and
+// without a gap longer than max_gap_ns between them; orientations unchanged.
+// A quadratic fit leaves a constant acceleration (a turn at constant speed)
+// unbiased, where a moving average would pull the path inwards; it removes a
+// visual odometry's frame-to-frame position jitter, which the interpolation
+// between nodes would otherwise hand to every detection. Fewer than 5 samples
+// in the window: the sample is kept.
+// `residual_rms_m` (optional): the RMS of the samples' distances to their
+// fits, the input's scatter about a smooth motion (0 when nothing was fitted).
+inline std::vector<StampedPose> smoothPositions(const std::vector<StampedPose>& in,
+                                                double half_window_s, TimeNs max_gap_ns,
+                                                double* residual_rms_m = nullptr) {
+  std::vector<StampedPose> out = in;
+  if (residual_rms_m) *residual_rms_m = 0;
+  if (!(half_window_s > 0)) return out;
+  double sum = 0;
+  std::size_t fitted = 0;
+  const TimeNs w = static_cast<TimeNs>(half_window_s * 1e9);
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    std::size_t lo = i, hi = i;
+    while (lo > 0 && in[i].t - in[lo - 1].t <= w && in[lo].t - in[lo - 1].t <= max_gap_ns) --lo;
+    while (hi + 1 < in.size() && in[hi + 1].t - in[i].t <= w &&
+           in[hi + 1].t - in[hi].t <= max_gap_ns) {
+      ++hi;
+    }
+    if (hi - lo + 1 < 5) continue;
+    Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+    Eigen::Matrix3d rhs = Eigen::Matrix3d::Zero();  // column per axis
+    for (std::size_t j = lo; j <= hi; ++j) {
+      const double tau = static_cast<double>(in[j].t - in[i].t) * 1e-9;
+      const Eigen::Vector3d basis(1.0, tau, tau * tau);
+      normal += basis * basis.transpose();
+      rhs += basis * in[j].world_from_body.translation.transpose();
+    }
+    const Eigen::Matrix3d coefficients = normal.ldlt().solve(rhs);  // rows: 1, tau, tau^2
+    if (!coefficients.allFinite()) continue;
+    out[i].world_from_body.translation = coefficients.row(0).transpose();
+    sum += (out[i].world_from_body.translation - in[i].world_from_body.translation).squaredNorm();
+    ++fitted;
+  }
+  if (residual_rms_m && fitted > 0) *residual_rms_m = std::sqrt(sum / static_cast<double>(fitted));
+  return out;
+}
 
 }  // namespace lookboth::joint_detail

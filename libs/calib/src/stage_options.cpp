@@ -216,6 +216,8 @@ std::string LookUpOptions::check() const {
 void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::string& field) {
   r.rejectUnknownKeys(node,
                       {"node_interval_s",
+                       "smooth_input_s",
+                       "smooth_input_min_rms_m",
                        "drift_m_per_sqrt_m",
                        "drift_deg_per_sqrt_m",
                        "min_sigma_m",
@@ -267,6 +269,8 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
     if (node[key]) target = r.boolean(node[key], s.path(key));
   };
   s.number("node_interval_s", node_interval_s);
+  s.number("smooth_input_s", smooth_input_s);
+  s.number("smooth_input_min_rms_m", smooth_input_min_rms_m);
   s.number("drift_m_per_sqrt_m", drift_m_per_sqrt_m);
   s.number("drift_deg_per_sqrt_m", drift_deg_per_sqrt_m);
   s.number("drift_vertical_ratio", drift_vertical_ratio);
@@ -339,6 +343,8 @@ std::string JointOptions::check() const {
   }
   for (const auto& [name, value] : std::initializer_list<std::pair<const char*, double>>{
            {"node_interval_s", node_interval_s},
+           {"smooth_input_s", smooth_input_s},
+           {"smooth_input_min_rms_m", smooth_input_min_rms_m},
            {"drift_m_per_sqrt_m", drift_m_per_sqrt_m},
            {"drift_deg_per_sqrt_m", drift_deg_per_sqrt_m}}) {
     if (!(value >= 0) || !std::isfinite(value)) {

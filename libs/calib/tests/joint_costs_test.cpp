@@ -96,6 +96,53 @@ TEST(JointCosts, RelativeMotionWeighsVerticalAndTiltByTheirRatios) {
   }
 }
 
+// The input trajectory's position smoothing: a constant acceleration (a
+// quadratic in time) passes unchanged, white noise shrinks by the fit's
+// factor, a gap separates what is fitted, orientations are kept.
+TEST(JointCosts, SmoothPositionsKeepsAQuadraticAndShrinksNoise) {
+  const TimeNs period = 33'333'333;  // 30 Hz
+  auto at = [](double t) {
+    return Eigen::Vector3d(0.8 * t + 0.15 * t * t, -0.3 * t * t, 0.01 * t);
+  };
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  std::vector<StampedPose> clean, noisy;
+  for (int i = 0; i < 300; ++i) {
+    const TimeNs t = i * period + (i >= 150 ? 1'000'000'000 : 0);  // a 1 s gap after 150
+    const double ts = static_cast<double>(t) * 1e-9;
+    Rigid3d pose(so3Exp(Eigen::Vector3d(0.01 * ts, 0.0, 0.3 * ts)), at(ts));
+    if (i >= 150) pose.translation += Eigen::Vector3d(5, 0, 0);  // the far side of the gap
+    clean.push_back({t, pose});
+    pose.translation += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    noisy.push_back({t, pose});
+  }
+  const auto smoothed_clean = joint_detail::smoothPositions(clean, 0.2, 100'000'000);
+  for (std::size_t i = 0; i < clean.size(); ++i) {
+    EXPECT_NEAR(
+        (smoothed_clean[i].world_from_body.translation - clean[i].world_from_body.translation)
+            .norm(),
+        0.0, 1e-9)
+        << i;  // also at the gap: the jump of 5 m stays out of both sides' fits
+    EXPECT_TRUE(smoothed_clean[i].world_from_body.rotation.isApprox(
+        clean[i].world_from_body.rotation, 1e-15));
+  }
+  double before = 0, after = 0;
+  const auto smoothed = joint_detail::smoothPositions(noisy, 0.2, 100'000'000);
+  for (std::size_t i = 20; i + 20 < noisy.size(); ++i) {  // away from the ends
+    if (i > 130 && i < 170) continue;                     // and from the gap
+    before +=
+        (noisy[i].world_from_body.translation - clean[i].world_from_body.translation).squaredNorm();
+    after += (smoothed[i].world_from_body.translation - clean[i].world_from_body.translation)
+                 .squaredNorm();
+  }
+  // 13 samples, quadratic: the centre's variance is 0.175 of a sample's.
+  EXPECT_LT(std::sqrt(after / before), 0.5);
+  EXPECT_GT(std::sqrt(after / before), 0.3);
+  // No smoothing asked: the input.
+  const auto same = joint_detail::smoothPositions(noisy, 0.0, 100'000'000);
+  EXPECT_EQ(same[5].world_from_body.translation, noisy[5].world_from_body.translation);
+}
+
 TEST(JointCosts, CachedBlobCostMatchesTheAutodiffReference) {
   const Camera fisheye =
       loadCamera(std::string(LOOKBOTH_SHARE_DIR) + "/cameras/fisheye_640x360_calib_results.txt");

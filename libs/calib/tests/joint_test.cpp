@@ -252,6 +252,27 @@ TEST(Joint, PredictsThePositionErrorAfterAlignment) {
   EXPECT_FALSE(solve(scene, joint).result.observability.aligned_position_rmse_m);
 }
 
+// Visual mode: a trajectory with frame-to-frame position jitter (as a visual
+// odometry's) is smoothed before use, and says so; the same without jitter
+// is used as given (noise-free recovery stays exact, above).
+TEST(Joint, SmoothsAJitteryVisualTrajectoryOnly) {
+  for (const double jitter_m : {0.0, 0.005}) {
+    SyntheticScene scene = makeSyntheticScene(SyntheticOptions{});
+    std::vector<StampedPose> samples = scene.truth;
+    std::mt19937 rng(11);
+    std::normal_distribution<double> noise(0.0, jitter_m);
+    for (StampedPose& p : samples) {
+      p.world_from_body.translation += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    }
+    scene.input.trajectory = Trajectory(samples);
+    scene.input.mode = TrajectoryMode::kVisual;
+    const RegistrationProblem problem = solve(scene, {});
+    const bool said =
+        problem.result.observability.message.find("they were smoothed") != std::string::npos;
+    EXPECT_EQ(said, jitter_m > 0) << problem.result.observability.message;
+  }
+}
+
 TEST(Joint, RecoversAClockOffsetOf150ms) {
   // The offset is determined by the blobs (camera position, robot clock)
   // against the detections (camera clock), i.e. to (position sigma / speed):

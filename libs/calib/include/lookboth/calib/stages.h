@@ -124,6 +124,15 @@ struct JointOptions {
   /// (0 = every sample); detections and fisheye frames between two nodes are
   /// interpolated between them inside the cost.
   double node_interval_s = 0.1;
+  /// Visual mode: the input trajectory's positions are replaced by a local
+  /// quadratic fit in time over +-this many seconds (0 = as given) before they
+  /// serve as the shape between nodes: a visual odometry's frame-to-frame
+  /// position jitter would otherwise reach every detection's pose [s].
+  double smooth_input_s = 0.2;
+  /// ...when the positions scatter about those fits by more than this RMS
+  /// (trajectory units of a visual odometry: metres after the initial scale)
+  /// [m]; a smoother input is used as given.
+  double smooth_input_min_rms_m = 0.0005;
   /// Drift model of the input trajectory: the relative motion between two
   /// nodes d metres apart has standard deviation sqrt(min^2 + drift^2 d) in
   /// translation [m/sqrt(m)] and rotation [deg/sqrt(m)].
