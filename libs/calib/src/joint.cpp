@@ -193,12 +193,14 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   // visual odometry's frame-to-frame jitter). A smooth input is used as given,
   // so that nothing biases an exact one, and so is a metric one (wheel
   // odometry integrates; a fast robot's true jerk would pass for jitter).
-  double input_scatter_m = 0;
-  std::vector<StampedPose> smoothed = smoothPositions(
-      input.trajectory.samples(), options.smooth_input_s, kSmoothingGapNs, &input_scatter_m);
-  if (visual) input_scatter_m *= scale0;  // the input's units to metres
-  const bool smooth_input =
-      visual && options.smooth_input_s > 0 && input_scatter_m > options.smooth_input_min_rms_m;
+  double input_scatter_m = 0;  // [m]
+  std::vector<StampedPose> smoothed;
+  if (visual && options.smooth_input_s > 0) {
+    smoothed = smoothPositions(input.trajectory.samples(), options.smooth_input_s, kSmoothingGapNs,
+                               &input_scatter_m);
+    input_scatter_m *= scale0;  // the input's units to metres
+  }
+  const bool smooth_input = !smoothed.empty() && input_scatter_m > options.smooth_input_min_rms_m;
   const Trajectory reference_trajectory =
       smooth_input ? Trajectory(std::move(smoothed)) : input.trajectory;
   if (smooth_input) {
