@@ -62,7 +62,8 @@ using calib_detail::sqrtInformation;
 using namespace joint_detail;
 
 constexpr double kDeg = M_PI / 180.0;
-constexpr TimeNs kMaxGapNs = 500'000'000;        // trajectory gaps longer than this are not crossed
+constexpr TimeNs kMaxGapNs = 500'000'000;     // trajectory gaps longer than this are not crossed
+constexpr double kDriftModelTolerance = 0.1;  // a drift sigma factor changed by more: another round
 constexpr TimeNs kSmoothingGapNs = 100'000'000;  // samples farther apart: not smoothed across
 constexpr double kRebracketS = 0.005;            // clock offsets moved less: no new round (below)
 
@@ -645,6 +646,111 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   // their detections), so the next rejection keeps all of their detections
   // and leaves them out of the variance factors; the round after judges them.
   std::vector<bool> restarted_now(cameras.size(), false);
+  // The drift model estimated from the data (estimate_drift_model): factors
+  // on the configured sigmas of the relative motions' horizontal
+  // translation, vertical translation, tilt (roll, pitch) and yaw, by
+  // Helmert's variance component estimation after a round: each group's
+  // factor is multiplied by sqrt(sum of its squared whitened residuals / its
+  // redundancy), the redundancy sum_i (1 - (J_i Cov J_i^T)_cc) over the
+  // group's residual components (what the other measurements leave to the
+  // relative motions to decide), from the covariance of the nodes and scales
+  // on the pattern of the problem (selected inversion). Gap edges are left out.
+  double drift_factor[4] = {1, 1, 1, 1};
+  double last_step[4] = {1, 1, 1, 1};
+  bool drift_model_changed = false;   // by the update after this round: another round
+  bool drift_still_changing = false;  // the last update made changed the model (> 10 %)
+  int drift_updates = 0;
+  const int max_rounds =
+      options.rounds + (options.estimate_drift_model ? options.drift_model_updates : 0);
+  std::vector<ceres::ResidualBlockId> edge_block;  // per edge; null across a gap
+  auto updateDriftModel = [&](ceres::Problem& Q) -> bool {
+    lap();
+    auto isFree = [&](const double* b) {
+      return !Q.IsParameterBlockConstant(const_cast<double*>(b));
+    };
+    std::vector<std::pair<const double*, const double*>> pairs;
+    std::set<std::pair<const double*, const double*>> seen;
+    auto want = [&](const double* a, const double* b) {
+      if (!isFree(a) || !isFree(b)) return;
+      if (seen.count({b, a}) == 0 && seen.insert({a, b}).second) pairs.emplace_back(a, b);
+    };
+    for (std::size_t k = 0; k < edge_block.size(); ++k) {
+      if (edge_block[k] == nullptr) continue;
+      const double* blocks[3] = {nodes[k].data(), nodes[k + 1].data(), &scales[segment_of_edge[k]]};
+      for (int i = 0; i < 3; ++i) {
+        for (int j = i; j < 3; ++j) want(blocks[i], blocks[j]);
+      }
+    }
+    // The blocks that touch many others are requested too, so that they go
+    // to the dense group: their fill would make the factor 10x larger.
+    for (const JointCamera& c : cameras) want(c.pose, c.pose);
+    want(x_params, x_params);
+    frame_poses->PrepareForEvaluation(true, true);
+    SparseCovariance cov;
+    if (!cov.compute(pairs, &Q, options.threads)) {
+      result.warnings.push_back("joint: the drift model could not be estimated (" + cov.message() +
+                                ")");
+      return false;
+    }
+    double squares[4] = {0, 0, 0, 0}, redundancy[4] = {0, 0, 0, 0};
+    constexpr int kGroupOf[6] = {0, 0, 1, 2, 2, 3};  // residual component -> group
+    for (std::size_t k = 0; k < edge_block.size(); ++k) {
+      if (edge_block[k] == nullptr) continue;
+      double* blocks[3] = {nodes[k].data(), nodes[k + 1].data(), &scales[segment_of_edge[k]]};
+      Eigen::Matrix<double, 6, 7, Eigen::RowMajor> ambient[2];
+      Eigen::Matrix<double, 6, 1> d_scale;
+      double* jacobians[3] = {isFree(blocks[0]) ? ambient[0].data() : nullptr,
+                              isFree(blocks[1]) ? ambient[1].data() : nullptr,
+                              isFree(blocks[2]) ? d_scale.data() : nullptr};
+      double r[6];
+      if (!Q.GetCostFunctionForResidualBlock(edge_block[k])->Evaluate(blocks, r, jacobians)) {
+        continue;
+      }
+      Eigen::Matrix<double, 6, Eigen::Dynamic> tangent[3];
+      for (int i = 0; i < 2; ++i) {
+        if (jacobians[i] == nullptr) continue;
+        Eigen::Matrix<double, 7, 6, Eigen::RowMajor> plus;
+        Q.GetManifold(blocks[i])->PlusJacobian(blocks[i], plus.data());
+        tangent[i] = ambient[i] * plus;
+      }
+      if (jacobians[2] != nullptr) tangent[2] = d_scale;
+      Eigen::Matrix<double, 6, 6> leverage = Eigen::Matrix<double, 6, 6>::Zero();
+      for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) {
+          if (jacobians[i] == nullptr || jacobians[j] == nullptr) continue;
+          leverage += tangent[i] * cov.block(blocks[i], blocks[j]) * tangent[j].transpose();
+        }
+      }
+      const Eigen::Matrix<double, 6, 1> h = leverage.diagonal();
+      if (!h.allFinite() || h.maxCoeff() > 1 + 1e-6 || h.minCoeff() < -1e-9) continue;
+      for (int c = 0; c < 6; ++c) {
+        squares[kGroupOf[c]] += r[c] * r[c];
+        redundancy[kGroupOf[c]] += 1 - h[c];
+      }
+    }
+    bool changed = false;
+    for (int g = 0; g < 4; ++g) {
+      if (redundancy[g] < 10) continue;  // the data leave this group nothing to judge by
+      const double step = std::sqrt(std::clamp(squares[g] / redundancy[g], 1e-4, 1e4));
+      // A group moved the same way twice: its step squared. Helmert's
+      // iteration converges linearly, slowly for a component the odometry
+      // does not have (its factor tends to 0): on `paper_det` 4 updates reach
+      // what the odometry's own model gives, where plain steps need 6.
+      const bool again = drift_updates > 1 && (step - 1) * (last_step[g] - 1) > 0;
+      const double applied = again ? step * step : step;
+      last_step[g] = step;
+      drift_factor[g] = std::clamp(drift_factor[g] * applied, 1e-3, 1e3);
+      changed |= std::abs(step - 1) > kDriftModelTolerance;
+    }
+    if (verbose) {
+      std::cerr << "joint drift model update " << drift_updates << " (CPU " << lap() << " s"
+                << cov.describe() << "): sigma factors horizontal " << drift_factor[0]
+                << ", vertical " << drift_factor[1] << ", tilt " << drift_factor[2] << ", yaw "
+                << drift_factor[3] << " (redundancies " << redundancy[0] << ", " << redundancy[1]
+                << ", " << redundancy[2] << ", " << redundancy[3] << ")\n";
+    }
+    return changed;
+  };
   auto researchRestartedClocks = [&]() {
     auto poseNow = [&](TimeNs t) -> std::optional<Rigid3d> {
       const auto b = bracketAt(t, false);
@@ -720,9 +826,11 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       restarted_now[static_cast<std::size_t>(&jc - cameras.data())] = true;
     }
   };
-  for (int round = 0; round < options.rounds; ++round) {
+  for (int round = 0; round < max_rounds; ++round) {
+    // Rounds past `rounds` run only for a drift model that changed.
+    if (round >= options.rounds && !drift_model_changed && previous_converged) break;
     progress.checkStop();
-    progress.report("joint", round, options.rounds, "round " + std::to_string(round + 1));
+    progress.report("joint", round, max_rounds, "round " + std::to_string(round + 1));
     if (round == 1 && blob_fisheye != nullptr && options.estimate_clock_offsets) {
       researchRestartedClocks();
     }
@@ -780,7 +888,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       for (std::size_t c = 0; c < cameras.size(); ++c) {
         moved = std::max(moved, std::abs(offsets[c] - previous_offset[c]));
       }
-      if (moved < kRebracketS && previous_converged) break;
+      if (moved < kRebracketS && previous_converged && !drift_model_changed) break;
     }
     previous_inlier = inlier;
     previous_offset = offsets;
@@ -806,6 +914,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     };
 
     // Trajectory: relative motions and scales.
+    edge_block.assign(n_nodes > 0 ? n_nodes - 1 : 0, nullptr);
     if (!options.fix_trajectory) {
       for (std::size_t k = 0; k + 1 < n_nodes; ++k) {
         addNode(k);
@@ -824,11 +933,18 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
           cost->sigma_t *= 100;
           cost->sigma_r *= 100;
         }
-        cost->vertical_ratio = options.drift_vertical_ratio;
-        cost->tilt_ratio = options.drift_tilt_ratio;
-        Q.AddResidualBlock(new ceres::AutoDiffCostFunction<RelativeMotionCost, 6, 7, 7, 1>(cost),
-                           nullptr, nodes[k].data(), nodes[k + 1].data(),
-                           &scales[segment_of_edge[k]]);
+        cost->vertical_ratio = options.drift_vertical_ratio * drift_factor[1] / drift_factor[0];
+        cost->tilt_ratio = options.drift_tilt_ratio * drift_factor[2] / drift_factor[3];
+        cost->sigma_t *= drift_factor[0];
+        cost->sigma_r *= drift_factor[3];
+        if (!gap)
+          edge_block[k] = Q.AddResidualBlock(
+              new ceres::AutoDiffCostFunction<RelativeMotionCost, 6, 7, 7, 1>(cost), nullptr,
+              nodes[k].data(), nodes[k + 1].data(), &scales[segment_of_edge[k]]);
+        else
+          Q.AddResidualBlock(new ceres::AutoDiffCostFunction<RelativeMotionCost, 6, 7, 7, 1>(cost),
+                             nullptr, nodes[k].data(), nodes[k + 1].data(),
+                             &scales[segment_of_edge[k]]);
       }
       for (std::size_t j = 0; j < n_segments; ++j) {
         if (j > 0) {
@@ -918,7 +1034,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     ceres::Solver::Summary summary;
     // Rounds before the last only prepare the next association, outlier
     // rejection and weights: they stop at early_round_max_iterations.
-    const bool last_round = round + 1 == options.rounds;
+    const bool last_round = round + 1 == max_rounds;
     solver.max_num_iterations =
         last_round || options.early_round_max_iterations == 0
             ? options.max_iterations
@@ -941,8 +1057,33 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     if (!summary.IsSolutionUsable()) {
       throw Error("joint: the solver failed: " + summary.message);
     }
+    drift_model_changed = false;
+    if (options.estimate_drift_model && !options.fix_trajectory &&
+        drift_updates < options.drift_model_updates && round + 1 < max_rounds) {
+      ++drift_updates;
+      drift_model_changed = updateDriftModel(Q);
+      drift_still_changing = drift_model_changed;
+    }
   }
 
+  if (options.estimate_drift_model && !options.fix_trajectory) {
+    DriftModelEstimate e;
+    e.horizontal = drift_factor[0];
+    e.vertical = drift_factor[1];
+    e.tilt = drift_factor[2];
+    e.yaw = drift_factor[3];
+    e.updates = drift_updates;
+    result.observability.drift_model = e;
+    auto sigmaFactor = [](double f) { return formatFixed(f, f < 0.1 ? 3 : 2); };
+    result.observability.message +=
+        (result.observability.message.empty() ? "" : " ") +
+        std::string("joint: the drift model estimated from the data (") +
+        std::to_string(drift_updates) + " updates" +
+        (drift_still_changing ? ", the last still changing it by more than 10 %" : "") +
+        ") is the configured one with its sigmas times " + sigmaFactor(e.horizontal) +
+        " horizontally, " + sigmaFactor(e.vertical) + " vertically, " + sigmaFactor(e.tilt) +
+        " in tilt and " + sigmaFactor(e.yaw) + " in yaw.";
+  }
   for (int kind = 0; kind < 2; ++kind) {
     if (variance_factor[kind] > 1.5) {
       std::ostringstream w;
@@ -1003,7 +1144,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   SparseCovariance covariance;
   bool have_covariance = false;
   if (options.covariance && !blocks.empty()) {
-    progress.report("joint", options.rounds, options.rounds, "covariance");
+    progress.report("joint", max_rounds, max_rounds, "covariance");
     frame_poses->PrepareForEvaluation(true, true);  // (Problem::Evaluate calls it too)
     lap();
     have_covariance = covariance.compute(blocks, ceres_problem.get(), options.threads);
@@ -1289,7 +1430,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       result.reprojection.reset();
     }
   }
-  progress.report("joint", options.rounds, options.rounds);
+  progress.report("joint", max_rounds, max_rounds);
 }
 
 }  // namespace lookboth

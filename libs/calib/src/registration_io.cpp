@@ -411,6 +411,15 @@ std::string registrationToYaml(const Registration& reg) {
     out << YAML::Key << "aligned_position_rmse_m" << YAML::Value
         << formatDouble(*reg.observability.aligned_position_rmse_m);
   }
+  if (const auto& d = reg.observability.drift_model) {
+    out << YAML::Key << "drift_model" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "horizontal" << YAML::Value << formatDouble(d->horizontal);
+    out << YAML::Key << "vertical" << YAML::Value << formatDouble(d->vertical);
+    out << YAML::Key << "tilt" << YAML::Value << formatDouble(d->tilt);
+    out << YAML::Key << "yaw" << YAML::Value << formatDouble(d->yaw);
+    out << YAML::Key << "updates" << YAML::Value << d->updates;
+    out << YAML::EndMap;
+  }
   out << YAML::EndMap;
   out << YAML::Key << "warnings" << YAML::Value;
   emitStrings(out, reg.warnings);
@@ -555,7 +564,23 @@ Registration loadRegistration(const std::filesystem::path& dir) {
   }
   if (root["reprojection"]) reg.reprojection = r.reprojection(root["reprojection"], "reprojection");
   if (const YAML::Node o = root["observability"]; o) {
-    r.rejectUnknownKeys(o, {"message", "eigenvalues", "aligned_position_rmse_m"}, "observability");
+    r.rejectUnknownKeys(o, {"message", "eigenvalues", "aligned_position_rmse_m", "drift_model"},
+                        "observability");
+    if (const YAML::Node d = o["drift_model"]; d) {
+      r.rejectUnknownKeys(d, {"horizontal", "vertical", "tilt", "yaw", "updates"},
+                          "observability.drift_model");
+      DriftModelEstimate e;
+      const std::string at = "observability.drift_model.";
+      for (const auto& [key, target] :
+           std::initializer_list<std::pair<const char*, double*>>{{"horizontal", &e.horizontal},
+                                                                  {"vertical", &e.vertical},
+                                                                  {"tilt", &e.tilt},
+                                                                  {"yaw", &e.yaw}}) {
+        *target = r.number(r.require(d, key, at + key), at + key);
+      }
+      if (d["updates"]) e.updates = static_cast<int>(r.integer(d["updates"], at + "updates"));
+      reg.observability.drift_model = e;
+    }
     if (o["aligned_position_rmse_m"]) {
       reg.observability.aligned_position_rmse_m =
           r.number(o["aligned_position_rmse_m"], "observability.aligned_position_rmse_m");

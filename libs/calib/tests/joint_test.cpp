@@ -262,6 +262,76 @@ TEST(Joint, PredictsThePositionErrorAfterAlignment) {
   EXPECT_FALSE(solve(scene, joint).result.observability.aligned_position_rmse_m);
 }
 
+// The drift model estimated from the data: the trajectory drifts with a
+// planar model (little vertical and tilt drift), declared 10x looser in every
+// sigma and isotropic. The estimate finds the horizontal and yaw factors
+// (truth 0.1) and shrinks vertical and tilt far below them (truth 0.005), and
+// the cameras come out as accurate as with the true model declared, better
+// than with the declared one left alone, with a consistent covariance.
+TEST(Joint, EstimatesTheDriftModelFromTheData) {
+  JointOptions truth = everySampleANode();
+  truth.drift_m_per_sqrt_m = 0.002;
+  truth.drift_deg_per_sqrt_m = 0.05;
+  truth.drift_vertical_ratio = 0.05;
+  truth.drift_tilt_ratio = 0.05;
+  JointOptions declared = truth;
+  declared.drift_m_per_sqrt_m *= 10;
+  declared.drift_deg_per_sqrt_m *= 10;
+  declared.min_sigma_m *= 10;
+  declared.min_sigma_deg *= 10;
+  declared.drift_vertical_ratio = 1;
+  declared.drift_tilt_ratio = 1;
+  JointOptions estimated = declared;
+  estimated.estimate_drift_model = true;
+
+  const std::uint32_t seeds = 3;
+  double squared[3] = {0, 0, 0}, nees = 0;
+  int cameras = 0;
+  for (std::uint32_t seed = 1; seed <= seeds; ++seed) {
+    SyntheticScene scene = makeSyntheticScene(noisyOptions(seed));
+    std::mt19937 rng(seed + 100);
+    scene.input.trajectory = Trajectory(driftedTrajectory(scene.truth, truth, rng));
+    const JointOptions* runs[3] = {&truth, &declared, &estimated};
+    for (int i = 0; i < 3; ++i) {
+      const RegistrationProblem problem = solve(scene, *runs[i]);
+      const auto a = alignedAccuracy(problem.result, scene.world_from_camera);
+      squared[i] += a.position_rmse_m * a.position_rmse_m;
+      EXPECT_EQ(problem.result.observability.drift_model.has_value(), i == 2);
+      if (i != 2) continue;
+      const DriftModelEstimate& d = *problem.result.observability.drift_model;
+      std::cout << "seed " << seed << ": sigma factors horizontal " << d.horizontal << ", vertical "
+                << d.vertical << ", tilt " << d.tilt << ", yaw " << d.yaw << " after " << d.updates
+                << " updates\n";
+      EXPECT_GT(d.updates, 0);
+      EXPECT_NEAR(d.horizontal, 0.1, 0.04);
+      EXPECT_NEAR(d.yaw, 0.1, 0.04);
+      EXPECT_LT(d.vertical, 0.05);
+      EXPECT_LT(d.tilt, 0.05);
+      EXPECT_NE(problem.result.observability.message.find("drift model estimated"),
+                std::string::npos);
+      for (const CameraRegistration& c : problem.result.cameras) {
+        ASSERT_TRUE(c.covariance) << c.label;
+        const Rigid3d& t = scene.world_from_camera.at(c.label);
+        Eigen::Matrix<double, 6, 1> e;
+        e.head<3>() = c.world_from_camera.translation - t.translation;
+        e.tail<3>() =
+            so3Log(Eigen::Quaterniond(t.rotation.conjugate() * c.world_from_camera.rotation));
+        nees += e.dot(c.covariance->ldlt().solve(e)) / 6.0;
+        ++cameras;
+      }
+    }
+  }
+  const double rmse[3] = {std::sqrt(squared[0] / seeds), std::sqrt(squared[1] / seeds),
+                          std::sqrt(squared[2] / seeds)};
+  std::cout << "aligned position RMSE: true model " << rmse[0] * 1e3 << " mm, declared "
+            << rmse[1] * 1e3 << " mm, estimated " << rmse[2] * 1e3
+            << " mm; estimated model's mean NEES/dof " << nees / cameras << "\n";
+  EXPECT_LT(rmse[2], 1.2 * rmse[0]);
+  EXPECT_LT(rmse[2], rmse[1]);
+  EXPECT_GE(nees / cameras, 0.7);
+  EXPECT_LE(nees / cameras, 1.5);
+}
+
 // Visual mode: a trajectory with frame-to-frame position jitter (as a visual
 // odometry's) is smoothed before use, and says so; the same without jitter
 // is used as given (noise-free recovery stays exact, above).

@@ -72,6 +72,7 @@ Registration sampleRegistration() {
   reg.observability.message = "the vertical offset is not determined by planar motion";
   reg.observability.eigenvalues = {1e-12, 0.5, 3, 4, 5, 6, 7};
   reg.observability.aligned_position_rmse_m = 0.00138;
+  reg.observability.drift_model = DriftModelEstimate{0.108, 0.029, 0.0019, 0.079, 4};
   reg.warnings = {"one", "two"};
   reg.statistics.detections_total = 1000;
   reg.statistics.detections_associated = 990;
@@ -169,6 +170,12 @@ TEST_F(RegistrationIoTest, RoundTripsEveryField) {
   EXPECT_EQ(back.observability.eigenvalues, reg.observability.eigenvalues);
   ASSERT_TRUE(back.observability.aligned_position_rmse_m);
   EXPECT_DOUBLE_EQ(*back.observability.aligned_position_rmse_m, 0.00138);
+  ASSERT_TRUE(back.observability.drift_model);
+  EXPECT_DOUBLE_EQ(back.observability.drift_model->horizontal, 0.108);
+  EXPECT_DOUBLE_EQ(back.observability.drift_model->vertical, 0.029);
+  EXPECT_DOUBLE_EQ(back.observability.drift_model->tilt, 0.0019);
+  EXPECT_DOUBLE_EQ(back.observability.drift_model->yaw, 0.079);
+  EXPECT_EQ(back.observability.drift_model->updates, 4);
   EXPECT_EQ(back.warnings, reg.warnings);
   EXPECT_EQ(back.statistics.detections_total, 1000);
   EXPECT_EQ(back.statistics.detections_associated, 990);
@@ -214,6 +221,23 @@ TEST_F(RegistrationIoTest, ErrorsNameFileAndField) {
     const std::string what = e.what();
     EXPECT_NE(what.find("registration.yaml:"), std::string::npos) << what;
     EXPECT_NE(what.find("cameras[1].status"), std::string::npos) << what;
+  }
+}
+
+TEST_F(RegistrationIoTest, MissingDriftModelFactorIsNamed) {
+  saveRegistration(sampleRegistration(), dir_);
+  std::string yaml = readFile(dir_ / "registration.yaml");
+  const size_t at = yaml.find("yaw: 0.079");
+  ASSERT_NE(at, std::string::npos);
+  yaml.replace(at, 10, "yawn: 0.079");
+  writeFileAtomically(dir_ / "registration.yaml", yaml);
+  try {
+    loadRegistration(dir_);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("registration.yaml:"), std::string::npos) << what;
+    EXPECT_NE(what.find("observability.drift_model"), std::string::npos) << what;
   }
 }
 

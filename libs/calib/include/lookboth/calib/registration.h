@@ -104,6 +104,16 @@ struct BlobAssociation {
   double u_after = 0, v_after = 0;
 };
 
+/// The drift model joint estimated from the data (estimate_drift_model):
+/// factors on the configured sigmas of the trajectory's relative motions.
+struct DriftModelEstimate {
+  double horizontal = 1;  ///< Translation in the body's x-y plane.
+  double vertical = 1;    ///< Translation along the body's z.
+  double tilt = 1;        ///< Roll and pitch.
+  double yaw = 1;
+  int updates = 0;  ///< Variance component estimates made (each followed by a round).
+};
+
 struct Observability {
   std::string message;              ///< Plain words: what the motion determines and what not.
   std::vector<double> eigenvalues;  ///< Of the motion calibration's information matrix, ascending.
@@ -111,6 +121,7 @@ struct Observability {
   /// rigid (SE(3)) alignment to any reference [m]: free of the gauge, which
   /// dominates each camera's own covariance (joint, when computed).
   std::optional<double> aligned_position_rmse_m;
+  std::optional<DriftModelEstimate> drift_model;  ///< joint, with estimate_drift_model.
 };
 
 struct RegistrationStatistics {

@@ -146,6 +146,13 @@ struct JointOptions {
   /// robot's wheel odometry drifts mostly in the plane and in yaw.
   double drift_vertical_ratio = 1.0;
   double drift_tilt_ratio = 1.0;
+  /// Estimate the drift model from the data: factors on the sigmas above for
+  /// the horizontal translation, the vertical, the tilt and yaw, by variance
+  /// component estimation after a round (each update one covariance and one
+  /// more round; Observability::drift_model). For an odometry whose drift is
+  /// not known: the result is as if the model had been declared.
+  bool estimate_drift_model = false;
+  int drift_model_updates = 4;  ///< At most this many updates (and extra rounds).
   /// The trajectory's scale is one parameter per segment of this length [m]
   /// (visual: VO's slowly varying scale; metric: the odometry's distance error).
   double scale_segment_m = 10;
