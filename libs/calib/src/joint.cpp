@@ -636,25 +636,6 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   std::vector<double> previous_offset;
   std::size_t previous_blobs = 0;
   bool previous_converged = true;  // the last round's solve converged (not stopped at its cap)
-  bool previous_loose = false;     // ... to early_round_function_tolerance only
-  // The last round run stopped at early_round_function_tolerance: its
-  // problem solved on to function_tolerance.
-  auto polish = [&]() {
-    if (!previous_loose || ceres_problem == nullptr) return;
-    previous_loose = false;
-    solver.function_tolerance = options.function_tolerance;
-    solver.max_num_iterations = options.max_iterations;
-    lap();
-    ceres::Solver::Summary summary;
-    ceres::Solve(solver, ceres_problem.get(), &summary);
-    if (verbose) {
-      std::cerr << "joint: the last round solved on to function_tolerance: CPU " << lap()
-                << " s: " << summary.BriefReport() << "\n";
-    }
-    if (!summary.IsSolutionUsable()) {
-      throw Error("joint: the solver failed: " + summary.message);
-    }
-  };
   // The clock search of the restarted cameras again after the first round,
   // on the trajectory that round corrected: there a camera put at the right
   // offset projects within a pixel or two of its blob, where on the input
@@ -847,10 +828,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   };
   for (int round = 0; round < max_rounds; ++round) {
     // Rounds past `rounds` run only for a drift model that changed.
-    if (round >= options.rounds && !drift_model_changed && previous_converged) {
-      polish();
-      break;
-    }
+    if (round >= options.rounds && !drift_model_changed && previous_converged) break;
     progress.checkStop();
     progress.report("joint", round, max_rounds, "round " + std::to_string(round + 1));
     if (round == 1 && blob_fisheye != nullptr && options.estimate_clock_offsets) {
@@ -910,10 +888,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       for (std::size_t c = 0; c < cameras.size(); ++c) {
         moved = std::max(moved, std::abs(offsets[c] - previous_offset[c]));
       }
-      if (moved < kRebracketS && previous_converged && !drift_model_changed) {
-        polish();  // (the problem holds copies of what it measures: association since is moot)
-        break;
-      }
+      if (moved < kRebracketS && previous_converged && !drift_model_changed) break;
     }
     previous_inlier = inlier;
     previous_offset = offsets;
@@ -1059,19 +1034,11 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     ceres::Solver::Summary summary;
     // Rounds before the last only prepare the next association, outlier
     // rejection and weights: they stop at early_round_max_iterations.
-    // They also stop at early_round_function_tolerance; when such a round
-    // turns out to be the last, its problem is solved on to
-    // function_tolerance (polish(), below).
     const bool last_round = round + 1 == max_rounds;
     solver.max_num_iterations =
         last_round || options.early_round_max_iterations == 0
             ? options.max_iterations
             : std::min(options.max_iterations, options.early_round_max_iterations);
-    solver.function_tolerance =
-        last_round || round > 0
-            ? options.function_tolerance
-            : std::max(options.function_tolerance, options.early_round_function_tolerance);
-    previous_loose = solver.function_tolerance > options.function_tolerance;
     ceres::Solve(solver, &Q, &summary);
     previous_converged = summary.termination_type == ceres::CONVERGENCE;
     if (verbose) {

@@ -260,7 +260,6 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
                        "max_iterations",
                        "early_round_max_iterations",
                        "function_tolerance",
-                       "early_round_function_tolerance",
                        "initial_trust_region_radius",
                        "linear_solver",
                        "covariance",
@@ -316,7 +315,6 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
   s.integer("max_iterations", max_iterations);
   s.integer("early_round_max_iterations", early_round_max_iterations);
   s.number("function_tolerance", function_tolerance);
-  s.number("early_round_function_tolerance", early_round_function_tolerance);
   s.number("initial_trust_region_radius", initial_trust_region_radius);
   if (node["linear_solver"]) linear_solver = r.text(node["linear_solver"], s.path("linear_solver"));
   flag("covariance", covariance);
@@ -382,10 +380,6 @@ std::string JointOptions::check() const {
   }
   if (!(function_tolerance > 0 && function_tolerance < 1)) {
     return "'function_tolerance': must be in (0, 1), got " + formatDouble(function_tolerance);
-  }
-  if (!(early_round_function_tolerance > 0 && early_round_function_tolerance < 1)) {
-    return "'early_round_function_tolerance': must be in (0, 1), got " +
-           formatDouble(early_round_function_tolerance);
   }
   if (linear_solver != "sparse_normal_cholesky" && linear_solver != "sparse_schur" &&
       linear_solver != "iterative_schur") {

@@ -222,10 +222,6 @@ struct JointOptions {
   /// A round stops when an iteration changes the cost by less than this
   /// fraction (Ceres' function_tolerance).
   double function_tolerance = 1e-5;
-  /// The same for the rounds before the last (at least function_tolerance):
-  /// they only prepare the next round. A round stopped here that turns out
-  /// to be the last is solved on to function_tolerance.
-  double early_round_function_tolerance = 1e-3;
   /// Levenberg-Marquardt's first trust-region radius (the inverse of its
   /// first damping; Ceres' default is 1e4). The problem starts near its
   /// solution (the paper's stages) and is nearly quadratic there, so a large
