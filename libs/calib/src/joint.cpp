@@ -690,6 +690,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     if (!cov.compute(pairs, &Q, options.threads)) {
       result.warnings.push_back("joint: the drift model could not be estimated (" + cov.message() +
                                 ")");
+      drift_updates = options.drift_model_updates;  // no further attempts
       return false;
     }
     double squares[4] = {0, 0, 0, 0}, redundancy[4] = {0, 0, 0, 0};

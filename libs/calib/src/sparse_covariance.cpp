@@ -280,6 +280,18 @@ bool SparseCovariance::compute(const std::vector<std::pair<const double*, const 
       kept.push_back(new_first[b] + k);
     }
   }
+  // W and W S^-1 are dense: the requested sparse rows by the dense columns.
+  const double dense_entries =
+      2.0 * static_cast<double>(kept.size()) * ng + static_cast<double>(ng) * ng;
+  if (dense_entries > static_cast<double>(max_dense_entries_)) {
+    std::ostringstream why;
+    why << "the dense part would take " << std::llround(dense_entries * 8 / (1 << 20)) << " MiB ("
+        << kept.size() << " requested sparse columns x " << ng
+        << " dense ones), more than the limit of "
+        << std::llround(static_cast<double>(max_dense_entries_) * 8 / (1 << 20)) << " MiB";
+    message_ = why.str();
+    return false;
+  }
   Eigen::MatrixXd cov_gg, w, w_cov;  // S^-1; W and W S^-1 (kept rows)
   if (ng > 0) {
     w.setZero(static_cast<Eigen::Index>(kept.size()), ng);

@@ -27,6 +27,7 @@
 #include <ceres/problem.h>
 
 #include <Eigen/Core>
+#include <cstddef>
 #include <map>
 #include <string>
 #include <utility>
@@ -51,6 +52,10 @@ class SparseCovariance {
   /// pair given to compute() (either order).
   Eigen::MatrixXd block(const double* a, const double* b) const;
   const std::string& message() const { return message_; }
+  /// compute() fails (with message()) rather than hold more dense entries
+  /// than this: W = A^-1 B over the requested sparse blocks and the dense
+  /// group, twice, and S (default 2^26 doubles, 512 MiB).
+  void setMaxDenseEntries(std::size_t entries) { max_dense_entries_ = entries; }
 
   /// What the last compute() did (for tests and benchmarks).
   struct Stats {
@@ -69,6 +74,7 @@ class SparseCovariance {
   std::map<std::pair<const double*, const double*>, Eigen::MatrixXd> blocks_;
   std::string message_;
   Stats stats_;
+  std::size_t max_dense_entries_ = std::size_t(1) << 26;
 };
 
 }  // namespace lookboth::calib_detail

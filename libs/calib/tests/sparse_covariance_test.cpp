@@ -321,6 +321,21 @@ TEST(SparseCovariance, MatchesCeresCovarianceOnALargeStructure) {
   }
 }
 
+// A request whose dense part (W over the requested sparse blocks and the
+// dense group) exceeds the limit fails with a message instead of allocating.
+TEST(SparseCovariance, RefusesADensePartOverItsLimit) {
+  Facility f = makeFacility(600, 150, 6, 11);
+  Pairs pairs = {{f.global.data(), f.global.data()}};
+  for (std::size_t k = 1; k < f.nodes.size(); ++k) {  // node 0: the gauge, constant
+    pairs.emplace_back(f.nodes[k].data(), f.nodes[k].data());
+  }
+  SparseCovariance ours;
+  ASSERT_TRUE(ours.compute(pairs, f.problem.get())) << ours.message();
+  ours.setMaxDenseEntries(1000);
+  EXPECT_FALSE(ours.compute(pairs, f.problem.get()));
+  EXPECT_NE(ours.message().find("MiB"), std::string::npos) << ours.message();
+}
+
 TEST(SparseCovariance, ReportsAnUndeterminedDirection) {
   // Nothing fixes the gauge: every pose can move together.
   Chain c = makeChain(10, false, 4);
