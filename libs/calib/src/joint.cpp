@@ -659,7 +659,8 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   double last_step[4] = {1, 1, 1, 1};
   bool drift_model_changed = false;   // by the update after this round: another round
   bool drift_still_changing = false;  // the last update made changed the model (> 10 %)
-  int drift_updates = 0;
+  int drift_updates = 0;              // made (each followed by a round)
+  bool drift_model_failed = false;    // its covariance could not be computed
   const int max_rounds =
       options.rounds + (options.estimate_drift_model ? options.drift_model_updates : 0);
   std::vector<ceres::ResidualBlockId> edge_block;  // per edge; null across a gap
@@ -690,7 +691,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     if (!cov.compute(pairs, &Q, options.threads)) {
       result.warnings.push_back("joint: the drift model could not be estimated (" + cov.message() +
                                 ")");
-      drift_updates = options.drift_model_updates;  // no further attempts
+      drift_model_failed = true;  // no further attempts
       return false;
     }
     double squares[4] = {0, 0, 0, 0}, redundancy[4] = {0, 0, 0, 0};
@@ -737,14 +738,14 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       // iteration converges linearly, slowly for a component the odometry
       // does not have (its factor tends to 0): on `paper_det` 4 updates reach
       // what the odometry's own model gives, where plain steps need 6.
-      const bool again = drift_updates > 1 && (step - 1) * (last_step[g] - 1) > 0;
+      const bool again = drift_updates > 0 && (step - 1) * (last_step[g] - 1) > 0;
       const double applied = again ? step * step : step;
       last_step[g] = step;
       drift_factor[g] = std::clamp(drift_factor[g] * applied, 1e-3, 1e3);
       changed |= std::abs(step - 1) > kDriftModelTolerance;
     }
     if (verbose) {
-      std::cerr << "joint drift model update " << drift_updates << " (CPU " << lap() << " s"
+      std::cerr << "joint drift model update " << drift_updates + 1 << " (CPU " << lap() << " s"
                 << cov.describe() << "): sigma factors horizontal " << drift_factor[0]
                 << ", vertical " << drift_factor[1] << ", tilt " << drift_factor[2] << ", yaw "
                 << drift_factor[3] << " (redundancies " << redundancy[0] << ", " << redundancy[1]
@@ -938,14 +939,10 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
         cost->tilt_ratio = options.drift_tilt_ratio * drift_factor[2] / drift_factor[3];
         cost->sigma_t *= drift_factor[0];
         cost->sigma_r *= drift_factor[3];
-        if (!gap)
-          edge_block[k] = Q.AddResidualBlock(
-              new ceres::AutoDiffCostFunction<RelativeMotionCost, 6, 7, 7, 1>(cost), nullptr,
-              nodes[k].data(), nodes[k + 1].data(), &scales[segment_of_edge[k]]);
-        else
-          Q.AddResidualBlock(new ceres::AutoDiffCostFunction<RelativeMotionCost, 6, 7, 7, 1>(cost),
-                             nullptr, nodes[k].data(), nodes[k + 1].data(),
-                             &scales[segment_of_edge[k]]);
+        const ceres::ResidualBlockId id = Q.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<RelativeMotionCost, 6, 7, 7, 1>(cost), nullptr,
+            nodes[k].data(), nodes[k + 1].data(), &scales[segment_of_edge[k]]);
+        if (!gap) edge_block[k] = id;
       }
       for (std::size_t j = 0; j < n_segments; ++j) {
         if (j > 0) {
@@ -1059,10 +1056,10 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       throw Error("joint: the solver failed: " + summary.message);
     }
     drift_model_changed = false;
-    if (options.estimate_drift_model && !options.fix_trajectory &&
+    if (options.estimate_drift_model && !options.fix_trajectory && !drift_model_failed &&
         drift_updates < options.drift_model_updates && round + 1 < max_rounds) {
-      ++drift_updates;
       drift_model_changed = updateDriftModel(Q);
+      if (!drift_model_failed) ++drift_updates;
       drift_still_changing = drift_model_changed;
     }
   }
