@@ -181,6 +181,15 @@ void solveDriftedScenes(const JointOptions& joint, std::uint32_t seeds, Visit vi
   }
 }
 
+// A camera pose's NEES / dof against the truth, under its covariance.
+double neesPerDof(const CameraRegistration& c, const Rigid3d& truth) {
+  Eigen::Matrix<double, 6, 1> e;
+  e.head<3>() = c.world_from_camera.translation - truth.translation;
+  e.tail<3>() =
+      so3Log(Eigen::Quaterniond(truth.rotation.conjugate() * c.world_from_camera.rotation));
+  return e.dot(c.covariance->ldlt().solve(e)) / 6.0;
+}
+
 // Mean NEES / dof of the cameras' poses over the seeds' scenes.
 double meanNees(const JointOptions& joint, std::uint32_t seeds) {
   double sum = 0;
@@ -194,12 +203,7 @@ double meanNees(const JointOptions& joint, std::uint32_t seeds) {
             complete = false;
             continue;
           }
-          const Rigid3d& truth = scene.world_from_camera.at(c.label);
-          Eigen::Matrix<double, 6, 1> e;
-          e.head<3>() = c.world_from_camera.translation - truth.translation;
-          e.tail<3>() =
-              so3Log(Eigen::Quaterniond(truth.rotation.conjugate() * c.world_from_camera.rotation));
-          sum += e.dot(c.covariance->ldlt().solve(e)) / 6.0;
+          sum += neesPerDof(c, scene.world_from_camera.at(c.label));
           ++count;
         }
       });
@@ -311,12 +315,7 @@ TEST(Joint, EstimatesTheDriftModelFromTheData) {
                 std::string::npos);
       for (const CameraRegistration& c : problem.result.cameras) {
         ASSERT_TRUE(c.covariance) << c.label;
-        const Rigid3d& t = scene.world_from_camera.at(c.label);
-        Eigen::Matrix<double, 6, 1> e;
-        e.head<3>() = c.world_from_camera.translation - t.translation;
-        e.tail<3>() =
-            so3Log(Eigen::Quaterniond(t.rotation.conjugate() * c.world_from_camera.rotation));
-        nees += e.dot(c.covariance->ldlt().solve(e)) / 6.0;
+        nees += neesPerDof(c, scene.world_from_camera.at(c.label));
         ++cameras;
       }
     }

@@ -103,6 +103,25 @@ class RegistrationIoTest : public ::testing::Test {
     fs::remove_all(dir_);
   }
   void TearDown() override { fs::remove_all(dir_); }
+  // Saves the sample, replaces `from` by `to` in its registration.yaml, and
+  // expects loading to fail naming the file and `field`.
+  void expectLoadErrorNaming(const std::string& from, const std::string& to,
+                             const std::string& field) {
+    saveRegistration(sampleRegistration(), dir_);
+    std::string yaml = readFile(dir_ / "registration.yaml");
+    const size_t at = yaml.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    yaml.replace(at, from.size(), to);
+    writeFileAtomically(dir_ / "registration.yaml", yaml);
+    try {
+      loadRegistration(dir_);
+      FAIL() << "expected an error";
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("registration.yaml:"), std::string::npos) << what;
+      EXPECT_NE(what.find(field), std::string::npos) << what;
+    }
+  }
   fs::path dir_;
 };
 
@@ -208,37 +227,11 @@ TEST_F(RegistrationIoTest, CamerasCsvHasRegisteredAndSuspectOnly) {
 }
 
 TEST_F(RegistrationIoTest, ErrorsNameFileAndField) {
-  saveRegistration(sampleRegistration(), dir_);
-  std::string yaml = readFile(dir_ / "registration.yaml");
-  const size_t at = yaml.find("status: suspect");
-  ASSERT_NE(at, std::string::npos);
-  yaml.replace(at, 15, "status: maybe");
-  writeFileAtomically(dir_ / "registration.yaml", yaml);
-  try {
-    loadRegistration(dir_);
-    FAIL() << "expected an error";
-  } catch (const Error& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find("registration.yaml:"), std::string::npos) << what;
-    EXPECT_NE(what.find("cameras[1].status"), std::string::npos) << what;
-  }
+  expectLoadErrorNaming("status: suspect", "status: maybe", "cameras[1].status");
 }
 
 TEST_F(RegistrationIoTest, MissingDriftModelFactorIsNamed) {
-  saveRegistration(sampleRegistration(), dir_);
-  std::string yaml = readFile(dir_ / "registration.yaml");
-  const size_t at = yaml.find("yaw: 0.079");
-  ASSERT_NE(at, std::string::npos);
-  yaml.replace(at, 10, "yawn: 0.079");
-  writeFileAtomically(dir_ / "registration.yaml", yaml);
-  try {
-    loadRegistration(dir_);
-    FAIL() << "expected an error";
-  } catch (const Error& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find("registration.yaml:"), std::string::npos) << what;
-    EXPECT_NE(what.find("observability.drift_model"), std::string::npos) << what;
-  }
+  expectLoadErrorNaming("yaw: 0.079", "yawn: 0.079", "observability.drift_model");
 }
 
 TEST_F(RegistrationIoTest, RejectsAnotherFormat) {
