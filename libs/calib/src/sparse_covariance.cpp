@@ -309,7 +309,7 @@ bool SparseCovariance::compute(const std::vector<std::pair<const double*, const 
         const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> y_rows = y;
         s.middleCols(f, width).noalias() -= h_ag.transpose() * y_rows;
         for (std::size_t k = 0; k < kept.size(); ++k) {
-          w.row(static_cast<Eigen::Index>(k)).segment(f, width) = y.row(kept[k]);
+          w.row(static_cast<Eigen::Index>(k)).segment(f, width) = y_rows.row(kept[k]);
         }
       }
     }
