@@ -146,6 +146,11 @@ void runLookDown(RegistrationProblem& problem, const LookDownOptions& options,
     std::vector<bool> inlier(n, true);
     double params[7];
     for (int round = 0; round < 4; ++round) {
+      // Too few left to fit (none at all would leave the problem empty): the
+      // count below marks the camera unregistered with its reason.
+      if (std::count(inlier.begin(), inlier.end(), true) < std::max(1, options.min_detections)) {
+        break;
+      }
       poseToParams(estimate, params);
       ceres::Problem ceres_problem;
       for (int k = 0; k < n; ++k) {

@@ -24,6 +24,7 @@
 #include <Eigen/SVD>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "lookboth/calib/stages.h"
@@ -233,10 +234,26 @@ Rigid3d linearInitialisation(const std::vector<MotionPair>& pairs, bool scale_fr
     const Eigen::Vector2d w(std::cos(gamma), std::sin(gamma));
     return w.dot(Q * w) - 2.0 * g.dot(w);
   };
-  double best = 0, best_cost = cost(0);
-  for (int k = 1; k < 720; ++k) {
+  // The scale the least squares give at gamma (visual mode). Straight drives
+  // fit gamma and gamma + pi almost equally well, the second with the scale's
+  // sign flipped (a half turn about n reverses every in-plane motion): only
+  // gammas with a positive scale are candidates.
+  auto scaleAt = [&](double gamma) {
+    const Eigen::Vector2d w(std::cos(gamma), std::sin(gamma));
+    return svd_y.solve(rhs - Mw * w)[3];
+  };
+  auto admissible = [&](double gamma) { return !scale_free || scaleAt(gamma) > 0; };
+  double best = 0, best_cost = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 720; ++k) {
     const double gamma = -M_PI + k * (2 * M_PI / 720);
-    if (const double c = cost(gamma); c < best_cost) best_cost = c, best = gamma;
+    if (const double c = cost(gamma); c < best_cost && admissible(gamma)) {
+      best_cost = c, best = gamma;
+    }
+  }
+  if (!std::isfinite(best_cost)) {
+    throw Error(
+        "motion_calibration: the linear initialisation finds no rotation about the floor normal "
+        "with a positive scale: the relative motions seen by the cameras are inconsistent");
   }
   double lo = best - M_PI / 360, hi = best + M_PI / 360;  // golden-section refinement
   for (int k = 0; k < 60; ++k) {

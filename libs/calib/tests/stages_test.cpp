@@ -114,6 +114,39 @@ TEST(MotionCalibration, NoiseFreeVisualPlanarRecoversScaleAndMountWithHeightPrio
   EXPECT_GT(r.scale_sigma, 0);
 }
 
+// On a planar floor the linear initialisation's rotation about the vertical,
+// gamma, fits the motion pairs as well at gamma + pi with the scale's sign and
+// the mount's horizontal offset flipped (a half turn reverses every in-plane
+// motion): on a level floor the two tie exactly. Only a positive scale is
+// admissible, whatever the mount's yaw (the revisit scenario's level aisles
+// failed with "non-positive scale").
+TEST(MotionCalibration, PlanarScaleSignIsNotLeftToChance) {
+  for (const double yaw_deg : {-150.0, -90.0, -30.0, 0.0, 45.0, 90.5, 135.0, 180.0}) {
+    SyntheticOptions o;
+    o.marker_yaw_deg = yaw_deg;
+    o.height_amplitude_m = 0;  // a level floor: nothing else breaks the tie
+    SyntheticScene scene = makeSyntheticScene(o);
+    std::vector<StampedPose> vo = scene.truth;
+    makeVisualOdometry(vo, 2.2, 0, 0, 1);
+    scene.input.trajectory = Trajectory(vo);
+    scene.input.mode = TrajectoryMode::kVisual;
+    RegistrationProblem problem = problemFor(scene);
+    runAssociate(problem, {}, ProgressReporter());
+    try {
+      runMotionCalibration(problem, exactPrior(scene), ProgressReporter());
+    } catch (const Error& e) {
+      ADD_FAILURE() << "mount yaw " << yaw_deg << " deg: " << e.what();
+      continue;
+    }
+    ASSERT_TRUE(problem.fisheye_from_marker);
+    EXPECT_NEAR(problem.scale, 2.2, 1e-6 * 2.2) << "mount yaw " << yaw_deg << " deg";
+    EXPECT_LT(
+        rotationError(problem.fisheye_from_marker->rotation, scene.fisheye_from_marker.rotation),
+        1e-6)
+        << "mount yaw " << yaw_deg << " deg";
+  }
+}
+
 TEST(MotionCalibration, NoiseFreeRollingFloorDeterminesEverythingWithoutPrior) {
   SyntheticOptions o;
   o.roll_pitch_amplitude_deg = 8;
@@ -283,13 +316,26 @@ TEST(LookDown, NoisyWithinBoundsAndCovarianceConsistent) {
 
 TEST(LookDown, FlagsDisagreeingAndTooFewDetections) {
   SyntheticScene scene = makeSyntheticScene({});
-  // cam01: 40 % of its detections are of a decoy 1.5 m away; cam03: only 2 detections.
+  // cam01: 40 % of its detections are of a decoy 1.5 m away; cam03: only 2
+  // detections; cam02: no two detections agree (each 0.8 m off, in turn along
+  // +-x and +-y), so the first fit rejects them all (which once left the next
+  // round's problem empty and aborted inside Ceres).
   int cam01 = 0;
   std::vector<MarkerObservation> kept;
-  int cam03 = 0;
+  int cam02 = 0, cam03 = 0;
   for (MarkerObservation m : scene.input.markers) {
     if (m.camera == "cam01" && (cam01++ % 5) < 2) {
       m.camera_from_marker.translation += Eigen::Vector3d(1.5, 0.3, 0);
+    }
+    if (m.camera == "cam02") {
+      const int k = cam02++ % 4;
+      m.camera_from_marker.translation += 0.8 * Eigen::Vector3d(k == 0   ? 1
+                                                                : k == 1 ? -1
+                                                                         : 0,
+                                                                k == 2   ? 1
+                                                                : k == 3 ? -1
+                                                                         : 0,
+                                                                0);
     }
     if (m.camera == "cam03" && cam03++ >= 2) continue;
     kept.push_back(m);
@@ -308,6 +354,9 @@ TEST(LookDown, FlagsDisagreeingAndTooFewDetections) {
   const CameraRegistration& c3 = problem.camera("cam03");
   EXPECT_EQ(c3.status, CameraStatus::kUnregistered);
   EXPECT_NE(c3.reason.find("only 2"), std::string::npos) << c3.reason;
+  const CameraRegistration& c2 = problem.camera("cam02");
+  EXPECT_EQ(c2.status, CameraStatus::kUnregistered);
+  EXPECT_NE(c2.reason.find("only 0 of " + std::to_string(cam02)), std::string::npos) << c2.reason;
   EXPECT_EQ(problem.camera("cam00").status, CameraStatus::kRegistered);
 }
 

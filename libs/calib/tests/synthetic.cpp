@@ -74,8 +74,8 @@ SyntheticScene makeSyntheticScene(const SyntheticOptions& o) {
       loadCamera(std::string(LOOKBOTH_SHARE_DIR) + "/cameras/fisheye_640x360_calib_results.txt");
   input.manifest.cameras.push_back(fisheye);
 
-  scene.fisheye_from_marker =
-      Rigid3d(rpy(0.4 * kDeg, -0.3 * kDeg, 90.5 * kDeg), Eigen::Vector3d(0.0, -0.15, -0.05));
+  scene.fisheye_from_marker = Rigid3d(rpy(0.4 * kDeg, -0.3 * kDeg, o.marker_yaw_deg * kDeg),
+                                      Eigen::Vector3d(0.0, -0.15, -0.05));
   // base_from_fisheye: fisheye z up, its y to the robot's front (base x).
   Eigen::Matrix3d m;
   m << 0, 1, 0, -1, 0, 0, 0, 0, 1;
@@ -94,7 +94,7 @@ SyntheticScene makeSyntheticScene(const SyntheticOptions& o) {
     const double a = o.roll_pitch_amplitude_deg * kDeg;
     const Rigid3d world_from_base(
         rpy(a * std::sin(0.9 * s + ph1), a * std::sin(0.7 * s + ph2), yaw),
-        Eigen::Vector3d(x, y, 0.02 * std::sin(0.5 * s)));
+        Eigen::Vector3d(x, y, o.height_amplitude_m * std::sin(0.5 * s)));
     scene.truth.push_back({t0 + t, world_from_base * base_from_fisheye});
   }
   input.trajectory = Trajectory(scene.truth);

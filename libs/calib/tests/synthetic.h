@@ -17,6 +17,8 @@ struct SyntheticOptions {
   double speed_mps = 0.6;
   double ceiling_m = 3.3;  ///< Camera height above the floor.
   double fisheye_height_m = 0.35;
+  double height_amplitude_m = 0.02;       ///< The floor's undulation along the path.
+  double marker_yaw_deg = 90.5;           ///< fisheye_from_marker's yaw (roll 0.4, pitch -0.3 deg).
   double roll_pitch_amplitude_deg = 0;    ///< Floor roll/pitch (0 = planar motion).
   double marker_translation_sigma_m = 0;  ///< Detection noise (isotropic, camera frame).
   double marker_rotation_sigma_deg = 0;
