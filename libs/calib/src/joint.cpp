@@ -153,6 +153,27 @@ Eigen::Vector3d medianPosition(const std::vector<Rigid3d>& poses) {
   return median;
 }
 
+// Per-detection camera poses world_from_marker * camera_from_marker^-1 made
+// to share one rotation, their mean: a detection's own rotation is the
+// marker's, whose noise (degrees with a small marker) moves the camera's
+// position by metres at 3 m, while its position in the camera is good to
+// centimetres. Then a candidate's position is where the marker was in the
+// world minus the shared rotation times where the camera saw it, and their
+// spread measures how well the trial clock offset puts the marker on a
+// rigid path under the camera. `marker_in_camera[i]` goes with candidate i.
+void shareMeanRotation(std::vector<Rigid3d>& candidates,
+                       const std::vector<Eigen::Vector3d>& marker_in_camera) {
+  if (candidates.empty()) return;
+  std::vector<Eigen::Quaterniond> rotations;
+  for (const Rigid3d& r : candidates) rotations.push_back(r.rotation);
+  const Eigen::Quaterniond mean = calib_detail::meanRotation(rotations);
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    const Eigen::Vector3d p_marker =
+        candidates[i].translation + candidates[i].rotation * marker_in_camera[i];
+    candidates[i] = Rigid3d(mean, p_marker - mean * marker_in_camera[i]);
+  }
+}
+
 // The median distance of the poses' positions from `centre` (infinity: none).
 double medianDistance(const std::vector<Rigid3d>& poses, const Eigen::Vector3d& centre) {
   std::vector<double> d;
@@ -333,13 +354,16 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       // configured one), their median position and spread.
       auto trial = [&](double shift_s, std::vector<Rigid3d>& candidates, Eigen::Vector3d& median) {
         candidates.clear();
+        std::vector<Eigen::Vector3d> marker_in_camera;
         for (std::size_t a : found->second) {
           const Association& as = problem.associations[a];
           const auto w = refAt(as.t_robot - static_cast<TimeNs>(std::llround(shift_s * 1e9)));
           if (!w) continue;
           candidates.push_back(*w * X0 * problem.marker(as).camera_from_marker.inverse());
+          marker_in_camera.push_back(problem.marker(as).camera_from_marker.translation);
         }
         if (static_cast<int>(candidates.size()) < options.min_detections) return 1e300;
+        shareMeanRotation(candidates, marker_in_camera);
         median = medianPosition(candidates);
         return medianDistance(candidates, median);
       };
@@ -778,14 +802,18 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       // blob, truncated at 10 px (NaN: too few views).
       auto score = [&](double offset_s, std::vector<Rigid3d>& candidates, Eigen::Vector3d& median) {
         candidates.clear();
+        std::vector<Eigen::Vector3d> marker_in_camera;
         for (std::size_t a : found->second) {
           const MarkerObservation& m = problem.marker(problem.associations[a]);
           const auto w = poseNow(m.t - static_cast<TimeNs>(std::llround(offset_s * 1e9)));
-          if (w) candidates.push_back(*w * X * m.camera_from_marker.inverse());
+          if (!w) continue;
+          candidates.push_back(*w * X * m.camera_from_marker.inverse());
+          marker_in_camera.push_back(m.camera_from_marker.translation);
         }
         if (static_cast<int>(candidates.size()) < options.min_detections) {
           return std::numeric_limits<double>::quiet_NaN();
         }
+        shareMeanRotation(candidates, marker_in_camera);
         median = medianPosition(candidates);
         return nearestBlobScore(*blob_fisheye, views, median, 10.0);
       };

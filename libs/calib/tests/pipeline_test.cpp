@@ -1,5 +1,6 @@
-// The controller end to end on simulated detections-only datasets (small and
-// faults scenarios, generated here), configuration errors, and the output directory.
+// The controller end to end on simulated detections-only datasets (small,
+// faults and revisit scenarios, generated here), configuration errors, and the
+// output directory.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -26,7 +27,7 @@ class PipelineTest : public ::testing::Test {
                         ("lookboth_calib_pipeline_" + std::to_string(::getpid())));
     fs::remove_all(*dir_);
     fs::create_directories(*dir_);
-    for (const char* scenario : {"small", "faults"}) {
+    for (const char* scenario : {"small", "faults", "revisit"}) {
       sim::SimulateOptions options;
       options.scenario = scenario;
       options.detections_only = true;
@@ -54,6 +55,21 @@ class PipelineTest : public ::testing::Test {
     if (input_out) *input_out = input;
     const RegistrationController controller(loadRegistrationConfig(config));
     return controller.run(std::move(input), ProgressReporter());
+  }
+  // The dataset's ground-truth trajectory made visual odometry (scale 0.45,
+  // 1 mm/sqrt(m), 0.02 deg/sqrt(m)); `world_from_vo` maps its frame to the truth's.
+  static RegistrationInput withSynthesisedOdometry(const std::string& scenario,
+                                                   Rigid3d* world_from_vo) {
+    RegisterOptions options;
+    options.dataset = dataset(scenario);
+    options.mode = TrajectoryMode::kMetric;
+    options.trajectory_label = "ground_truth";
+    RegistrationInput input = loadRegistrationInput(options, ProgressReporter());
+    std::vector<StampedPose> vo = input.trajectory.samples();
+    *world_from_vo = testing::makeVisualOdometry(vo, 0.45, 0.001, 0.02, 3);
+    input.trajectory = Trajectory(vo);
+    input.mode = TrajectoryMode::kVisual;
+    return input;
   }
   static fs::path* dir_;
 };
@@ -109,6 +125,51 @@ TEST_F(PipelineTest, SmallVisualSynthesisedOdometry) {
   EXPECT_EQ(a.compared, 6);
   EXPECT_LT(a.position_rmse_m, 0.04);
   EXPECT_LT(a.rotation_rmse_deg, 3.0);
+}
+
+// small's 18 px markers give each detection ~17 deg of tilt noise, so each
+// detection's own camera pose scatters by metres at 3 m: the clock search of
+// a camera whose clock is off must put the detections on a rigid path with
+// one shared rotation (before, it chose the edge of its range, -500 ms, and
+// cam03 ended suspect 25 ms off and 13 mm away).
+TEST_F(PipelineTest, SmallVisualCameraClockOff150ms) {
+  Rigid3d world_from_vo;
+  RegistrationInput input = withSynthesisedOdometry("small", &world_from_vo);
+  const TimeNs shift = 150'000'000;
+  for (MarkerObservation& m : input.markers) {
+    if (m.camera == "cam03") m.t += shift;
+  }
+  const auto truth = input.manifest.ground_truth.world_from_camera;
+  const TimeNs true_offset = input.manifest.ground_truth.clock_offset.at("cam03") + shift;
+  const RegistrationController controller(loadRegistrationConfig(std::nullopt));
+  const RegistrationRun run = controller.run(std::move(input), ProgressReporter());
+  const CameraRegistration* c = run.registration.findCamera("cam03");
+  ASSERT_TRUE(c && c->clock_offset);
+  EXPECT_EQ(c->status, CameraStatus::kRegistered) << c->reason;
+  const double error_ms = static_cast<double>(c->clock_offset->offset_ns - true_offset) * 1e-6;
+  std::cout << "cam03 clock error " << error_ms << " ms (sigma " << c->clock_offset->sigma_ms
+            << " ms)\n";
+  EXPECT_LT(std::abs(error_ms), std::max(10.0, 4 * c->clock_offset->sigma_ms));
+  const auto a = testing::accuracyAgainst(run.registration, truth, world_from_vo);
+  EXPECT_EQ(a.compared, 6);
+  EXPECT_LT(a.position_rmse_m, 0.01);
+}
+
+// revisit: a level L-shaped aisle driven out and back, cameras passed in
+// straight lines. On a level floor the motion calibration's rotation about
+// the vertical ties with its half turn (the scale's sign flipped); the
+// stage once failed here with "non-positive scale".
+TEST_F(PipelineTest, RevisitVisualLevelAisle) {
+  Rigid3d world_from_vo;
+  RegistrationInput input = withSynthesisedOdometry("revisit", &world_from_vo);
+  const auto truth = input.manifest.ground_truth.world_from_camera;
+  const RegistrationController controller(loadRegistrationConfig(std::nullopt));
+  const RegistrationRun run = controller.run(std::move(input), ProgressReporter());
+  EXPECT_NEAR(run.registration.scale, 0.45, 0.45 * 0.01);
+  const auto a = testing::accuracyAgainst(run.registration, truth, world_from_vo);
+  EXPECT_EQ(a.compared, 8);
+  EXPECT_LT(a.position_rmse_m, 0.03);
+  EXPECT_LT(a.rotation_rmse_deg, 0.5);
 }
 
 // The steps before the registration, one at a time (as the desktop app runs
