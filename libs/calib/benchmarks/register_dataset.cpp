@@ -7,7 +7,9 @@
 //   [repeats] (either with --config=f.yaml: a configuration over
 //   share/lookboth/config/default.yaml, and --shift-camera=<label>:<ms>: that
 //   camera's detection stamps shifted by <ms> in memory, i.e. its clock off by
-//   that much (node - robot); the dataset file is only read)
+//   that much (node - robot); the dataset file is only read; --per-camera: a
+//   line per camera, its errors against the truth in the known frame and the
+//   sigmas its covariance gives)
 //
 // visual: a VO trajectory is synthesised from the dataset's "ground_truth"
 // (in the first pose's frame, translations divided by <scale>, random-walk drift).
@@ -31,10 +33,13 @@ int main(int argc_in, char** argv_in) {
     std::optional<std::filesystem::path> config;
     std::string shift_camera;
     double shift_ms = 0;
+    bool per_camera = false;
     std::vector<char*> args;
     for (int i = 0; i < argc_in; ++i) {
       const std::string a = argv_in[i];
-      if (a.rfind("--config=", 0) == 0) {
+      if (a == "--per-camera") {
+        per_camera = true;
+      } else if (a.rfind("--config=", 0) == 0) {
         config = a.substr(9);
       } else if (a.rfind("--shift-camera=", 0) == 0) {
         const std::string v = a.substr(15);
@@ -202,6 +207,32 @@ int main(int argc_in, char** argv_in) {
                 << formatFixed(c.clock_offset->sigma_ms, 3) << " ms; status "
                 << cameraStatusName(c.status) << "; position error " << formatFixed(e * 1000, 2)
                 << " mm\n";
+    }
+    if (per_camera) {
+      std::cout << "camera  status        used  position error [mm]  sigma [mm]  rotation error "
+                   "[deg]  clock error [ms]  sigma [ms]\n";
+      for (const CameraRegistration& c : r.cameras) {
+        const auto t = truth.find(c.label);
+        if (t == truth.end() || c.status == CameraStatus::kUnregistered) continue;
+        const Rigid3d estimate = truth_from_registration * c.world_from_camera;
+        const double position = (estimate.translation - t->second.translation).norm();
+        const double rotation =
+            Eigen::AngleAxisd(t->second.rotation.conjugate() * estimate.rotation).angle() * 180 /
+            M_PI;
+        const double sigma =
+            c.covariance ? std::sqrt(c.covariance->topLeftCorner<3, 3>().trace()) : -1;
+        double clock = 0, clock_sigma = -1;
+        const auto tc = input.manifest.ground_truth.clock_offset.find(c.label);
+        if (c.clock_offset && tc != input.manifest.ground_truth.clock_offset.end()) {
+          clock = c.clock_offset->offset_ns * 1e-6 -
+                  (tc->second * 1e-6 + (c.label == shift_camera ? shift_ms : 0.0));
+          clock_sigma = c.clock_offset->sigma_ms;
+        }
+        std::cout << c.label << "   " << cameraStatusName(c.status) << "  " << c.detections.used
+                  << "  " << formatFixed(position * 1000, 2) << "  " << formatFixed(sigma * 1000, 2)
+                  << "  " << formatFixed(rotation, 3) << "  " << formatFixed(clock, 3) << "  "
+                  << formatFixed(clock_sigma, 3) << "\n";
+      }
     }
     if (r.reprojection) {
       std::cout << "reprojection: " << r.reprojection->blobs << " blobs, RMS "
