@@ -131,15 +131,29 @@ Eigen::Matrix3d rotationAbout(const Eigen::Vector3d& n, double gamma) {
   return Eigen::AngleAxisd(gamma, n).toRotationMatrix();
 }
 
+// The linear initialisations' rows t_X = prior (with a prior translation),
+// weighed against their metre-scale data rows: they decide only what the
+// motion leaves undetermined. Without them a level floor's height of t_X
+// came from the noise of the few rows that see it (`faults` seed 6: -3.0 m,
+// and the mount's rotation 4.9 deg off after the nonlinear step).
+constexpr double kPriorRowWeight = 0.1;
+
 // Linear initialisation with the rotation known: (R_A - I) t_X [+ s t_A] = R t_B
 // [- t_A in metric mode], least squares (minimum norm along what the motion
 // leaves free; the nonlinear step's priors then fix those directions).
 Rigid3d initialisationWithRotation(const std::vector<MotionPair>& pairs, bool scale_free,
-                                   const Eigen::Quaterniond& rotation, double* scale) {
+                                   const Eigen::Quaterniond& rotation,
+                                   const std::optional<Eigen::Vector3d>& prior_translation,
+                                   double* scale) {
   const int ny = scale_free ? 4 : 3;
-  const Eigen::Index rows = 3 * static_cast<Eigen::Index>(pairs.size());
-  Eigen::MatrixXd My(rows, ny);
+  const Eigen::Index data_rows = 3 * static_cast<Eigen::Index>(pairs.size());
+  const Eigen::Index rows = data_rows + (prior_translation ? 3 : 0);
+  Eigen::MatrixXd My = Eigen::MatrixXd::Zero(rows, ny);
   Eigen::VectorXd rhs(rows);
+  if (prior_translation) {
+    My.block(data_rows, 0, 3, 3) = kPriorRowWeight * Eigen::Matrix3d::Identity();
+    rhs.tail<3>() = kPriorRowWeight * *prior_translation;
+  }
   const Eigen::Matrix3d R = rotation.normalized().toRotationMatrix();
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     const MotionPair& p = pairs[k];
@@ -170,6 +184,7 @@ Rigid3d initialisationWithRotation(const std::vector<MotionPair>& pairs, bool sc
 Rigid3d linearInitialisation(const std::vector<MotionPair>& pairs, bool scale_free,
                              double min_rotation,
                              const std::optional<Eigen::Quaterniond>& prior_rotation,
+                             const std::optional<Eigen::Vector3d>& prior_translation,
                              double* scale) {
   Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();  // sum w a b^T
   Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
@@ -186,7 +201,8 @@ Rigid3d linearInitialisation(const std::vector<MotionPair>& pairs, bool scale_fr
   }
   if (axis_pairs == 0) {
     if (prior_rotation)
-      return initialisationWithRotation(pairs, scale_free, *prior_rotation, scale);
+      return initialisationWithRotation(pairs, scale_free, *prior_rotation, prior_translation,
+                                        scale);
     throw Error(
         "motion_calibration: the robot never turned by more than min_rotation_for_axis_deg while "
         "a camera saw its marker: the rotation between fisheye and marker is not determined; "
@@ -201,9 +217,14 @@ Rigid3d linearInitialisation(const std::vector<MotionPair>& pairs, bool scale_fr
 
   // Rows: (R_A - I) t_X [+ s t_A] - c v_perp - sn (n x v) = (n.v) n [- t_A in metric mode].
   const int ny = scale_free ? 4 : 3;
-  const Eigen::Index rows = 3 * static_cast<Eigen::Index>(pairs.size());
-  Eigen::MatrixXd My(rows, ny), Mw(rows, 2);
+  const Eigen::Index data_rows = 3 * static_cast<Eigen::Index>(pairs.size());
+  const Eigen::Index rows = data_rows + (prior_translation ? 3 : 0);
+  Eigen::MatrixXd My = Eigen::MatrixXd::Zero(rows, ny), Mw = Eigen::MatrixXd::Zero(rows, 2);
   Eigen::VectorXd rhs(rows);
+  if (prior_translation) {
+    My.block(data_rows, 0, 3, 3) = kPriorRowWeight * Eigen::Matrix3d::Identity();
+    rhs.tail<3>() = kPriorRowWeight * *prior_translation;
+  }
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     const MotionPair& p = pairs[k];
     const Eigen::Index r = 3 * static_cast<Eigen::Index>(k);
@@ -279,6 +300,57 @@ Rigid3d linearInitialisation(const std::vector<MotionPair>& pairs, bool scale_fr
   return Rigid3d(Eigen::Quaterniond(R).normalized(), y.head<3>());
 }
 
+// Pairs that cannot be a rigid motion seen from two ends, whatever X and the
+// scale are: a false detection (another marker, a reflection) or a detection
+// stamped at the wrong time makes one. B = X^-1 A X, so
+//  - B turns by the same angle as A: |angle(A) - angle(B)| must stay within
+//    3 sigma of B's rotation noise + 1 deg;
+//  - |t_B| = |(R_A - I) t_X + s t_A|: within |2 sin(angle/2)| |t_X| of
+//    s |t_A|, with s the pairs' median ratio |t_B| / |t_A| (1 in metric
+//    mode) and |t_X| bounded by `lever_m`; 3 sigma of B's translation noise +
+//    10 % allowed.
+// One wild pair weighs as much as hundreds in the linear initialisation's
+// least squares (`faults` seed 6: the mount 54 deg off with the true
+// trajectory). Returns how many pairs were set aside; keeps all of them when
+// fewer than 3 would remain.
+std::size_t screenPairs(std::vector<MotionPair>& pairs, bool scale_free, double lever_m) {
+  auto rotationSigma = [](const MotionPair& p) {
+    return std::sqrt(p.covariance_i.bottomRightCorner<3, 3>().trace() +
+                     p.covariance_j.bottomRightCorner<3, 3>().trace());
+  };
+  auto translationSigma = [](const MotionPair& p) {
+    return std::sqrt(p.covariance_i.topLeftCorner<3, 3>().trace() +
+                     p.covariance_j.topLeftCorner<3, 3>().trace());
+  };
+  double s = 1.0;
+  if (scale_free) {
+    std::vector<double> ratios;
+    for (const MotionPair& p : pairs) {
+      const double ta = p.a_unscaled.translation.norm();
+      if (ta > 1e-9) ratios.push_back(p.b.translation.norm() / ta);
+    }
+    if (ratios.empty()) return 0;
+    std::nth_element(ratios.begin(), ratios.begin() + static_cast<long>(ratios.size() / 2),
+                     ratios.end());
+    s = ratios[ratios.size() / 2];
+  }
+  std::vector<MotionPair> kept;
+  for (const MotionPair& p : pairs) {
+    const double angle_a = calib_detail::angleOf(p.a_unscaled.rotation);
+    const double angle_b = calib_detail::angleOf(p.b.rotation);
+    if (std::abs(angle_a - angle_b) > 3 * rotationSigma(p) + kDeg) continue;
+    const double tb = p.b.translation.norm();
+    const double slack =
+        2 * std::abs(std::sin(0.5 * angle_a)) * lever_m + 3 * translationSigma(p) + 0.1 * tb;
+    if (std::abs(tb - s * p.a_unscaled.translation.norm()) > slack) continue;
+    kept.push_back(p);
+  }
+  if (kept.size() < 3) return 0;
+  const std::size_t removed = pairs.size() - kept.size();
+  pairs = std::move(kept);
+  return removed;
+}
+
 const char* componentName(int k) {
   static const char* names[6] = {"its offset along the fisheye's x axis",
                                  "its offset along the fisheye's y axis",
@@ -350,9 +422,15 @@ void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationO
                 " s apart: not enough to estimate the scale and fisheye_from_marker");
   }
 
+  // The mount's lever for the screening: the prior's offset, else 0.5 m.
+  const double lever_m =
+      options.prior_translation_m ? options.prior_translation_m->norm() + 0.1 : 0.5;
+  const std::size_t total_pairs = pairs.size();
+  const std::size_t screened = screenPairs(pairs, scale_free, lever_m);
+
   double scale = 1.0;
   Rigid3d X = linearInitialisation(pairs, scale_free, options.min_rotation_for_axis_deg * kDeg,
-                                   options.prior_rotation, &scale);
+                                   options.prior_rotation, options.prior_translation_m, &scale);
   progress.report("motion_calibration", 1, 3);
   progress.checkStop();
 
@@ -603,6 +681,13 @@ void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationO
                             " motion pairs; eigenvalues of the information matrix over [t (m), "
                             "theta (rad)" +
                             (scale_free ? ", scale" : "") + "])";
+  if (screened > 0) {
+    r.observability.message += " motion_calibration: " + std::to_string(screened) + " of " +
+                               std::to_string(total_pairs) +
+                               " pairs of detections set aside: their rotation or displacement "
+                               "cannot be the robot's motion seen by a camera (false or "
+                               "mistimed detections).";
+  }
   r.observability.eigenvalues = eigenvalues;
   progress.report("motion_calibration", 3, 3);
 }
