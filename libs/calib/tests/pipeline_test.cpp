@@ -60,6 +60,11 @@ class PipelineTest : public ::testing::Test {
     const RegistrationController controller(loadRegistrationConfig(config));
     return controller.run(std::move(input), ProgressReporter());
   }
+  // share/lookboth/config/paper.yaml (the paper's stages) or the default.
+  static std::optional<fs::path> paperConfigOr(bool paper) {
+    if (!paper) return std::nullopt;
+    return fs::path(LOOKBOTH_SHARE_DIR) / "config" / "paper.yaml";
+  }
   // The dataset's ground-truth trajectory made visual odometry (scale 0.45,
   // 1 mm/sqrt(m), 0.02 deg/sqrt(m)); `world_from_vo` maps its frame to the truth's.
   static RegistrationInput withSynthesisedOdometry(const std::string& scenario,
@@ -111,15 +116,8 @@ TEST_F(PipelineTest, SmallMetricWheelOdometry) {
 }
 
 TEST_F(PipelineTest, SmallVisualSynthesisedOdometry) {
-  RegisterOptions options;
-  options.dataset = dataset("small");
-  options.mode = TrajectoryMode::kMetric;
-  options.trajectory_label = "ground_truth";
-  RegistrationInput input = loadRegistrationInput(options, ProgressReporter());
-  std::vector<StampedPose> vo = input.trajectory.samples();
-  const Rigid3d world_from_vo = testing::makeVisualOdometry(vo, 0.45, 0.001, 0.02, 3);
-  input.trajectory = Trajectory(vo);
-  input.mode = TrajectoryMode::kVisual;
+  Rigid3d world_from_vo;
+  RegistrationInput input = withSynthesisedOdometry("small", &world_from_vo);
   const auto truth = input.manifest.ground_truth.world_from_camera;
   const RegistrationController controller(loadRegistrationConfig(std::nullopt));
   const RegistrationRun run = controller.run(std::move(input), ProgressReporter());
@@ -203,8 +201,6 @@ TEST_F(PipelineTest, StepsBeforeRegistrationSayWhyTheyAreSkipped) {
   }
 }
 
-// The faults scenario under the paper's stages (share/lookboth/config/paper.yaml)
-// and under the default pipeline, which ends with the joint adjustment.
 // `faults` with seed 6: false detections (markers lying on the floor) and a
 // camera whose clock jumps by 250 ms make motion pairs that no rigid motion
 // explains. Before they were set aside, the motion calibration's linear
@@ -214,10 +210,8 @@ TEST_F(PipelineTest, Faults6FalseDetectionsDoNotDerailTheMount) {
   for (const bool paper : {true, false}) {
     SCOPED_TRACE(paper ? "paper.yaml" : "default");
     RegistrationInput input;
-    const RegistrationRun run = registerDataset(
-        "faults6", TrajectoryMode::kMetric, "odometry", &input,
-        paper ? std::optional<fs::path>(fs::path(LOOKBOTH_SHARE_DIR) / "config" / "paper.yaml")
-              : std::nullopt);
+    const RegistrationRun run = registerDataset("faults6", TrajectoryMode::kMetric, "odometry",
+                                                &input, paperConfigOr(paper));
     const Registration& r = run.registration;
     EXPECT_NE(r.observability.message.find("set aside"), std::string::npos)
         << r.observability.message;
@@ -230,14 +224,14 @@ TEST_F(PipelineTest, Faults6FalseDetectionsDoNotDerailTheMount) {
   }
 }
 
+// The faults scenario under the paper's stages (share/lookboth/config/paper.yaml)
+// and under the default pipeline, which ends with the joint adjustment.
 TEST_F(PipelineTest, FaultsCompleteWithFaultsReported) {
   for (const bool paper : {true, false}) {
     SCOPED_TRACE(paper ? "paper.yaml" : "default");
     RegistrationInput input;
-    const RegistrationRun run = registerDataset(
-        "faults", TrajectoryMode::kMetric, "odometry", &input,
-        paper ? std::optional<fs::path>(fs::path(LOOKBOTH_SHARE_DIR) / "config" / "paper.yaml")
-              : std::nullopt);
+    const RegistrationRun run = registerDataset("faults", TrajectoryMode::kMetric, "odometry",
+                                                &input, paperConfigOr(paper));
     const Registration& r = run.registration;
     ASSERT_EQ(r.cameras.size(), 7u);
     // The unvisited camera: unregistered, with the reason.

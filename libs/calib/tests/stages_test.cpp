@@ -27,6 +27,14 @@ double rotationError(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
   return so3Log(Eigen::Quaterniond(a.conjugate() * b)).norm();
 }
 
+// The scene's trajectory replaced by noise-free visual odometry at `scale`.
+void useVisualOdometry(SyntheticScene& scene, double scale) {
+  std::vector<StampedPose> vo = scene.truth;
+  makeVisualOdometry(vo, scale, 0, 0, 1);
+  scene.input.trajectory = Trajectory(vo);
+  scene.input.mode = TrajectoryMode::kVisual;
+}
+
 MotionCalibrationOptions exactPrior(const SyntheticScene& scene) {
   MotionCalibrationOptions options;
   options.prior_translation_m = scene.fisheye_from_marker.translation;
@@ -88,11 +96,8 @@ TEST(Associate, AppliesConfiguredClockOffset) {
 
 TEST(MotionCalibration, NoiseFreeVisualPlanarRecoversScaleAndMountWithHeightPrior) {
   SyntheticScene scene = makeSyntheticScene({});
-  std::vector<StampedPose> vo = scene.truth;
   const double true_scale = 2.7;
-  makeVisualOdometry(vo, true_scale, 0, 0, 1);
-  scene.input.trajectory = Trajectory(vo);
-  scene.input.mode = TrajectoryMode::kVisual;
+  useVisualOdometry(scene, true_scale);
   RegistrationProblem problem = problemFor(scene);
   runAssociate(problem, {}, ProgressReporter());
   runMotionCalibration(problem, exactPrior(scene), ProgressReporter());
@@ -126,10 +131,7 @@ TEST(MotionCalibration, PlanarScaleSignIsNotLeftToChance) {
     o.marker_yaw_deg = yaw_deg;
     o.height_amplitude_m = 0;  // a level floor: nothing else breaks the tie
     SyntheticScene scene = makeSyntheticScene(o);
-    std::vector<StampedPose> vo = scene.truth;
-    makeVisualOdometry(vo, 2.2, 0, 0, 1);
-    scene.input.trajectory = Trajectory(vo);
-    scene.input.mode = TrajectoryMode::kVisual;
+    useVisualOdometry(scene, 2.2);
     RegistrationProblem problem = problemFor(scene);
     runAssociate(problem, {}, ProgressReporter());
     try {
@@ -151,10 +153,7 @@ TEST(MotionCalibration, NoiseFreeRollingFloorDeterminesEverythingWithoutPrior) {
   SyntheticOptions o;
   o.roll_pitch_amplitude_deg = 8;
   SyntheticScene scene = makeSyntheticScene(o);
-  std::vector<StampedPose> vo = scene.truth;
-  makeVisualOdometry(vo, 0.4, 0, 0, 1);
-  scene.input.trajectory = Trajectory(vo);
-  scene.input.mode = TrajectoryMode::kVisual;
+  useVisualOdometry(scene, 0.4);
   RegistrationProblem problem = problemFor(scene);
   runAssociate(problem, {}, ProgressReporter());
   MotionCalibrationOptions options;
@@ -195,10 +194,7 @@ TEST(MotionCalibration, WithoutPriorSaysTheHeightIsArbitrary) {
 // prior the stage says what to do; with a measured mount it starts from it.
 TEST(MotionCalibration, NoTurnStartsFromThePriorRotationOrSaysWhatToDo) {
   SyntheticScene scene = makeSyntheticScene({});
-  std::vector<StampedPose> vo = scene.truth;
-  makeVisualOdometry(vo, 1.8, 0, 0, 1);
-  scene.input.trajectory = Trajectory(vo);
-  scene.input.mode = TrajectoryMode::kVisual;
+  useVisualOdometry(scene, 1.8);
   MotionCalibrationOptions options = exactPrior(scene);
   options.min_rotation_for_axis_deg = 1000;
   {
@@ -243,10 +239,7 @@ TEST(MotionCalibration, NoisyWithinBounds) {
   o.marker_translation_sigma_m = 0.003;
   o.marker_rotation_sigma_deg = 1.0;
   SyntheticScene scene = makeSyntheticScene(o);
-  std::vector<StampedPose> vo = scene.truth;
-  makeVisualOdometry(vo, 1.7, 0, 0, 1);
-  scene.input.trajectory = Trajectory(vo);
-  scene.input.mode = TrajectoryMode::kVisual;
+  useVisualOdometry(scene, 1.7);
   RegistrationProblem problem = problemFor(scene);
   runAssociate(problem, {}, ProgressReporter());
   runMotionCalibration(problem, exactPrior(scene), ProgressReporter());
