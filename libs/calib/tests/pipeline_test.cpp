@@ -57,6 +57,11 @@ class PipelineTest : public ::testing::Test {
     options.trajectory_label = label;
     RegistrationInput input = loadRegistrationInput(options, ProgressReporter());
     if (input_out) *input_out = input;
+    return runRegistration(std::move(input), config);
+  }
+  // The controller with the default configuration, or `config` over it.
+  static RegistrationRun runRegistration(RegistrationInput input,
+                                         const std::optional<fs::path>& config = std::nullopt) {
     const RegistrationController controller(loadRegistrationConfig(config));
     return controller.run(std::move(input), ProgressReporter());
   }
@@ -119,8 +124,7 @@ TEST_F(PipelineTest, SmallVisualSynthesisedOdometry) {
   Rigid3d world_from_vo;
   RegistrationInput input = withSynthesisedOdometry("small", &world_from_vo);
   const auto truth = input.manifest.ground_truth.world_from_camera;
-  const RegistrationController controller(loadRegistrationConfig(std::nullopt));
-  const RegistrationRun run = controller.run(std::move(input), ProgressReporter());
+  const RegistrationRun run = runRegistration(std::move(input));
   // small's 18 px markers have ~17 deg of tilt noise per detection (doc/benchmarks.md).
   EXPECT_NEAR(run.registration.scale, 0.45, 0.45 * 0.01);
   const auto a = testing::accuracyAgainst(run.registration, truth, world_from_vo);
@@ -143,8 +147,7 @@ TEST_F(PipelineTest, SmallVisualCameraClockOff150ms) {
   }
   const auto truth = input.manifest.ground_truth.world_from_camera;
   const TimeNs true_offset = input.manifest.ground_truth.clock_offset.at("cam03") + shift;
-  const RegistrationController controller(loadRegistrationConfig(std::nullopt));
-  const RegistrationRun run = controller.run(std::move(input), ProgressReporter());
+  const RegistrationRun run = runRegistration(std::move(input));
   const CameraRegistration* c = run.registration.findCamera("cam03");
   ASSERT_TRUE(c && c->clock_offset);
   EXPECT_EQ(c->status, CameraStatus::kRegistered) << c->reason;
@@ -165,8 +168,7 @@ TEST_F(PipelineTest, RevisitVisualLevelAisle) {
   Rigid3d world_from_vo;
   RegistrationInput input = withSynthesisedOdometry("revisit", &world_from_vo);
   const auto truth = input.manifest.ground_truth.world_from_camera;
-  const RegistrationController controller(loadRegistrationConfig(std::nullopt));
-  const RegistrationRun run = controller.run(std::move(input), ProgressReporter());
+  const RegistrationRun run = runRegistration(std::move(input));
   EXPECT_NEAR(run.registration.scale, 0.45, 0.45 * 0.01);
   const auto a = testing::accuracyAgainst(run.registration, truth, world_from_vo);
   EXPECT_EQ(a.compared, 8);
