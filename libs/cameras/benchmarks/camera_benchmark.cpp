@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "lookboth/cameras/camera.h"
+#include "lookboth/cameras/camera_io.h"
 
 namespace lookboth {
 namespace {
@@ -67,6 +68,15 @@ const Scene& kannalaBrandtScene() {
       makeScene(Camera(KannalaBrandtModel{}, 1920, 1080,
                        {540.0, 540.5, 959.5, 539.5, 0.02, -3e-3, 5e-4, -1e-4}),
                 2);
+  return scene;
+}
+
+/// The shipped OCamCalib fisheye (share/lookboth/cameras): its projection
+/// solves for the sensor radius numerically (no closed form; OpenCV has no
+/// such model, so the Kannala-Brandt projection above is the yardstick).
+const Scene& scaramuzzaScene() {
+  static const Scene scene = makeScene(
+      loadCamera(std::string(LOOKBOTH_SHARE_DIR) + "/cameras/fisheye_calib_results.txt"), 3);
   return scene;
 }
 
@@ -145,6 +155,10 @@ void BM_KannalaBrandtProject_OpenCV(benchmark::State& state) {
   setRate(state);
 }
 
+void BM_ScaramuzzaProject_Lookboth(benchmark::State& state) {
+  projectLookboth(state, scaramuzzaScene());
+}
+
 void BM_RadTanUnproject_Lookboth(benchmark::State& state) {
   unprojectLookboth(state, radtanScene());
 }
@@ -180,6 +194,7 @@ BENCHMARK(BM_RadTanProject_Lookboth);
 BENCHMARK(BM_RadTanProject_OpenCV);
 BENCHMARK(BM_KannalaBrandtProject_Lookboth);
 BENCHMARK(BM_KannalaBrandtProject_OpenCV);
+BENCHMARK(BM_ScaramuzzaProject_Lookboth);
 BENCHMARK(BM_RadTanUnproject_Lookboth);
 BENCHMARK(BM_RadTanUnproject_OpenCV);
 BENCHMARK(BM_KannalaBrandtUnproject_Lookboth);

@@ -67,6 +67,11 @@ template <typename F, typename PastFold>
 bool solveFirstCrossing(const F& f, const PastFold& past_fold, double lo, double hi, double x,
                         double* root) {
   constexpr double kEps = 4.0 * std::numeric_limits<double>::epsilon();
+  // A Newton step this small (relative) is taken and ends the search: the
+  // error after it is of the order of its square, below f's rounding, where
+  // waiting for a step of kEps let f's rounding noise bounce the iterates
+  // (8.6 evaluations per OCamCalib projection instead of about 4).
+  constexpr double kNewtonStep = 1e-10;
   bool crossed = false;  // f(hi) >= 0
   if (!(x > lo && x < hi)) x = 0.5 * (lo + hi);
   double step = hi - lo, previous_step = step;
@@ -91,7 +96,7 @@ bool solveFirstCrossing(const F& f, const PastFold& past_fold, double lo, double
     double next = x - fx / dfx;
     const bool newton_ok =
         dfx > 0.0 && next > lo && next < hi && std::abs(next - x) <= 0.5 * previous_step;
-    if (newton_ok && std::abs(next - x) <= kEps * std::abs(x)) {
+    if (newton_ok && std::abs(next - x) <= kNewtonStep * std::abs(x)) {
       *root = next;
       return true;
     }
@@ -503,7 +508,7 @@ bool ScaramuzzaModel::solveSensorScale(const double* params, double x, double y,
   const double length = std::sqrt(x * x + y * y + z * z);
   if (!(length > 0.0) || !std::isfinite(length)) return false;
   const double* a = params + 5;
-  const double norm = std::hypot(x, y) / length;
+  const double norm = std::sqrt(x * x + y * y) / length;  // x, y, z are finite: no overflow
   const double t = z / length;
   if (norm == 0.0) {  // on the optical axis: poly(0) + t mu = 0
     if (!(t > 0.0)) return false;
@@ -511,18 +516,24 @@ bool ScaramuzzaModel::solveSensorScale(const double* params, double x, double y,
     return true;
   }
   // g(rho) = norm * poly(rho) + t * rho, with g(0) = norm * a0 < 0; the wanted
-  // root is the first one, where g turns positive.
+  // root is the first one, where g turns positive. The last evaluation is
+  // kept for the fold test, which the root finder asks about the same rho.
+  double last_rho = std::numeric_limits<double>::quiet_NaN(), last_g = 0.0, last_dg = 0.0;
   const auto g = [&](double rho, double* value, double* derivative) {
     double dpoly = 0.0;
-    *value = norm * evalPolynomial(a, num_poly, rho, &dpoly) + t * rho;
-    *derivative = norm * dpoly + t;
+    last_g = *value = norm * evalPolynomial(a, num_poly, rho, &dpoly) + t * rho;
+    last_dg = *derivative = norm * dpoly + t;
+    last_rho = rho;
   };
   // Past the first fold of the ray angle atan2(rho, -poly(rho)), whose
-  // derivative has the sign of rho poly'(rho) - poly(rho).
+  // derivative has the sign of rho poly'(rho) - poly(rho), which is
+  // (rho g'(rho) - g(rho)) / norm.
   const auto past_fold = [&](double rho, double) {
-    double dpoly = 0.0;
-    const double poly = evalPolynomial(a, num_poly, rho, &dpoly);
-    return !(rho * dpoly - poly > 0.0);
+    if (rho != last_rho) {
+      double value = 0.0, derivative = 0.0;
+      g(rho, &value, &derivative);
+    }
+    return !(rho * last_dg - last_g > 0.0);
   };
   const auto bounds_root = [&](double rho) {
     double value = 0.0, unused = 0.0;
