@@ -240,11 +240,15 @@ struct ScaramuzzaModel {
     if constexpr (std::is_same_v<T, double>) {
       if (!solveSensorScale(params, x, y, z, &mu_value)) return false;
     } else {
-      std::vector<double> params_value(static_cast<std::size_t>(numParams()));
-      for (std::size_t i = 0; i < params_value.size(); ++i) params_value[i] = value(params[i]);
-      if (!solveSensorScale(params_value.data(), value(x), value(y), value(z), &mu_value)) {
-        return false;
-      }
+      // The parameters' values on the stack (no allocation per projection),
+      // on the heap only for an unusually long polynomial.
+      constexpr int kOnStack = 32;
+      const int n = numParams();
+      double on_stack[kOnStack];
+      std::vector<double> on_heap(n > kOnStack ? static_cast<std::size_t>(n) : 0);
+      double* params_value = n > kOnStack ? on_heap.data() : on_stack;
+      for (int i = 0; i < n; ++i) params_value[i] = value(params[i]);
+      if (!solveSensorScale(params_value, value(x), value(y), value(z), &mu_value)) return false;
     }
     // One Newton step in T on h(mu) = poly(mu * norm) + z * mu, from the
     // converged root: its value is unchanged and its derivatives are the
