@@ -85,6 +85,20 @@ class PipelineTest : public ::testing::Test {
     input.mode = TrajectoryMode::kVisual;
     return input;
   }
+  // Registers `scenario` with synthesised odometry and checks the scale
+  // (0.45 within 1 %), the cameras compared and the RMSEs in the known frame.
+  static void expectSynthesisedOdometryRegisters(const std::string& scenario, int cameras,
+                                                 double max_position_m, double max_rotation_deg) {
+    Rigid3d world_from_vo;
+    RegistrationInput input = withSynthesisedOdometry(scenario, &world_from_vo);
+    const auto truth = input.manifest.ground_truth.world_from_camera;
+    const RegistrationRun run = runRegistration(std::move(input));
+    EXPECT_NEAR(run.registration.scale, 0.45, 0.45 * 0.01);
+    const auto a = testing::accuracyAgainst(run.registration, truth, world_from_vo);
+    EXPECT_EQ(a.compared, cameras);
+    EXPECT_LT(a.position_rmse_m, max_position_m);
+    EXPECT_LT(a.rotation_rmse_deg, max_rotation_deg);
+  }
   static fs::path* dir_;
 };
 fs::path* PipelineTest::dir_ = nullptr;
@@ -121,16 +135,8 @@ TEST_F(PipelineTest, SmallMetricWheelOdometry) {
 }
 
 TEST_F(PipelineTest, SmallVisualSynthesisedOdometry) {
-  Rigid3d world_from_vo;
-  RegistrationInput input = withSynthesisedOdometry("small", &world_from_vo);
-  const auto truth = input.manifest.ground_truth.world_from_camera;
-  const RegistrationRun run = runRegistration(std::move(input));
   // small's 18 px markers have ~17 deg of tilt noise per detection (doc/benchmarks.md).
-  EXPECT_NEAR(run.registration.scale, 0.45, 0.45 * 0.01);
-  const auto a = testing::accuracyAgainst(run.registration, truth, world_from_vo);
-  EXPECT_EQ(a.compared, 6);
-  EXPECT_LT(a.position_rmse_m, 0.04);
-  EXPECT_LT(a.rotation_rmse_deg, 3.0);
+  expectSynthesisedOdometryRegisters("small", 6, 0.04, 3.0);
 }
 
 // small's 18 px markers give each detection ~17 deg of tilt noise, so each
@@ -165,15 +171,7 @@ TEST_F(PipelineTest, SmallVisualCameraClockOff150ms) {
 // the vertical ties with its half turn (the scale's sign flipped); the
 // stage once failed here with "non-positive scale".
 TEST_F(PipelineTest, RevisitVisualLevelAisle) {
-  Rigid3d world_from_vo;
-  RegistrationInput input = withSynthesisedOdometry("revisit", &world_from_vo);
-  const auto truth = input.manifest.ground_truth.world_from_camera;
-  const RegistrationRun run = runRegistration(std::move(input));
-  EXPECT_NEAR(run.registration.scale, 0.45, 0.45 * 0.01);
-  const auto a = testing::accuracyAgainst(run.registration, truth, world_from_vo);
-  EXPECT_EQ(a.compared, 8);
-  EXPECT_LT(a.position_rmse_m, 0.03);
-  EXPECT_LT(a.rotation_rmse_deg, 0.5);
+  expectSynthesisedOdometryRegisters("revisit", 8, 0.03, 0.5);
 }
 
 // The steps before the registration, one at a time (as the desktop app runs
