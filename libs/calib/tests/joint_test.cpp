@@ -442,8 +442,14 @@ TEST(Joint, RestartFindsALargeClockOffsetOnASinglePass) {
   EXPECT_LT(e, 0.02);
 }
 
+// A camera left with too few detections is unregistered, and the others come
+// out as accurate as when it keeps all of its detections (the same scene and
+// noise, compared over the same five cameras).
 TEST(Joint, CameraWithTooFewDetectionsStaysUnregistered) {
   SyntheticScene scene = makeSyntheticScene(noisyOptions(4));
+  std::map<std::string, Rigid3d> others = scene.world_from_camera;
+  others.erase("cam01");
+  const auto all_kept = accuracyAgainst(solve(scene, forExactTrajectory()).result, others);
   // cam01 keeps 2 detections.
   int kept = 0;
   std::vector<MarkerObservation> markers;
@@ -458,9 +464,15 @@ TEST(Joint, CameraWithTooFewDetectionsStaysUnregistered) {
   EXPECT_EQ(c->status, CameraStatus::kUnregistered);
   EXPECT_NE(c->reason.find("only 2"), std::string::npos) << c->reason;
   EXPECT_FALSE(c->stage_poses.count("joint"));
-  const auto a = accuracyAgainst(problem.result, scene.world_from_camera);
+  const auto a = accuracyAgainst(problem.result, others);
+  std::cout << "the other five cameras: " << a.position_rmse_m * 1e3 << " mm, "
+            << a.rotation_rmse_deg << " deg; with cam01's detections all kept "
+            << all_kept.position_rmse_m * 1e3 << " mm, " << all_kept.rotation_rmse_deg << " deg\n";
   EXPECT_EQ(a.compared, 5);
-  EXPECT_LT(a.position_rmse_m, 0.003);
+  EXPECT_EQ(all_kept.compared, 5);
+  EXPECT_LT(a.position_rmse_m, 1.2 * all_kept.position_rmse_m);
+  EXPECT_LT(a.rotation_rmse_deg, 1.2 * all_kept.rotation_rmse_deg);
+  EXPECT_LT(a.position_rmse_m, 0.005);
 }
 
 TEST(Joint, NoisyCornersAndPosesBothWork) {
