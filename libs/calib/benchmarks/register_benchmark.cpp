@@ -6,6 +6,8 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -53,12 +55,26 @@ void registerFacility(benchmark::State& state, bool joint) {
   const RegistrationController controller(loadRegistrationConfig(config));
   if (joint) std::filesystem::remove(*config);
   int registered = 0;
-  double position_rmse = 0;
+  double position_rmse = 0, aligned_rmse = 0, clock_rms_ms = 0, clock_max_ms = 0;
   for (auto _ : state) {
     const RegistrationRun run = controller.run(scene.input, ProgressReporter());
     registered = run.registration.registeredCount();
     position_rmse =
         testing::accuracyAgainst(run.registration, scene.world_from_camera).position_rmse_m;
+    aligned_rmse =
+        testing::alignedAccuracy(run.registration, scene.world_from_camera).position_rmse_m;
+    // The scene's clocks are all the robot's: an estimated offset is its error.
+    double sum = 0;
+    int n = 0;
+    clock_max_ms = 0;
+    for (const CameraRegistration& c : run.registration.cameras) {
+      if (c.status == CameraStatus::kUnregistered || !c.clock_offset) continue;
+      const double e = static_cast<double>(c.clock_offset->offset_ns) * 1e-6;
+      sum += e * e;
+      clock_max_ms = std::max(clock_max_ms, std::abs(e));
+      ++n;
+    }
+    clock_rms_ms = n > 0 ? std::sqrt(sum / n) : 0;
   }
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
@@ -67,6 +83,9 @@ void registerFacility(benchmark::State& state, bool joint) {
   state.counters["markers"] = static_cast<double>(scene.input.markers.size());
   state.counters["blob_frames"] = static_cast<double>(scene.input.blobs.size());
   state.counters["position_rmse_mm"] = position_rmse * 1000;
+  state.counters["aligned_rmse_mm"] = aligned_rmse * 1000;
+  state.counters["clock_rms_ms"] = clock_rms_ms;
+  state.counters["clock_max_ms"] = clock_max_ms;
   state.counters["peak_rss_MiB"] = static_cast<double>(usage.ru_maxrss) / 1024.0;
 }
 void BM_RegisterFacility(benchmark::State& state) { registerFacility(state, false); }

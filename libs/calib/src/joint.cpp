@@ -936,6 +936,8 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     std::vector<std::size_t> frame_slot(frames.size(), SIZE_MAX);
     ceres_problem = std::make_unique<ceres::Problem>(problem_options);
     ceres::Problem& Q = *ceres_problem;
+    // Verbose diagnostics: the cost of the odometry, marker and blob residuals apart.
+    std::array<std::vector<ceres::ResidualBlockId>, 3> group_blocks;
     std::vector<bool> node_used(n_nodes, false);
     auto addNode = [&](std::size_t k) {
       if (node_used[k]) return;
@@ -971,6 +973,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
             new ceres::AutoDiffCostFunction<RelativeMotionCost, 6, 7, 7, 1>(cost), nullptr,
             nodes[k].data(), nodes[k + 1].data(), &scales[segment_of_edge[k]]);
         if (!gap) edge_block[k] = id;
+        if (verbose) group_blocks[0].push_back(id);
       }
       for (std::size_t j = 0; j < n_segments; ++j) {
         if (j > 0) {
@@ -1017,8 +1020,10 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       const Bracket& b = *det_bracket[i];
       addNode(b.k);
       addNode(b.k + 1);
-      Q.AddResidualBlock(markerCost(i), huber.get(), nodes[b.k].data(), nodes[b.k + 1].data(),
-                         x_params, cameras[d.camera].pose, &cameras[d.camera].offset_s);
+      const ceres::ResidualBlockId id =
+          Q.AddResidualBlock(markerCost(i), huber.get(), nodes[b.k].data(), nodes[b.k + 1].data(),
+                             x_params, cameras[d.camera].pose, &cameras[d.camera].offset_s);
+      if (verbose) group_blocks[1].push_back(id);
     }
     // Blobs.
     for (std::size_t c = 0; c < cameras.size(); ++c) {
@@ -1043,7 +1048,9 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
             options.blob_sigma_px);
         addNode(f.bracket.k);
         addNode(f.bracket.k + 1);
-        Q.AddResidualBlock(cost, cauchy.get(), nk, nk1, cameras[c].pose);
+        const ceres::ResidualBlockId id =
+            Q.AddResidualBlock(cost, cauchy.get(), nk, nk1, cameras[c].pose);
+        if (verbose) group_blocks[2].push_back(id);
       }
     }
     // Gauge and fixed parts.
@@ -1065,7 +1072,52 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
         last_round || options.early_round_max_iterations == 0
             ? options.max_iterations
             : std::min(options.max_iterations, options.early_round_max_iterations);
+    // Verbose: how far the round moved each kind of parameter (the largest move).
+    struct Snapshot {
+      std::vector<std::array<double, 7>> nodes;
+      std::vector<std::array<double, 7>> cameras;
+      std::vector<double> offsets, scales;
+      std::array<double, 7> x{};
+    } before;
+    if (verbose) {
+      before.nodes = nodes;
+      for (const JointCamera& c : cameras) {
+        before.cameras.emplace_back();
+        std::copy(c.pose, c.pose + 7, before.cameras.back().begin());
+        before.offsets.push_back(c.offset_s);
+      }
+      before.scales = scales;
+      std::copy(x_params, x_params + 7, before.x.begin());
+    }
     ceres::Solve(solver, &Q, &summary);
+    if (verbose) {
+      auto moved = [](const double* a, const double* b) {
+        const double t =
+            (Eigen::Vector3d(a[0], a[1], a[2]) - Eigen::Vector3d(b[0], b[1], b[2])).norm();
+        const Eigen::Quaterniond qa(a[6], a[3], a[4], a[5]), qb(b[6], b[3], b[4], b[5]);
+        return std::make_pair(t, qa.angularDistance(qb) / kDeg);
+      };
+      double node_t = 0, node_r = 0, camera_t = 0, camera_r = 0, clock = 0, scale = 0;
+      for (std::size_t k = 0; k < n_nodes; ++k) {
+        const auto [t, r] = moved(nodes[k].data(), before.nodes[k].data());
+        node_t = std::max(node_t, t);
+        node_r = std::max(node_r, r);
+      }
+      for (std::size_t c = 0; c < cameras.size(); ++c) {
+        const auto [t, r] = moved(cameras[c].pose, before.cameras[c].data());
+        camera_t = std::max(camera_t, t);
+        camera_r = std::max(camera_r, r);
+        clock = std::max(clock, std::abs(cameras[c].offset_s - before.offsets[c]));
+      }
+      for (std::size_t j = 0; j < scales.size(); ++j) {
+        scale = std::max(scale, std::abs(scales[j] - before.scales[j]));
+      }
+      const auto [x_t, x_r] = moved(x_params, before.x.data());
+      std::cerr << "joint round " << round + 1 << ": largest moves: node " << node_t << " m, "
+                << node_r << " deg; camera " << camera_t << " m, " << camera_r << " deg; clock "
+                << clock * 1e3 << " ms; scale " << scale << "; fisheye_from_marker " << x_t
+                << " m, " << x_r << " deg\n";
+    }
     previous_converged = summary.termination_type == ceres::CONVERGENCE;
     if (verbose) {
       std::cerr << "joint round " << round + 1 << ": CPU " << cpu_setup
@@ -1079,6 +1131,15 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       if (round == 0 || verbose_every_round) {
         std::cerr << summary.FullReport() << "\n";
       }
+      std::cerr << "joint round " << round + 1 << ": final cost of odometry, markers, blobs:";
+      for (const auto& ids : group_blocks) {
+        ceres::Problem::EvaluateOptions eo;
+        eo.residual_blocks = ids;
+        double group_cost = 0;
+        Q.Evaluate(eo, &group_cost, nullptr, nullptr, nullptr);
+        std::cerr << " " << group_cost << " (" << ids.size() << " blocks)";
+      }
+      std::cerr << "\n";
     }
     if (!summary.IsSolutionUsable()) {
       throw Error("joint: the solver failed: " + summary.message);

@@ -35,7 +35,16 @@ template <typename T>
 Rigid3<T> poseAt(const Bracket& b, const T* node_k, const T* node_k1, const T& tau) {
   const Rigid3<T> ck = poseFromParams(node_k) * b.ref_inverse_k.cast<T>();
   const Rigid3<T> ck1 = poseFromParams(node_k1) * b.ref_inverse_k1.cast<T>();
-  const T alpha = tau / T(b.duration_s);
+  // The correction is interpolated inside the bracket and held at the nearer
+  // node's outside it (a clock offset that moved the time out of its bracket
+  // during a round; the next round brackets it anew). Extrapolated, the two
+  // nodes' difference would be amplified by the offset's excursion: a lever
+  // with which the optimiser fitted detection noise by running every camera's
+  // clock and the marker's mount away together (doc/benchmarks.md, twelfth
+  // session: 0.4 m and 0.4 s on the 1,000-camera facility).
+  T alpha = tau / T(b.duration_s);
+  if (alpha < T(0)) alpha = T(0);
+  if (alpha > T(1)) alpha = T(1);
   const Eigen::Matrix<T, 3, 1> w =
       so3Log(Eigen::Quaternion<T>(ck.rotation.conjugate() * ck1.rotation));
   const Eigen::Matrix<T, 3, 1> wa = w * alpha;

@@ -202,6 +202,48 @@ TEST(JointCosts, CachedBlobCostMatchesTheAutodiffReference) {
 
 // The marker costs with their derivatives written out against the autodiff
 // structs: same residuals, same tangent Jacobians (poses and corners).
+// A time outside its bracket (a clock offset moved it there during a round)
+// takes the nearer node's correction, unamplified: the pose there is that
+// correction times the reference, and the farther node has no influence.
+// Extrapolated, the nodes' difference was amplified by the excursion, which
+// let the 1,000-camera facility fit noise by running its clocks away.
+TEST(JointCosts, TimeOutsideItsBracketHoldsTheNearerNodesCorrection) {
+  std::mt19937 rng(8);
+  for (int trial = 0; trial < 20; ++trial) {
+    Rigid3d ref_k, ref_k1;
+    Bracket b = randomBracket(rng, &ref_k, &ref_k1);
+    b.velocity_world = Eigen::Vector3d(0.8, -0.3, 0.01);
+    b.omega_body = Eigen::Vector3d(0.01, -0.02, 0.3);
+    double nk[7], nk1[7];
+    const Rigid3d node_k = ref_k * randomPose(rng, 0.01, 0.005);
+    const Rigid3d node_k1 = ref_k1 * randomPose(rng, 0.01, 0.005);
+    calib_detail::poseToParams(node_k, nk);
+    calib_detail::poseToParams(node_k1, nk1);
+    for (const double tau : {-0.35, -0.01, 0.13, 2.0}) {
+      const bool before = tau < 0;
+      const Rigid3d correction = before ? node_k * b.ref_inverse_k : node_k1 * b.ref_inverse_k1;
+      const double delta = tau - b.tau_ref_s;
+      const Rigid3d reference(b.reference.rotation * so3Exp(Eigen::Vector3d(b.omega_body * delta)),
+                              b.reference.translation + b.velocity_world * delta);
+      const Rigid3d expected = correction * reference;
+      const Rigid3d pose = joint_detail::poseAt<double>(b, nk, nk1, tau);
+      EXPECT_LT((pose.translation - expected.translation).norm(), 1e-12) << tau;
+      EXPECT_LT(pose.rotation.angularDistance(expected.rotation), 1e-12) << tau;
+      // The farther node has no influence: the Jacobian on its tangent space
+      // is zero (its quaternion's norm, which the manifold never moves, aside).
+      Eigen::Matrix<double, 7, 15, Eigen::RowMajor> d;
+      joint_detail::fisheyePoseWithJacobian(b, nk, nk1, 0.0, tau, &d);
+      const std::unique_ptr<ceres::Manifold> manifold(calib_detail::newPoseManifold());
+      Eigen::Matrix<double, 7, 6, Eigen::RowMajor> plus;
+      manifold->PlusJacobian(before ? nk1 : nk, plus.data());
+      const Eigen::Matrix<double, 7, 6> farther = d.block(0, before ? 7 : 0, 7, 7) * plus;
+      EXPECT_LT(farther.norm(), 1e-9) << tau;
+      // The offset still moves the pose with the reference's velocity.
+      EXPECT_GT(d.col(14).head<3>().norm(), 0.5) << tau;
+    }
+  }
+}
+
 TEST(JointCosts, AnalyticMarkerCostsMatchTheAutodiffReference) {
   const Camera camera_model =
       loadCamera(std::string(LOOKBOTH_SHARE_DIR) + "/cameras/fisheye_640x360_calib_results.txt");
