@@ -213,10 +213,12 @@ struct JointOptions {
   bool use_blobs = true;
   double blob_sigma_px = 1.0;  ///< Noise of a blob centre [px].
   /// Cauchy scale on the norm of a blob's whitened residual (2 dof) [sigmas]:
-  /// a residual at this norm gets half the weight. 3.0 = the square root of
-  /// chi-square 2 dof at 99 % (9.21); 2.0 halved the weight of 13.5 % of
-  /// clean blobs.
-  double cauchy = 3.0;
+  /// a residual at this norm gets half the weight, which 13.5 % of clean
+  /// 1-sigma blobs reach. Kept below the chi-square 99 % point (3.0): the
+  /// rendered blobs' errors are heavier-tailed than blob_sigma_px says, and
+  /// 3.0 made the rendered `revisit` 12.7 -> 16.4 mm (doc/benchmarks.md,
+  /// twelfth session).
+  double cauchy = 2.0;
   double gate_px = 10;           ///< Nearest blob within this distance of the projection [px]...
   double ambiguity_ratio = 1.5;  ///< ...and the second nearest this many times farther (both ways).
   int association_frame_step = 1;  ///< Associate blobs of every n-th fisheye frame.
