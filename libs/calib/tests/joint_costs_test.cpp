@@ -200,8 +200,6 @@ TEST(JointCosts, CachedBlobCostMatchesTheAutodiffReference) {
   EXPECT_EQ(compared, 50);
 }
 
-// The marker costs with their derivatives written out against the autodiff
-// structs: same residuals, same tangent Jacobians (poses and corners).
 // A time outside its bracket (a clock offset moved it there during a round)
 // takes the nearer node's correction, unamplified: the pose there is that
 // correction times the reference, and the farther node has no influence.
@@ -244,6 +242,8 @@ TEST(JointCosts, TimeOutsideItsBracketHoldsTheNearerNodesCorrection) {
   }
 }
 
+// The marker costs with their derivatives written out against the autodiff
+// structs: same residuals, same tangent Jacobians (poses and corners).
 TEST(JointCosts, AnalyticMarkerCostsMatchTheAutodiffReference) {
   const Camera camera_model =
       loadCamera(std::string(LOOKBOTH_SHARE_DIR) + "/cameras/fisheye_640x360_calib_results.txt");
