@@ -46,6 +46,7 @@
 #include "lookboth/calib/stages.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
+#include "lookboth/core/threads.h"
 #include "pose_costs.h"
 #include "sparse_covariance.h"
 
@@ -1089,6 +1090,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       before.scales = scales;
       std::copy(x_params, x_params + 7, before.x.begin());
     }
+    serialiseOpenMpInThisThread();  // CHOLMOD's teams of 4 (core/threads.h)
     ceres::Solve(solver, &Q, &summary);
     if (verbose) {
       auto moved = [](const double* a, const double* b) {

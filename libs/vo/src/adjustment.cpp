@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "lookboth/core/threads.h"
 #include "lookboth/geometry/lie.h"
 #include "lookboth/vo/bearing_geometry.h"
 #include "map.h"
@@ -181,6 +182,7 @@ int bundleAdjust(Map& map, const std::set<int>& variable, const std::set<int>& f
   solver.num_threads = options.threads;
   solver.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
+  serialiseOpenMpInThisThread();  // CHOLMOD's teams of 4 (core/threads.h)
   ceres::Solve(solver, &problem, &summary);
   delete loss;
 
@@ -394,6 +396,7 @@ std::map<int, Sim3d> optimisePoseGraph(const std::map<int, Sim3d>& nodes,
   solver.num_threads = threads;
   solver.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
+  serialiseOpenMpInThisThread();  // CHOLMOD's teams of 4 (core/threads.h)
   ceres::Solve(solver, &problem, &summary);
   std::map<int, Sim3d> out;
   for (const auto& [k, v] : values) out[k] = Sim3d(std::exp(v.log_s), v.q.normalized(), v.t);
