@@ -860,6 +860,16 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   for (int round = 0; round < max_rounds; ++round) {
     // Rounds past `rounds` run only for a drift model that changed.
     if (round >= options.rounds && !drift_model_changed && previous_converged) break;
+    // A round whose solution serves only the next drift model update (another
+    // follows: the model is still changing) moves the estimate towards the
+    // weights of that update; the update re-weights it, and the round after
+    // the last update converges: such a round uses fewer blobs
+    // (drift_round_max_blobs_per_camera) and stops after
+    // drift_round_max_iterations steps.
+    const bool drift_update_follows =
+        options.estimate_drift_model && !options.fix_trajectory && !drift_model_failed &&
+        drift_updates < options.drift_model_updates &&
+        (drift_updates == 0 || drift_still_changing) && round + 1 < max_rounds;
     progress.checkStop();
     progress.report("joint", round, max_rounds, "round " + std::to_string(round + 1));
     if (round == 1 && blob_fisheye != nullptr && options.estimate_clock_offsets) {
@@ -1031,10 +1041,12 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       const std::size_t n = matches[c].size();
       cameras[c].blobs = static_cast<int>(n);
       if (static_cast<int>(n) < options.min_blobs) continue;
-      const std::size_t keep =
-          options.max_blobs_per_camera > 0
-              ? std::min(n, static_cast<std::size_t>(options.max_blobs_per_camera))
-              : n;
+      std::size_t keep = options.max_blobs_per_camera > 0
+                             ? std::min(n, static_cast<std::size_t>(options.max_blobs_per_camera))
+                             : n;
+      if (drift_update_follows && options.drift_round_max_blobs_per_camera > 0) {
+        keep = std::min(keep, static_cast<std::size_t>(options.drift_round_max_blobs_per_camera));
+      }
       for (std::size_t q = 0; q < keep; ++q) {
         const BlobMatch& m = matches[c][q * n / keep];
         const Frame& f = frames[m.frame];
@@ -1073,6 +1085,10 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
         last_round || options.early_round_max_iterations == 0
             ? options.max_iterations
             : std::min(options.max_iterations, options.early_round_max_iterations);
+    if (drift_update_follows && options.drift_round_max_iterations > 0) {
+      solver.max_num_iterations =
+          std::min(solver.max_num_iterations, options.drift_round_max_iterations);
+    }
     // Verbose: how far the round moved each kind of parameter (the largest move).
     struct Snapshot {
       std::vector<std::array<double, 7>> nodes;
@@ -1147,8 +1163,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       throw Error("joint: the solver failed: " + summary.message);
     }
     drift_model_changed = false;
-    if (options.estimate_drift_model && !options.fix_trajectory && !drift_model_failed &&
-        drift_updates < options.drift_model_updates && round + 1 < max_rounds) {
+    if (drift_update_follows) {
       drift_model_changed = updateDriftModel(Q);
       if (!drift_model_failed) ++drift_updates;
       drift_still_changing = drift_model_changed;

@@ -226,6 +226,8 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
                        "drift_tilt_ratio",
                        "estimate_drift_model",
                        "drift_model_updates",
+                       "drift_round_max_blobs_per_camera",
+                       "drift_round_max_iterations",
                        "scale_segment_m",
                        "scale_walk_sigma",
                        "metric_scale_sigma",
@@ -279,6 +281,8 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
   s.number("drift_tilt_ratio", drift_tilt_ratio);
   flag("estimate_drift_model", estimate_drift_model);
   s.integer("drift_model_updates", drift_model_updates);
+  s.integer("drift_round_max_blobs_per_camera", drift_round_max_blobs_per_camera);
+  s.integer("drift_round_max_iterations", drift_round_max_iterations);
   s.number("min_sigma_m", min_sigma_m);
   s.number("min_sigma_deg", min_sigma_deg);
   s.number("scale_segment_m", scale_segment_m);
@@ -366,6 +370,12 @@ std::string JointOptions::check() const {
   if (max_blobs_per_camera < 0) return "'max_blobs_per_camera': must not be negative";
   if (rounds < 1) return "'rounds': must be at least 1";
   if (drift_model_updates < 0) return "'drift_model_updates': must not be negative";
+  if (drift_round_max_blobs_per_camera < 0) {
+    return "'drift_round_max_blobs_per_camera': must not be negative (0 = max_blobs_per_camera)";
+  }
+  if (drift_round_max_iterations < 0) {
+    return "'drift_round_max_iterations': must not be negative (0 = early_round_max_iterations)";
+  }
   if (max_iterations < 1) return "'max_iterations': must be at least 1";
   if (early_round_max_iterations < 0) {
     return "'early_round_max_iterations': must not be negative (0 = max_iterations)";
