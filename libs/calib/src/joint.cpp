@@ -530,7 +530,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     std::size_t frame, blob;
   };
   std::vector<std::vector<BlobMatch>> matches(cameras.size());
-  auto associateBlobs = [&](int frame_step) {
+  auto associateBlobs = [&]() {
     for (auto& m : matches) m.clear();
     if (frames.empty()) return;
     const double max_angle = std::min(fisheye->maxIncidenceAngle(), 85.0 * kDeg);
@@ -548,7 +548,8 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     std::sort(by_x.begin(), by_x.end());
     const double range = std::max(5.0, (max_height + 1.0) * std::tan(max_angle) + 2.0);
     std::vector<std::pair<std::size_t, Eigen::Vector2d>> projected;
-    for (std::size_t fi = 0; fi < frames.size(); fi += static_cast<std::size_t>(frame_step)) {
+    for (std::size_t fi = 0; fi < frames.size();
+         fi += static_cast<std::size_t>(options.association_frame_step)) {
       const Frame& f = frames[fi];
       const Rigid3d world_from_fisheye = evalPose(f.bracket, f.bracket.tau_ref_s);
       const Rigid3d fisheye_from_world = world_from_fisheye.inverse();
@@ -907,10 +908,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
                   << ", corners " << variance_factor[1] << "\n";
       }
     }
-    associateBlobs(
-        drift_update_follows && options.drift_round_association_frame_step > 0
-            ? std::max(options.association_frame_step, options.drift_round_association_frame_step)
-            : options.association_frame_step);
+    associateBlobs();
     // Another round only when its inputs changed: inliers, blob associations
     // (by more than 0.5 %), or a clock offset by more than 5 ms. Within that a
     // detection's pose is the first-order expansion around the offset it was
@@ -1471,7 +1469,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   // joint estimate. They replace look_up's statistics and rows of
   // blob_associations.csv for the cameras of this stage.
   if (use_blobs) {
-    associateBlobs(options.association_frame_step);
+    associateBlobs();
     auto projectFrom = [&](const Rigid3d& world_from_fisheye,
                            const Eigen::Vector3d& p_in_world) -> std::optional<Eigen::Vector2d> {
       const Eigen::Vector3d p = world_from_fisheye.inverse() * p_in_world;

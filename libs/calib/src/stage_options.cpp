@@ -228,7 +228,6 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
                        "drift_model_updates",
                        "drift_round_max_blobs_per_camera",
                        "drift_round_max_iterations",
-                       "drift_round_association_frame_step",
                        "scale_segment_m",
                        "scale_walk_sigma",
                        "metric_scale_sigma",
@@ -284,7 +283,6 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
   s.integer("drift_model_updates", drift_model_updates);
   s.integer("drift_round_max_blobs_per_camera", drift_round_max_blobs_per_camera);
   s.integer("drift_round_max_iterations", drift_round_max_iterations);
-  s.integer("drift_round_association_frame_step", drift_round_association_frame_step);
   s.number("min_sigma_m", min_sigma_m);
   s.number("min_sigma_deg", min_sigma_deg);
   s.number("scale_segment_m", scale_segment_m);
@@ -374,10 +372,6 @@ std::string JointOptions::check() const {
   if (drift_model_updates < 0) return "'drift_model_updates': must not be negative";
   if (drift_round_max_blobs_per_camera < 0) {
     return "'drift_round_max_blobs_per_camera': must not be negative (0 = max_blobs_per_camera)";
-  }
-  if (drift_round_association_frame_step < 0) {
-    return "'drift_round_association_frame_step': must not be negative (0 = "
-           "association_frame_step)";
   }
   if (drift_round_max_iterations < 0) {
     return "'drift_round_max_iterations': must not be negative (0 = early_round_max_iterations)";

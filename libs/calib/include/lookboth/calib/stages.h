@@ -163,9 +163,6 @@ struct JointOptions {
   /// after the last update runs with everything to convergence.
   int drift_round_max_blobs_per_camera = 60;
   int drift_round_max_iterations = 1;
-  /// ...and associates the blobs of every n-th fisheye frame only (at least
-  /// association_frame_step; 0 = association_frame_step).
-  int drift_round_association_frame_step = 4;
   /// The trajectory's scale is one parameter per segment of this length [m]
   /// (visual: VO's slowly varying scale; metric: the odometry's distance error).
   double scale_segment_m = 10;
