@@ -661,6 +661,17 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   std::vector<double> previous_offset;
   std::size_t previous_blobs = 0;
   bool previous_converged = true;  // the last round's solve converged (not stopped at its cap)
+  // The inliers of the last round were judged on a converged estimate (a
+  // short drift round's is not: the round after it judges them again).
+  bool inliers_judged_converged = true;
+  // The last round was a short drift round (drift_round_max_*, after the
+  // first update): its estimate is a step on the way, where good detections
+  // can sit several sigmas off, and a detection set aside there stays out (a
+  // flexible trajectory follows the detections kept). The round after it
+  // keeps the inliers and variance factors as they were; outliers are judged
+  // on converged estimates only: after the first round (which runs to
+  // convergence) and after the round that follows the last update.
+  bool previous_short = false;
   // The clock search of the restarted cameras again after the first round,
   // on the trajectory that round corrected: there a camera put at the right
   // offset projects within a pixel or two of its blob, where on the input
@@ -859,7 +870,11 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   };
   for (int round = 0; round < max_rounds; ++round) {
     // Rounds past `rounds` run only for a drift model that changed.
-    if (round >= options.rounds && !drift_model_changed && previous_converged) break;
+    if (round >= options.rounds && !drift_model_changed && previous_converged &&
+        inliers_judged_converged) {
+      break;
+    }
+    inliers_judged_converged = previous_converged;
     // A round whose solution serves only the next drift model update (another
     // follows: the model is still changing) moves the estimate towards the
     // weights of that update; the update re-weights it, and the round after
@@ -876,7 +891,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       researchRestartedClocks();
     }
     bracketDetections();
-    if (round > 0) {
+    if (round > 0 && !previous_short) {
       // Outliers at the current estimate (every detection is reconsidered),
       // after the variance factors are re-estimated from the medians.
       std::vector<double> chi2(detections.size(), 0.0);
@@ -1085,7 +1100,9 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
         last_round || options.early_round_max_iterations == 0
             ? options.max_iterations
             : std::min(options.max_iterations, options.early_round_max_iterations);
-    if (drift_update_follows && options.drift_round_max_iterations > 0) {
+    previous_short =
+        drift_update_follows && drift_updates > 0 && options.drift_round_max_iterations > 0;
+    if (previous_short) {
       solver.max_num_iterations =
           std::min(solver.max_num_iterations, options.drift_round_max_iterations);
     }

@@ -158,9 +158,11 @@ struct JointOptions {
   int drift_model_updates = 4;  ///< At most this many updates (and extra rounds).
   /// A round followed by another drift model update (its solution only
   /// prepares the update's residuals) uses at most this many blob residuals
-  /// per camera (0 = max_blobs_per_camera) and stops after this many
-  /// Levenberg-Marquardt steps (0 = early_round_max_iterations); the round
-  /// after the last update runs with everything to convergence.
+  /// per camera (0 = max_blobs_per_camera); after the first update such a
+  /// round also stops after this many Levenberg-Marquardt steps (0 =
+  /// early_round_max_iterations) and outliers are not judged on its
+  /// estimate. The first round converges; the round after the last update
+  /// runs with everything to convergence, and its outliers are judged again.
   int drift_round_max_blobs_per_camera = 60;
   int drift_round_max_iterations = 1;
   /// The trajectory's scale is one parameter per segment of this length [m]
