@@ -879,8 +879,8 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     // follows: the model is still changing) moves the estimate towards the
     // weights of that update; the update re-weights it, and the round after
     // the last update converges: such a round uses fewer blobs
-    // (drift_round_max_blobs_per_camera) and stops after
-    // drift_round_max_iterations steps.
+    // (drift_round_max_blobs_per_camera) and, after the first update, stops
+    // after drift_round_max_iterations steps (previous_short).
     const bool drift_update_follows =
         options.estimate_drift_model && !options.fix_trajectory && !drift_model_failed &&
         drift_updates < options.drift_model_updates &&

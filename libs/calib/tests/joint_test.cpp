@@ -313,7 +313,7 @@ TEST(Joint, EstimatesTheDriftModelFromTheData) {
       // Vertical and tilt head for their truth (0.005) from 1: Helmert's
       // iteration is slowest for the groups with the least redundancy, and
       // with the short rounds between updates (drift_round_max_*) 4 updates
-      // leave them at 0.02-0.06 (seeds 1-3); the cameras do not notice (the
+      // leave them at 0.02-0.04 (seeds 1-3); the cameras do not notice (the
       // RMSE bound below).
       EXPECT_LT(d.vertical, 0.07);
       EXPECT_LT(d.tilt, 0.07);
