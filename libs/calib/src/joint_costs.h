@@ -221,51 +221,84 @@ void liftPoseJacobian(const Eigen::Matrix<double, R, 6>& tangent, const Eigen::Q
   }
 }
 
-// world_from_fisheye at t_camera - offset and its derivative (7 stored
-// numbers by [node_k (7), node_k+1 (7), offset]), for the marker costs.
-inline Rigid3d fisheyePoseWithJacobian(const Bracket& b, const double* nk, const double* nk1,
-                                       double offset, double tau_camera_s,
-                                       Eigen::Matrix<double, 7, 15, Eigen::RowMajor>* d) {
-  using J = ceres::Jet<double, 15>;
-  J a[7], c[7];
-  for (int i = 0; i < 7; ++i) {
-    a[i] = J(nk[i], i);
-    c[i] = J(nk1[i], 7 + i);
-  }
-  const Rigid3<J> w = poseAt(b, a, c, J(tau_camera_s) - J(offset, 14));
-  const J out[7] = {w.translation.x(),      w.translation.y(),      w.translation.z(),
-                    w.rotation.coeffs()[0], w.rotation.coeffs()[1], w.rotation.coeffs()[2],
-                    w.rotation.coeffs()[3]};
-  double v[7];
-  for (int r = 0; r < 7; ++r) {
-    v[r] = out[r].a;
-    d->row(r) = out[r].v.transpose();
-  }
-  return poseFromParams(v);
+// The derivative of poseAt with respect to the tangents [dt; dtheta] of the
+// two nodes (columns 0-5 and 6-11) and to tau (column 12), rows the pose's
+// tangent [dt (world); dtheta (body)], written out (it was Jets of 15, most
+// of the joint's Jacobian time). With ck = N_k Nref_k^-1 (rotation R_k),
+// w = Log(R_k^T R_k+1) and alpha = tau / duration (held in [0, 1]):
+// correction = (R_k Exp(alpha w), t_k + alpha (t_k+1 - t_k)); a node's
+// rotation perturbation moves w through the inverse right Jacobian of Log,
+// and Exp(alpha w) through the right Jacobian of Exp.
+using PoseAtJacobian = Eigen::Matrix<double, 6, 13>;
+
+inline Rigid3d poseAtWithJacobian(const Bracket& b, const double* nk, const double* nk1, double tau,
+                                  PoseAtJacobian* d) {
+  const Rigid3d n_k = poseFromParams(nk), n_k1 = poseFromParams(nk1);
+  const Rigid3d ck = n_k * b.ref_inverse_k, ck1 = n_k1 * b.ref_inverse_k1;
+  double alpha = tau / b.duration_s, d_alpha = 1.0 / b.duration_s;
+  if (alpha < 0) alpha = 0, d_alpha = 0;
+  if (alpha > 1) alpha = 1, d_alpha = 0;
+  const Eigen::Quaterniond q_rel = ck.rotation.conjugate() * ck1.rotation;
+  const Eigen::Vector3d w = so3Log(q_rel);
+  const Eigen::Vector3d wa = w * alpha;
+  const Eigen::Quaterniond e = so3Exp(wa);
+  const Rigid3d correction(ck.rotation * e,
+                           ck.translation + (ck1.translation - ck.translation) * alpha);
+  const double delta = tau - b.tau_ref_s;
+  const Eigen::Vector3d wd = b.omega_body * delta;
+  const Rigid3d reference(b.reference.rotation * so3Exp(wd),
+                          b.reference.translation + b.velocity_world * delta);
+  const Rigid3d pose = correction * reference;
+
+  // A perturbation phi_c of the correction's rotation (on the right) moves
+  // the pose by [-R_c [t_r]x phi_c; R_r^T phi_c].
+  const Eigen::Matrix3d rc = correction.rotation.toRotationMatrix();
+  const Eigen::Matrix3d rr_t = reference.rotation.toRotationMatrix().transpose();
+  const Eigen::Matrix3d to_translation = -rc * skew(reference.translation);
+  // phi_c from the nodes' rotations (phi_k = R_ik^T dtheta_k, right perturbations of R_k):
+  // phi_c = (Exp(alpha w)^T - m R_rel^T) phi_k + m phi_k+1, m = alpha Jr(alpha w) Jr^-1(w).
+  const Eigen::Matrix3d m =
+      alpha * so3LeftJacobian<double>(-wa) * so3LeftJacobianInverse<double>(Eigen::Vector3d(-w));
+  const Eigen::Matrix3d a_k =
+      (e.toRotationMatrix().transpose() - m * q_rel.toRotationMatrix().transpose()) *
+      b.ref_inverse_k.rotation.toRotationMatrix().transpose();
+  const Eigen::Matrix3d a_k1 = m * b.ref_inverse_k1.rotation.toRotationMatrix().transpose();
+  d->setZero();
+  const auto node = [&](int col, double weight, const Rigid3d& n, const Rigid3d& ref_inverse,
+                        const Eigen::Matrix3d& a) {
+    d->block<3, 3>(0, col) = weight * Eigen::Matrix3d::Identity();
+    d->block<3, 3>(0, col + 3) =
+        to_translation * a - weight * n.rotation.toRotationMatrix() * skew(ref_inverse.translation);
+    d->block<3, 3>(3, col + 3) = rr_t * a;
+  };
+  node(0, 1 - alpha, n_k, b.ref_inverse_k, a_k);
+  node(6, alpha, n_k1, b.ref_inverse_k1, a_k1);
+  // tau: alpha moves the correction by (w, t_k+1 - t_k) d_alpha, and the
+  // reference by (omega, v).
+  d->block<3, 1>(0, 12) =
+      (to_translation * w + (ck1.translation - ck.translation)) * d_alpha + rc * b.velocity_world;
+  d->block<3, 1>(3, 12) = rr_t * w * d_alpha + b.omega_body;
+  return pose;
 }
 
 // Spreads a cost's Jacobian with respect to world_from_fisheye (tangent,
-// R x 6) onto the blocks node_k, node_k+1 and, when given, the offset
-// (d_pose: the pose's 7 stored numbers by [node_k, node_k+1(, offset)]).
-template <int R, typename DPose>
-void chainFisheyeJacobian(const Eigen::Matrix<double, R, 6>& d_fisheye, const Rigid3d& fisheye,
-                          const DPose& d_pose, double* node_k, double* node_k1, double* offset) {
-  Eigen::Matrix<double, R, 7, Eigen::RowMajor> stored;
-  liftPoseJacobian<R>(d_fisheye, fisheye.rotation, stored.data());
-  const Eigen::Matrix<double, R, DPose::ColsAtCompileTime> d = stored * d_pose;
+// R x 6) onto the blocks node_k, node_k+1 (stored numbers, lifted as above)
+// and, when given, the clock offset (tau = t_camera - offset).
+template <int R>
+void chainFisheyeJacobian(const Eigen::Matrix<double, R, 6>& d_fisheye, const PoseAtJacobian& d,
+                          const double* nk, const double* nk1, double* node_k, double* node_k1,
+                          double* offset) {
   if (node_k != nullptr) {
-    Eigen::Map<Eigen::Matrix<double, R, 7, Eigen::RowMajor>> out(node_k);
-    out = d.template middleCols<7>(0);
+    const Eigen::Matrix<double, R, 6> t = d_fisheye * d.middleCols<6>(0);
+    liftPoseJacobian<R>(t, Eigen::Quaterniond(nk[6], nk[3], nk[4], nk[5]), node_k);
   }
   if (node_k1 != nullptr) {
-    Eigen::Map<Eigen::Matrix<double, R, 7, Eigen::RowMajor>> out(node_k1);
-    out = d.template middleCols<7>(7);
+    const Eigen::Matrix<double, R, 6> t = d_fisheye * d.middleCols<6>(6);
+    liftPoseJacobian<R>(t, Eigen::Quaterniond(nk1[6], nk1[3], nk1[4], nk1[5]), node_k1);
   }
-  if constexpr (DPose::ColsAtCompileTime == 15) {
-    if (offset != nullptr) {
-      Eigen::Map<Eigen::Matrix<double, R, 1>> out(offset);
-      out = d.col(14);
-    }
+  if (offset != nullptr) {
+    Eigen::Map<Eigen::Matrix<double, R, 1>> out(offset);
+    out = -(d_fisheye * d.col(12));
   }
 }
 
@@ -300,8 +333,10 @@ struct MarkerCornersCost {
 // derivative; then writeJacobians() lifts and chains their tangent ones.
 struct MarkerPoint {
   MarkerPoint(const Bracket& bracket, double tau_camera_s, double const* const* parameters)
-      : fisheye(fisheyePoseWithJacobian(bracket, parameters[0], parameters[1], parameters[4][0],
-                                        tau_camera_s, &d_fisheye)),
+      : nk(parameters[0]),
+        nk1(parameters[1]),
+        fisheye(poseAtWithJacobian(bracket, parameters[0], parameters[1],
+                                   tau_camera_s - parameters[4][0], &d_fisheye)),
         x(poseFromParams(parameters[2])),
         camera(poseFromParams(parameters[3])),
         rc_t(camera.rotation.toRotationMatrix().transpose()),
@@ -313,12 +348,12 @@ struct MarkerPoint {
                       const Eigen::Matrix<double, R, 6>& d_camera, double** jacobians) const {
     if (jacobians[2] != nullptr) liftPoseJacobian<R>(d_x, x.rotation, jacobians[2]);
     if (jacobians[3] != nullptr) liftPoseJacobian<R>(d_camera, camera.rotation, jacobians[3]);
-    if (jacobians[0] != nullptr || jacobians[1] != nullptr || jacobians[4] != nullptr) {
-      chainFisheyeJacobian<R>(d_fisheye_tangent, fisheye, d_fisheye, jacobians[0], jacobians[1],
-                              jacobians[4]);
-    }
+    chainFisheyeJacobian<R>(d_fisheye_tangent, d_fisheye, nk, nk1, jacobians[0], jacobians[1],
+                            jacobians[4]);
   }
-  Eigen::Matrix<double, 7, 15, Eigen::RowMajor> d_fisheye;  // (declared first: set first)
+  const double* nk;
+  const double* nk1;
+  PoseAtJacobian d_fisheye;      // (declared before `fisheye`: set with it)
   Rigid3d fisheye, x, camera;    // world_from_fisheye, fisheye_from_marker, world_from_camera
   Eigen::Matrix3d rc_t, rf, rx;  // R_camera^T, R_fisheye, R_x
 };
@@ -432,7 +467,7 @@ struct BlobCost {
 // the joint's Jacobian time.
 class FramePoseCache : public ceres::EvaluationCallback {
  public:
-  using Jacobian = Eigen::Matrix<double, 7, 14, Eigen::RowMajor>;  // d pose / d [node_k node_k+1]
+  using Jacobian = PoseAtJacobian;  // d pose / d [node_k node_k+1] (tangents; tau's unused)
 
   /// A frame between the nodes `node_k` and `node_k1` (parameter blocks that
   /// outlive the cache); returns its slot.
@@ -470,20 +505,10 @@ class FramePoseCache : public ceres::EvaluationCallback {
       for (int r = 0; r < 4; ++r) poses_[i][3 + r] = w.rotation.coeffs()[r];
       return;
     }
-    using J = ceres::Jet<double, 14>;
-    J a[7], c[7];
-    for (int r = 0; r < 7; ++r) {
-      a[r] = J(s.node_k[r], r);
-      c[r] = J(s.node_k1[r], 7 + r);
-    }
-    const Rigid3<J> w = poseAt(s.bracket, a, c, J(s.bracket.tau_ref_s));
-    const J out[7] = {w.translation.x(),      w.translation.y(),      w.translation.z(),
-                      w.rotation.coeffs()[0], w.rotation.coeffs()[1], w.rotation.coeffs()[2],
-                      w.rotation.coeffs()[3]};
-    for (int r = 0; r < 7; ++r) {
-      poses_[i][r] = out[r].a;
-      jacobians_[i].row(r) = out[r].v.transpose();
-    }
+    const Rigid3d w =
+        poseAtWithJacobian(s.bracket, s.node_k, s.node_k1, s.bracket.tau_ref_s, &jacobians_[i]);
+    for (int r = 0; r < 3; ++r) poses_[i][r] = w.translation[r];
+    for (int r = 0; r < 4; ++r) poses_[i][3 + r] = w.rotation.coeffs()[r];
   }
   std::vector<Slot> slots_;
   std::vector<std::array<double, 7>> poses_;
@@ -543,7 +568,8 @@ class CachedBlobCost : public ceres::SizedCostFunction<2, 7, 7, 7> {
     d_c.rightCols<3>() = d_p * (-rf_t * rc * skew(offset_in_camera_));
     if (jacobians[2] != nullptr) liftPoseJacobian<2>(d_c, C.rotation, jacobians[2]);
     if (jacobians[0] != nullptr || jacobians[1] != nullptr) {
-      chainFisheyeJacobian<2>(d_f, F, cache_->jacobian(slot_), jacobians[0], jacobians[1], nullptr);
+      chainFisheyeJacobian<2>(d_f, cache_->jacobian(slot_), parameters[0], parameters[1],
+                              jacobians[0], jacobians[1], nullptr);
     }
     return true;
   }

@@ -227,19 +227,74 @@ TEST(JointCosts, TimeOutsideItsBracketHoldsTheNearerNodesCorrection) {
       const Rigid3d pose = joint_detail::poseAt<double>(b, nk, nk1, tau);
       EXPECT_LT((pose.translation - expected.translation).norm(), 1e-12) << tau;
       EXPECT_LT(pose.rotation.angularDistance(expected.rotation), 1e-12) << tau;
-      // The farther node has no influence: the Jacobian on its tangent space
-      // is zero (its quaternion's norm, which the manifold never moves, aside).
-      Eigen::Matrix<double, 7, 15, Eigen::RowMajor> d;
-      joint_detail::fisheyePoseWithJacobian(b, nk, nk1, 0.0, tau, &d);
-      const std::unique_ptr<ceres::Manifold> manifold(calib_detail::newPoseManifold());
-      Eigen::Matrix<double, 7, 6, Eigen::RowMajor> plus;
-      manifold->PlusJacobian(before ? nk1 : nk, plus.data());
-      const Eigen::Matrix<double, 7, 6> farther = d.block(0, before ? 7 : 0, 7, 7) * plus;
-      EXPECT_LT(farther.norm(), 1e-9) << tau;
-      // The offset still moves the pose with the reference's velocity.
-      EXPECT_GT(d.col(14).head<3>().norm(), 0.5) << tau;
+      // The farther node has no influence: the Jacobian on its tangent space is zero.
+      joint_detail::PoseAtJacobian d;
+      joint_detail::poseAtWithJacobian(b, nk, nk1, tau, &d);
+      EXPECT_LT(d.middleCols<6>(before ? 6 : 0).norm(), 1e-9) << tau;
+      // Tau still moves the pose with the reference's velocity.
+      EXPECT_GT(d.col(12).head<3>().norm(), 0.5) << tau;
     }
   }
+}
+
+// poseAtWithJacobian against poseAt differentiated with Jets: the same pose,
+// and the same derivatives with respect to the nodes' tangents and to tau,
+// inside the bracket, at its ends and outside it; and at rotations between
+// the nodes up to 2.5 rad.
+TEST(JointCosts, PoseAtJacobianMatchesJets) {
+  std::mt19937 rng(21);
+  const std::unique_ptr<ceres::Manifold> manifold(calib_detail::newPoseManifold());
+  int compared = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    Rigid3d ref_k, ref_k1;
+    Bracket b = randomBracket(rng, &ref_k, &ref_k1);
+    b.velocity_world = Eigen::Vector3d(0.8, -0.3, 0.01);
+    b.omega_body = Eigen::Vector3d(0.01, -0.02, 0.3);
+    double nk[7], nk1[7];
+    const double spread = trial < 20 ? 0.005 : 0.5;  // the nodes' rotations apart
+    calib_detail::poseToParams(ref_k * randomPose(rng, 0.01, spread), nk);
+    calib_detail::poseToParams(ref_k1 * randomPose(rng, 0.01, spread), nk1);
+    for (const double tau : {-0.05, 0.0, 0.013, 0.061, 0.1, 0.3}) {
+      joint_detail::PoseAtJacobian d;
+      const Rigid3d pose = joint_detail::poseAtWithJacobian(b, nk, nk1, tau, &d);
+      using J = ceres::Jet<double, 15>;
+      J a[7], c[7];
+      for (int i = 0; i < 7; ++i) {
+        a[i] = J(nk[i], i);
+        c[i] = J(nk1[i], 7 + i);
+      }
+      const Rigid3<J> jet = joint_detail::poseAt(b, a, c, J(tau, 14));
+      Eigen::Matrix<double, 7, 15, Eigen::RowMajor> stored;  // d [t q] / d [nk nk1 tau]
+      const J out[7] = {jet.translation.x(),      jet.translation.y(),
+                        jet.translation.z(),      jet.rotation.coeffs()[0],
+                        jet.rotation.coeffs()[1], jet.rotation.coeffs()[2],
+                        jet.rotation.coeffs()[3]};
+      for (int r = 0; r < 7; ++r) stored.row(r) = out[r].v.transpose();
+      EXPECT_LT((pose.translation - Eigen::Vector3d(out[0].a, out[1].a, out[2].a)).norm(), 1e-12);
+      EXPECT_NEAR(std::abs(pose.rotation.coeffs().dot(
+                      Eigen::Vector4d(out[3].a, out[4].a, out[5].a, out[6].a))),
+                  1.0, 1e-12);
+      // Jets give d[t q]; the pose's tangent is [dt; 2 (q^-1 dq).vec].
+      Eigen::Matrix<double, 6, 7> to_tangent = Eigen::Matrix<double, 6, 7>::Zero();
+      to_tangent.block<3, 3>(0, 0).setIdentity();
+      for (int i = 0; i < 4; ++i) {
+        Eigen::Quaterniond e(0, 0, 0, 0);
+        e.coeffs()[i] = 1;
+        to_tangent.block<3, 1>(3, 3 + i) = 2 * (pose.rotation.conjugate() * e).vec();
+      }
+      Eigen::Matrix<double, 7, 6, Eigen::RowMajor> plus_k, plus_k1;
+      manifold->PlusJacobian(nk, plus_k.data());
+      manifold->PlusJacobian(nk1, plus_k1.data());
+      const std::string what = "trial " + std::to_string(trial) + " tau " + std::to_string(tau);
+      expectNear(d.middleCols<6>(0), to_tangent * stored.middleCols<7>(0) * plus_k, 1e-9,
+                 what + " node_k");
+      expectNear(d.middleCols<6>(6), to_tangent * stored.middleCols<7>(7) * plus_k1, 1e-9,
+                 what + " node_k+1");
+      expectNear(d.col(12), to_tangent * stored.col(14), 1e-9, what + " tau");
+      ++compared;
+    }
+  }
+  EXPECT_EQ(compared, 240);
 }
 
 // The marker costs with their derivatives written out against the autodiff
@@ -349,7 +404,7 @@ TEST(JointCosts, CacheRecomputesAtANewPointAndWhenJacobiansAreAskedLater) {
   cache.PrepareForEvaluation(true, false);  // Jacobians asked for: computed now
   EXPECT_NEAR(cache.pose(slot)[0], 1.8, 1e-12);
   EXPECT_NEAR(cache.jacobian(slot)(0, 0), 0.6, 1e-12);  // d x / d node_k.x
-  EXPECT_NEAR(cache.jacobian(slot)(0, 7), 0.4, 1e-12);  // d x / d node_k+1.x
+  EXPECT_NEAR(cache.jacobian(slot)(0, 6), 0.4, 1e-12);  // d x / d node_k+1.x
   nk[0] = 0;
   cache.PrepareForEvaluation(false, true);
   EXPECT_NEAR(cache.pose(slot)[0], 1.2, 1e-12);
