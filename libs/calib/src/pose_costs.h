@@ -38,9 +38,48 @@ struct RightPerturbedPose {
   }
 };
 
-inline ceres::Manifold* newPoseManifold() {
-  return new ceres::AutoDiffManifold<RightPerturbedPose, 7, 6>;
-}
+/// RightPerturbedPose with its Jacobians at delta = 0 written out (Ceres asks
+/// for PlusJacobian at every Jacobian evaluation, for every block):
+/// d(q Exp(dtheta))/d dtheta = 1/2 q (x) [dtheta; 0], and
+/// d Log(q_x^-1 q_y)/d q_y at q_y = q_x = 2 (q_x^-1 (x) dq_y).vec.
+/// (Tests compare them with AutoDiffManifold's.)
+class PoseManifold : public ceres::Manifold {
+ public:
+  int AmbientSize() const override { return 7; }
+  int TangentSize() const override { return 6; }
+  bool Plus(const double* x, const double* delta, double* x_plus_delta) const override {
+    return RightPerturbedPose().Plus(x, delta, x_plus_delta);
+  }
+  bool PlusJacobian(const double* x, double* jacobian) const override {
+    Eigen::Map<Eigen::Matrix<double, 7, 6, Eigen::RowMajor>> j(jacobian);
+    j.setZero();
+    j.topLeftCorner<3, 3>().setIdentity();
+    const Eigen::Map<const Eigen::Quaterniond> q(x + 3);
+    for (int i = 0; i < 3; ++i) {
+      Eigen::Quaterniond e(0, 0, 0, 0);
+      e.vec()[i] = 0.5;
+      j.block<4, 1>(3, 3 + i) = (q * e).coeffs();
+    }
+    return true;
+  }
+  bool Minus(const double* y, const double* x, double* y_minus_x) const override {
+    return RightPerturbedPose().Minus(y, x, y_minus_x);
+  }
+  bool MinusJacobian(const double* x, double* jacobian) const override {
+    Eigen::Map<Eigen::Matrix<double, 6, 7, Eigen::RowMajor>> j(jacobian);
+    j.setZero();
+    j.topLeftCorner<3, 3>().setIdentity();
+    const Eigen::Map<const Eigen::Quaterniond> q(x + 3);
+    for (int i = 0; i < 4; ++i) {
+      Eigen::Quaterniond e(0, 0, 0, 0);
+      e.coeffs()[i] = 2.0;
+      j.block<3, 1>(3, 3 + i) = (q.conjugate() * e).vec();
+    }
+    return true;
+  }
+};
+
+inline ceres::Manifold* newPoseManifold() { return new PoseManifold; }
 
 inline void poseToParams(const Rigid3d& pose, double* params) {
   const Eigen::Quaterniond q = pose.rotation.normalized();

@@ -28,12 +28,17 @@ bool definite(const Eigen::VectorXd& d) {
 }
 
 // The entries of A^-1 on the pattern of the unit lower factor L (A = L D L^T,
-// L strictly lower and column-major with sorted rows; its pattern is closed
-// under elimination), by the Takahashi recursion from the last column:
-//   Z(i, j) = -sum_{k in col j} Z(i, k) L(k, j)   for i in col j,
-//   Z(j, j) = 1 / D(j) - sum_{k in col j} L(k, j) Z(k, j).
-// Z(i, k) for i, k in column j lies in column min(i, k), since its pattern
-// holds column j's rows below it.
+// L strictly lower and column-major with sorted rows), by the Takahashi
+// recursion from the last column, Z(j+1:n, j) = -Z(j+1:n, j+1:n) L(j+1:n, j)
+// and Z(j, j) = 1 / D(j) - L(j+1:n, j)^T Z(j+1:n, j), over supernodes:
+// consecutive columns S with one pattern R below them (a parameter block's
+// columns, which H couples alike). With L_SS (unit lower) and L_RS their
+// rows of L, M = L_SS^-1 and Y = L_RS M:
+//   Z_RS = -Z_RR Y,   Z_SS = M^T D_S^-1 M - Y^T Z_RS,
+// where Z_RR lies on the pattern already computed: for k in R, column k's
+// pattern holds every row of R below k (elimination fills it). Dense blocks
+// per supernode instead of an indexed update per column: 6x fewer passes
+// over the later columns on pose blocks.
 class SelectedInverse {
  public:
   SelectedInverse(const Sparse& l, const Eigen::VectorXd& d)
@@ -42,32 +47,56 @@ class SelectedInverse {
     const double* lx = l.valuePtr();
     diagonal_.resize(n);
     values_.assign(static_cast<std::size_t>(lp_[n]), 0.0);
-    std::vector<int> slot(static_cast<std::size_t>(n), -1);  // row -> place in column j
-    std::vector<double> sum;
-    for (int j = n - 1; j >= 0; --j) {
-      const int p0 = lp_[j], m = lp_[j + 1] - p0;
-      sum.assign(static_cast<std::size_t>(m), 0.0);
-      for (int a = 0; a < m; ++a) slot[li_[p0 + a]] = a;
-      for (int b = 0; b < m; ++b) {
-        const int k = li_[p0 + b];
-        const double l_kj = lx[p0 + b];
-        double own = diagonal_[k] * l_kj;  // Z(k, k) L(k, j)
+    // Supernodes: column j joins j+1 when its first row is j+1 and it holds
+    // one row more (its other rows are then those of j+1).
+    std::vector<int> start;
+    for (int j = 0; j < n;) {
+      start.push_back(j);
+      while (j + 1 < n && lp_[j + 1] - lp_[j] == lp_[j + 2] - lp_[j + 1] + 1 &&
+             li_[lp_[j]] == j + 1) {
+        ++j;
+      }
+      ++j;
+    }
+    start.push_back(n);
+    std::vector<int> slot(static_cast<std::size_t>(n), -1);  // row -> place in R
+    Eigen::MatrixXd l_ss, l_rs, z_rr, m, y, z_rs, z_ss;
+    for (int sn = static_cast<int>(start.size()) - 2; sn >= 0; --sn) {
+      const int f = start[sn], e = start[sn + 1], w = e - f;
+      const int* rows = li_ + lp_[e - 1];  // R: the last column's rows
+      const int r = lp_[e] - lp_[e - 1];
+      l_ss.setIdentity(w, w);
+      l_rs.resize(r, w);
+      for (int c = 0; c < w; ++c) {
+        const int p = lp_[f + c], inside = w - c - 1;
+        for (int a = 0; a < inside; ++a) l_ss(c + 1 + a, c) = lx[p + a];
+        for (int a = 0; a < r; ++a) l_rs(a, c) = lx[p + inside + a];
+      }
+      z_rr.resize(r, r);
+      for (int a = 0; a < r; ++a) slot[rows[a]] = a;
+      for (int a = 0; a < r; ++a) {
+        const int k = rows[a];
+        z_rr(a, a) = diagonal_[k];
         for (int q = lp_[k]; q < lp_[k + 1]; ++q) {
-          const int a = slot[li_[q]];
-          if (a < 0) continue;
-          const double z = values_[q];  // Z(i, k), i = row a of column j, i > k
-          sum[a] += z * l_kj;
-          own += z * lx[p0 + a];
+          const int b = slot[li_[q]];
+          if (b < 0) continue;
+          z_rr(b, a) = z_rr(a, b) = values_[q];
         }
-        sum[b] += own;
       }
-      double dot = 0;
-      for (int a = 0; a < m; ++a) {
-        values_[p0 + a] = -sum[a];
-        dot += lx[p0 + a] * values_[p0 + a];
-        slot[li_[p0 + a]] = -1;
+      for (int a = 0; a < r; ++a) slot[rows[a]] = -1;
+      m = l_ss.triangularView<Eigen::UnitLower>().solve(Eigen::MatrixXd::Identity(w, w));
+      y.noalias() = l_rs * m;
+      z_rs.noalias() = -z_rr * y;
+      z_ss.noalias() = m.transpose() * d.segment(f, w).cwiseInverse().asDiagonal() * m;
+      z_ss.noalias() -= y.transpose() * z_rs;
+      for (int c = 0; c < w; ++c) {
+        const int p = lp_[f + c], inside = w - c - 1;
+        diagonal_[f + c] = z_ss(c, c);
+        for (int a = 0; a < inside; ++a) {
+          values_[p + a] = 0.5 * (z_ss(c + 1 + a, c) + z_ss(c, c + 1 + a));
+        }
+        for (int a = 0; a < r; ++a) values_[p + inside + a] = z_rs(a, c);
       }
-      diagonal_[j] = 1.0 / d[j] - dot;
     }
   }
   /// Z(i, j); false when (i, j) is not on the pattern.

@@ -237,6 +237,33 @@ TEST(JointCosts, TimeOutsideItsBracketHoldsTheNearerNodesCorrection) {
   }
 }
 
+// The pose manifold's Jacobians written out against AutoDiffManifold's.
+TEST(JointCosts, PoseManifoldMatchesAutodiff) {
+  std::mt19937 rng(3);
+  const ceres::AutoDiffManifold<calib_detail::RightPerturbedPose, 7, 6> reference;
+  const std::unique_ptr<ceres::Manifold> manifold(calib_detail::newPoseManifold());
+  for (int trial = 0; trial < 20; ++trial) {
+    double x[7], delta[6] = {0.1, -0.2, 0.3, 0.02, -0.01, 0.03}, y0[7], y1[7], m0[6], m1[6];
+    calib_detail::poseToParams(randomPose(rng, 2.0, 1.0), x);
+    Eigen::Matrix<double, 7, 6, Eigen::RowMajor> p0, p1;
+    Eigen::Matrix<double, 6, 7, Eigen::RowMajor> n0, n1;
+    ASSERT_TRUE(reference.PlusJacobian(x, p0.data()));
+    ASSERT_TRUE(manifold->PlusJacobian(x, p1.data()));
+    ASSERT_TRUE(reference.MinusJacobian(x, n0.data()));
+    ASSERT_TRUE(manifold->MinusJacobian(x, n1.data()));
+    expectNear(p1, p0, 1e-12, "PlusJacobian");
+    expectNear(n1, n0, 1e-12, "MinusJacobian");
+    ASSERT_TRUE(reference.Plus(x, delta, y0));
+    ASSERT_TRUE(manifold->Plus(x, delta, y1));
+    ASSERT_TRUE(reference.Minus(y0, x, m0));
+    ASSERT_TRUE(manifold->Minus(y1, x, m1));
+    for (int i = 0; i < 7; ++i) EXPECT_EQ(y1[i], y0[i]);
+    for (int i = 0; i < 6; ++i) EXPECT_NEAR(m1[i], delta[i], 1e-12);
+    EXPECT_EQ(manifold->AmbientSize(), 7);
+    EXPECT_EQ(manifold->TangentSize(), 6);
+  }
+}
+
 // poseAtWithJacobian against poseAt differentiated with Jets: the same pose,
 // and the same derivatives with respect to the nodes' tangents and to tau,
 // inside the bracket, at its ends and outside it; and at rotations between
