@@ -236,8 +236,10 @@ inline Rigid3d poseAtWithJacobian(const Bracket& b, const double* nk, const doub
   const Rigid3d n_k = poseFromParams(nk), n_k1 = poseFromParams(nk1);
   const Rigid3d ck = n_k * b.ref_inverse_k, ck1 = n_k1 * b.ref_inverse_k1;
   double alpha = tau / b.duration_s, d_alpha = 1.0 / b.duration_s;
-  if (alpha < 0) alpha = 0, d_alpha = 0;
-  if (alpha > 1) alpha = 1, d_alpha = 0;
+  if (alpha < 0 || alpha > 1) {  // held at the nearer node: tau does not move it
+    alpha = alpha < 0 ? 0 : 1;
+    d_alpha = 0;
+  }
   const Eigen::Quaterniond q_rel = ck.rotation.conjugate() * ck1.rotation;
   const Eigen::Vector3d w = so3Log(q_rel);
   const Eigen::Vector3d wa = w * alpha;

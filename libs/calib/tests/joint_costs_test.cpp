@@ -60,6 +60,15 @@ Bracket randomBracket(std::mt19937& rng, Rigid3d* ref_k, Rigid3d* ref_k1) {
   return b;
 }
 
+// randomBracket with the robot moving through it (the reference's velocity
+// and turn rate), for the tests that move tau.
+Bracket randomMovingBracket(std::mt19937& rng, Rigid3d* ref_k, Rigid3d* ref_k1) {
+  Bracket b = randomBracket(rng, ref_k, ref_k1);
+  b.velocity_world = Eigen::Vector3d(0.8, -0.3, 0.01);
+  b.omega_body = Eigen::Vector3d(0.01, -0.02, 0.3);
+  return b;
+}
+
 // The drift model's anisotropy: a node displaced along the body's z (or
 // tilted about x or y) is weighed by the vertical (tilt) sigma, the other
 // axes by the horizontal (yaw) one.
@@ -209,9 +218,7 @@ TEST(JointCosts, TimeOutsideItsBracketHoldsTheNearerNodesCorrection) {
   std::mt19937 rng(8);
   for (int trial = 0; trial < 20; ++trial) {
     Rigid3d ref_k, ref_k1;
-    Bracket b = randomBracket(rng, &ref_k, &ref_k1);
-    b.velocity_world = Eigen::Vector3d(0.8, -0.3, 0.01);
-    b.omega_body = Eigen::Vector3d(0.01, -0.02, 0.3);
+    const Bracket b = randomMovingBracket(rng, &ref_k, &ref_k1);
     double nk[7], nk1[7];
     const Rigid3d node_k = ref_k * randomPose(rng, 0.01, 0.005);
     const Rigid3d node_k1 = ref_k1 * randomPose(rng, 0.01, 0.005);
@@ -274,9 +281,7 @@ TEST(JointCosts, PoseAtJacobianMatchesJets) {
   int compared = 0;
   for (int trial = 0; trial < 40; ++trial) {
     Rigid3d ref_k, ref_k1;
-    Bracket b = randomBracket(rng, &ref_k, &ref_k1);
-    b.velocity_world = Eigen::Vector3d(0.8, -0.3, 0.01);
-    b.omega_body = Eigen::Vector3d(0.01, -0.02, 0.3);
+    const Bracket b = randomMovingBracket(rng, &ref_k, &ref_k1);
     double nk[7], nk1[7];
     const double spread = trial < 20 ? 0.005 : 0.5;  // the nodes' rotations apart
     calib_detail::poseToParams(ref_k * randomPose(rng, 0.01, spread), nk);
@@ -334,9 +339,7 @@ TEST(JointCosts, AnalyticMarkerCostsMatchTheAutodiffReference) {
   int compared = 0;
   for (int trial = 0; trial < 50; ++trial) {
     Rigid3d ref_k, ref_k1;
-    Bracket b = randomBracket(rng, &ref_k, &ref_k1);
-    b.velocity_world = Eigen::Vector3d(0.8, -0.3, 0.01);
-    b.omega_body = Eigen::Vector3d(0.01, -0.02, 0.3);
+    const Bracket b = randomMovingBracket(rng, &ref_k, &ref_k1);
     double nk[7], nk1[7], x[7], camera[7], offset = 0.004 * (u(rng) - 0.5);
     calib_detail::poseToParams(ref_k * randomPose(rng, 0.01, 0.005), nk);
     calib_detail::poseToParams(ref_k1 * randomPose(rng, 0.01, 0.005), nk1);
