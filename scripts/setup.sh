@@ -5,7 +5,7 @@ set -euo pipefail
 
 PACKAGES=(
   build-essential cmake ninja-build pkg-config clang-format time
-  libeigen3-dev libceres-dev libopengv-dev
+  libeigen3-dev libceres-dev libsuitesparse-dev libopengv-dev
   libmrpt-dev mrpt-apps
   libopencv-dev libopencv-contrib-dev
   opencv-doc  # real ArUco photographs for the detect tests

@@ -264,6 +264,7 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
                        "function_tolerance",
                        "initial_trust_region_radius",
                        "linear_solver",
+                       "fill_reducing_ordering",
                        "covariance",
                        "aligned_uncertainty_max_cameras",
                        "threads"},
@@ -321,6 +322,10 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
   s.number("function_tolerance", function_tolerance);
   s.number("initial_trust_region_radius", initial_trust_region_radius);
   if (node["linear_solver"]) linear_solver = r.text(node["linear_solver"], s.path("linear_solver"));
+  if (node["fill_reducing_ordering"]) {
+    fill_reducing_ordering =
+        r.text(node["fill_reducing_ordering"], s.path("fill_reducing_ordering"));
+  }
   flag("covariance", covariance);
   s.integer("aligned_uncertainty_max_cameras", aligned_uncertainty_max_cameras);
   s.integer("threads", threads);
@@ -396,6 +401,11 @@ std::string JointOptions::check() const {
     return "'linear_solver': must be sparse_normal_cholesky, sparse_schur or iterative_schur, got "
            "'" +
            linear_solver + "'";
+  }
+  if (fill_reducing_ordering != "auto" && fill_reducing_ordering != "amd" &&
+      fill_reducing_ordering != "nested_dissection") {
+    return "'fill_reducing_ordering': must be auto, amd or nested_dissection, got '" +
+           fill_reducing_ordering + "'";
   }
   return "";
 }

@@ -260,6 +260,14 @@ struct JointOptions {
   /// matrix is sorted anew at every step: 43 cameras 0.80x, 300 0.73x,
   /// 1,000 0.88x the time, same results (doc/benchmarks.md, fourteenth session).
   std::string linear_solver = "sparse_normal_cholesky";
+  /// With sparse_normal_cholesky, the elimination order of J^T J, chosen
+  /// afresh for each round on its pattern of parameter blocks: "amd" (Ceres'
+  /// own approximate minimum degree), "nested_dissection" (METIS) or "auto"
+  /// (whichever the block pattern's symbolic factorisation predicts needs
+  /// fewer flops). The trajectory is a long chain tied to the cameras over
+  /// it: with all blobs, nested dissection's factor takes about a third of
+  /// AMD's flops on `paper_det` (doc/benchmarks.md, fifteenth session).
+  std::string fill_reducing_ordering = "auto";
   /// Per-camera 6x6 covariance (sparse LDL^T of the problem's J^T J; src/sparse_covariance.h).
   bool covariance = true;
   /// Also every pair of cameras' poses, for the position RMSE predicted after
