@@ -157,14 +157,11 @@ bool SparseCovariance::compute(const std::vector<std::pair<const double*, const 
     message_ = "the Jacobian could not be evaluated";
     return false;
   }
-  const Eigen::Map<const Eigen::SparseMatrix<double, Eigen::RowMajor, int>> jacobian(
-      crs.num_rows, crs.num_cols, static_cast<int>(crs.values.size()), crs.rows.data(),
-      crs.cols.data(), crs.values.data());
-  const Sparse information = Sparse(jacobian.transpose()) * jacobian;
-  const std::clock_t evaluated = std::clock();
-  stats_.evaluate_cpu_s = static_cast<double>(evaluated - start) / CLOCKS_PER_SEC;
+  stats_.evaluate_cpu_s = static_cast<double>(std::clock() - start) / CLOCKS_PER_SEC;
 
-  // The block graph of H.
+  // The block graph of H = J^T J: blocks that share a row of J. The rows of
+  // one residual block name the same blocks: a row like the one before adds
+  // nothing.
   const int blocks = static_cast<int>(first.size());
   std::vector<int> block_of(static_cast<std::size_t>(n));
   for (int b = 0; b < blocks; ++b) {
@@ -172,18 +169,25 @@ bool SparseCovariance::compute(const std::vector<std::pair<const double*, const 
   }
   std::vector<std::vector<int>> neighbours(static_cast<std::size_t>(blocks));
   {
-    std::vector<int> seen(static_cast<std::size_t>(blocks), -1);
-    for (int b = 0; b < blocks; ++b) {
-      for (int col = first[b]; col < first[b] + size[b]; ++col) {
-        for (Sparse::InnerIterator it(information, col); it; ++it) {
-          const int o = block_of[static_cast<std::size_t>(it.row())];
-          if (o != b && seen[o] != b) {
-            seen[o] = b;
-            neighbours[b].push_back(o);
-          }
+    std::vector<int> row_blocks, previous;
+    for (int r = 0; r < crs.num_rows; ++r) {
+      row_blocks.clear();
+      for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) {
+        row_blocks.push_back(block_of[static_cast<std::size_t>(crs.cols[k])]);
+      }
+      std::sort(row_blocks.begin(), row_blocks.end());
+      row_blocks.erase(std::unique(row_blocks.begin(), row_blocks.end()), row_blocks.end());
+      if (row_blocks == previous) continue;
+      for (const int u : row_blocks) {
+        for (const int v : row_blocks) {
+          if (u != v) neighbours[u].push_back(v);
         }
       }
-      std::sort(neighbours[b].begin(), neighbours[b].end());
+      previous = row_blocks;
+    }
+    for (auto& list : neighbours) {
+      std::sort(list.begin(), list.end());
+      list.erase(std::unique(list.begin(), list.end()), list.end());
     }
   }
   auto coupled = [&](int a, int b) {
@@ -257,40 +261,109 @@ bool SparseCovariance::compute(const std::vector<std::pair<const double*, const 
   stats_.sparse_columns = na;
   stats_.dense_columns = ng;
 
-  // H = [A B; B^T C] in the new order (A: lower triangle).
-  std::vector<Eigen::Triplet<double>> a_entries, b_entries;
+  // H = [A B; B^T C] in the new order, accumulated by blocks: the rows of
+  // one residual block are consecutive in J, name the same columns and make
+  // a dense m x k matrix J_g (its parameter blocks' columns side by side), so
+  // H gains the dense J_g^T J_g, cut into its parameter blocks' pairs and
+  // added to each pair's dense block of H's lower triangle (in the new
+  // order). Then A's lower triangle in compressed columns, B's entries and
+  // the dense C. (Formed whole as a sparse product, J^T J took as long as
+  // the rest of this function on `paper_det`.)
+  const std::clock_t product_start = std::clock();
+  // Per block column V: the blocks U at or after it in the new order that H
+  // couples with it, sorted by position, and where their dense block
+  // (size[U] x size[V], column-major) starts in `values`.
+  std::vector<std::vector<std::pair<int, std::size_t>>> lower(static_cast<std::size_t>(blocks));
+  std::size_t total = 0;
+  for (int v = 0; v < blocks; ++v) {
+    auto& list = lower[static_cast<std::size_t>(v)];
+    list.emplace_back(v, 0);
+    for (const int u : neighbours[v]) {
+      if (new_first[u] > new_first[v]) list.emplace_back(u, 0);
+    }
+    std::sort(list.begin(), list.end(), [&](const auto& x, const auto& y) {
+      return new_first[x.first] < new_first[y.first];
+    });
+    for (auto& [u, offset] : list) {
+      offset = total;
+      total += static_cast<std::size_t>(size[u]) * static_cast<std::size_t>(size[v]);
+    }
+  }
+  std::vector<double> values(total, 0.0);
+  auto blockAt = [&](int u, int v) -> double* {  // new_first[u] >= new_first[v]
+    const auto& list = lower[static_cast<std::size_t>(v)];
+    const auto it = std::lower_bound(
+        list.begin(), list.end(), new_first[u],
+        [&](const std::pair<int, std::size_t>& x, int at) { return new_first[x.first] < at; });
+    return values.data() + it->second;
+  };
+  {
+    struct Run {
+      int block, column;  // its first column within J_g
+    };
+    std::vector<Run> runs;
+    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    Eigen::MatrixXd product;
+    int r = 0;
+    while (r < crs.num_rows) {
+      const int begin = crs.rows[r], k = crs.rows[r + 1] - begin;
+      int end_row = r + 1;  // the rows naming the same columns
+      while (end_row < crs.num_rows && crs.rows[end_row + 1] - crs.rows[end_row] == k &&
+             std::equal(crs.cols.begin() + begin, crs.cols.begin() + begin + k,
+                        crs.cols.begin() + crs.rows[end_row])) {
+        ++end_row;
+      }
+      runs.clear();
+      for (int q = 0; q < k;) {
+        const int b = block_of[static_cast<std::size_t>(crs.cols[begin + q])];
+        runs.push_back({b, q});
+        q += size[b];
+      }
+      const Eigen::Map<const RowMajor> jg(crs.values.data() + begin, end_row - r, k);
+      product.noalias() = jg.transpose() * jg;
+      for (const Run& x : runs) {
+        for (const Run& y : runs) {
+          if (new_first[x.block] < new_first[y.block]) continue;  // x at or after y
+          Eigen::Map<Eigen::MatrixXd> target(blockAt(x.block, y.block), size[x.block],
+                                             size[y.block]);
+          target += product.block(x.column, y.column, size[x.block], size[y.block]);
+        }
+      }
+      r = end_row;
+    }
+  }
+  std::vector<int> a_start(static_cast<std::size_t>(na) + 1, 0), a_rows;
+  std::vector<double> a_values;
+  std::vector<Eigen::Triplet<double>> b_entries;
   Eigen::MatrixXd s = Eigen::MatrixXd::Zero(ng, ng);
-  for (int col = 0; col < n; ++col) {
-    const int c = renumber[col];
-    for (Sparse::InnerIterator it(information, col); it; ++it) {
-      const int r = renumber[static_cast<std::size_t>(it.row())];
-      if (r < na && c < na) {
-        if (r >= c) a_entries.emplace_back(r, c, it.value());
-      } else if (r < na) {
-        b_entries.emplace_back(r, c - na, it.value());
-      } else if (c >= na) {
-        s(r - na, c - na) = it.value();
+  for (const int v : order) {
+    for (int j = 0; j < size[v]; ++j) {
+      const int c = new_first[v] + j;
+      for (const auto& [u, offset] : lower[static_cast<std::size_t>(v)]) {
+        const double* block = values.data() + offset;  // size[u] x size[v], column-major
+        for (int i = u == v ? j : 0; i < size[u]; ++i) {
+          const int row = new_first[u] + i;
+          const double value = block[static_cast<std::size_t>(j) * size[u] + i];
+          if (c < na && row < na) {
+            a_rows.push_back(row);
+            a_values.push_back(value);
+          } else if (c < na) {
+            b_entries.emplace_back(c, row - na, value);
+          } else {
+            s(row - na, c - na) = value;
+            s(c - na, row - na) = value;
+          }
+        }
       }
+      if (c < na) a_start[static_cast<std::size_t>(c) + 1] = static_cast<int>(a_rows.size());
     }
   }
-  // Every entry of a requested block pair in A on the pattern (explicit
-  // zeros where H has none).
-  for (const auto& [pa, pb] : pairs) {
-    const int a = index[pa], b = index[pb];
-    if (dense[a] || dense[b]) continue;
-    for (int u = 0; u < size[a]; ++u) {
-      for (int v = 0; v < size[b]; ++v) {
-        const int r = new_first[a] + u, c = new_first[b] + v;
-        a_entries.emplace_back(std::max(r, c), std::min(r, c), 0.0);
-      }
-    }
-  }
+  stats_.evaluate_cpu_s += static_cast<double>(std::clock() - product_start) / CLOCKS_PER_SEC;
 
   Eigen::SimplicialLDLT<Sparse, Eigen::Lower, Eigen::NaturalOrdering<int>> ldlt;
   if (na > 0) {
-    Sparse h_aa(na, na);
-    h_aa.setFromTriplets(a_entries.begin(), a_entries.end());
-    a_entries = {};
+    const Sparse h_aa = Eigen::Map<const Sparse>(na, na, static_cast<Eigen::Index>(a_rows.size()),
+                                                 a_start.data(), a_rows.data(), a_values.data());
     ldlt.compute(h_aa);
     if (ldlt.info() != Eigen::Success || !definite(ldlt.vectorD())) {
       message_ = kSingular;
@@ -390,7 +463,8 @@ bool SparseCovariance::compute(const std::vector<std::pair<const double*, const 
     }
     blocks_[{pa, pb}] = out;
   }
-  stats_.rest_cpu_s = static_cast<double>(std::clock() - evaluated) / CLOCKS_PER_SEC;
+  stats_.rest_cpu_s =
+      static_cast<double>(std::clock() - start) / CLOCKS_PER_SEC - stats_.evaluate_cpu_s;
   return true;
 }
 
