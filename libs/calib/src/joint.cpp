@@ -554,6 +554,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     std::sort(by_x.begin(), by_x.end());
     const double range = std::max(5.0, (max_height + 1.0) * std::tan(max_angle) + 2.0);
     std::vector<std::pair<std::size_t, Eigen::Vector2d>> projected;
+    calib_detail::BlobsByColumn by_column;
     for (std::size_t fi = 0; fi < frames.size();
          fi += static_cast<std::size_t>(options.association_frame_step)) {
       const Frame& f = frames[fi];
@@ -572,9 +573,10 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
         if (!pixel || !fisheye->isInImage(*pixel, -options.gate_px)) continue;
         projected.emplace_back(c, *pixel);
       }
-      const std::vector<Blob>& blobs = f.blobs->blobs;
+      if (projected.empty()) continue;
+      by_column.assign(f.blobs->blobs);
       for (const auto& [c, pixel] : projected) {
-        if (const auto best = calib_detail::associatedBlob(blobs, c, pixel, options.gate_px,
+        if (const auto best = calib_detail::associatedBlob(by_column, c, pixel, options.gate_px,
                                                            options.ambiguity_ratio, projected)) {
           matches[c].push_back({fi, *best});
         }

@@ -157,6 +157,7 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
   auto associate = [&](std::size_t frame_step) {
     for (Candidate& c : cameras) c.matches.clear();
     std::vector<std::pair<std::size_t, Eigen::Vector2d>> projected;  // (camera, pixel)
+    calib_detail::BlobsByColumn by_column;
     for (std::size_t fi = 0; fi < frames.size(); fi += frame_step) {
       const Frame& f = frames[fi];
       const std::vector<Blob>& blobs = f.blobs->blobs;
@@ -172,8 +173,10 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
         if (!pixel || !fisheye.isInImage(*pixel, -options.gate_px)) continue;
         projected.emplace_back(static_cast<std::size_t>(k), *pixel);
       }
+      if (projected.empty()) continue;
+      by_column.assign(blobs);
       for (const auto& [k, pixel] : projected) {
-        if (const auto best = calib_detail::associatedBlob(blobs, k, pixel, cameras[k].gate,
+        if (const auto best = calib_detail::associatedBlob(by_column, k, pixel, cameras[k].gate,
                                                            options.ambiguity_ratio, projected)) {
           cameras[k].matches.push_back({fi, *best});
         }
