@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <opencv2/calib3d.hpp>
 #include <random>
+#include <string>
+#include <variant>
 #include <vector>
 
 #include "lookboth/cameras/camera.h"
@@ -77,6 +79,21 @@ const Scene& kannalaBrandtScene() {
 const Scene& scaramuzzaScene() {
   static const Scene scene = makeScene(
       loadCamera(std::string(LOOKBOTH_SHARE_DIR) + "/cameras/fisheye_calib_results.txt"), 3);
+  return scene;
+}
+
+/// The same lens with its direct polynomial only, as the simulator writes it
+/// (and as many calibrations come): no inverse polynomial to seed the solve.
+const Scene& scaramuzzaDirectOnlyScene() {
+  static const Scene scene = [] {
+    const Camera full =
+        loadCamera(std::string(LOOKBOTH_SHARE_DIR) + "/cameras/fisheye_calib_results.txt");
+    const auto* model = std::get_if<ScaramuzzaModel>(&full.model());
+    ScaramuzzaModel direct = *model;
+    direct.num_inv_poly = 0;
+    std::vector<double> params(full.params().begin(), full.params().begin() + 5 + direct.num_poly);
+    return makeScene(Camera(direct, full.width(), full.height(), params), 4);
+  }();
   return scene;
 }
 
@@ -159,6 +176,10 @@ void BM_ScaramuzzaProject_Lookboth(benchmark::State& state) {
   projectLookboth(state, scaramuzzaScene());
 }
 
+void BM_ScaramuzzaDirectOnlyProject_Lookboth(benchmark::State& state) {
+  projectLookboth(state, scaramuzzaDirectOnlyScene());
+}
+
 void BM_RadTanUnproject_Lookboth(benchmark::State& state) {
   unprojectLookboth(state, radtanScene());
 }
@@ -195,6 +216,7 @@ BENCHMARK(BM_RadTanProject_OpenCV);
 BENCHMARK(BM_KannalaBrandtProject_Lookboth);
 BENCHMARK(BM_KannalaBrandtProject_OpenCV);
 BENCHMARK(BM_ScaramuzzaProject_Lookboth);
+BENCHMARK(BM_ScaramuzzaDirectOnlyProject_Lookboth);
 BENCHMARK(BM_RadTanUnproject_Lookboth);
 BENCHMARK(BM_RadTanUnproject_OpenCV);
 BENCHMARK(BM_KannalaBrandtUnproject_Lookboth);
