@@ -1129,8 +1129,10 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
         solver.linear_solver_ordering = solverOrdering(Q, method, &chosen, &message);
       }
       const double ordering_cpu = cpu() - ordering_start;
-      if (!message.empty()) {
-        result.warnings.push_back("joint: " + message + "; Ceres' own ordering was used");
+      const std::string warning = "joint: " + message + "; Ceres' own ordering was used";
+      if (!message.empty() && std::find(result.warnings.begin(), result.warnings.end(), warning) ==
+                                  result.warnings.end()) {
+        result.warnings.push_back(warning);  // once, not every round
       }
       if (method == FillOrderingMethod::kAuto) {
         ordering_choice = {true, residuals, chosen.method};

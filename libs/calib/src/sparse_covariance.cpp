@@ -313,9 +313,17 @@ bool SparseCovariance::compute(const std::vector<std::pair<const double*, const 
                         crs.cols.begin() + crs.rows[end_row])) {
         ++end_row;
       }
+      // A parameter block's columns side by side and in order (Ceres writes
+      // a residual block's Jacobian by dense cells); checked, not assumed.
       runs.clear();
       for (int q = 0; q < k;) {
         const int b = block_of[static_cast<std::size_t>(crs.cols[begin + q])];
+        for (int i = 0; i < size[b]; ++i) {
+          if (q + i >= k || crs.cols[begin + q + i] != first[b] + i) {
+            message_ = "internal: a parameter block's Jacobian columns are not contiguous";
+            return false;
+          }
+        }
         runs.push_back({b, q});
         q += size[b];
       }
