@@ -33,14 +33,8 @@ int runRegister(const RegisterArgs& args) {
   options.trajectory_label = args.trajectory_label;
   options.trajectory_file = args.trajectory_file;
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
-  if (std::filesystem::exists(args.out) && !args.overwrite) {
-    throw Error(ErrorContext{args.out, 0, "", ""}, "already exists (use --overwrite)");
-  }
   // Before the work, not after it (the output is written once all is done).
-  if (!std::filesystem::is_directory(
-          std::filesystem::absolute(args.out).lexically_normal().parent_path())) {
-    throw Error(ErrorContext{args.out, 0, "", ""}, "its parent directory does not exist");
-  }
+  checkRegistrationOutput(args.out, args.overwrite);
 
   const ProgressReporter progress(makeConsoleProgress());
   const StopOnSignal stop_on_signal(progress);

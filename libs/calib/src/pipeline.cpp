@@ -305,15 +305,20 @@ RegistrationRun RegistrationController::run(RegistrationInput input,
 
 // ---- output ----
 
-void writeRegistrationOutput(const RegistrationRun& run, const fs::path& dir, bool overwrite) {
+void checkRegistrationOutput(const fs::path& dir, bool overwrite) {
   const fs::path target = fs::absolute(dir).lexically_normal();
-  const fs::path parent = target.parent_path();
-  if (!fs::is_directory(parent)) {
-    throw Error(ErrorContext{dir.string(), 0, "", ""}, "its parent directory does not exist");
-  }
   if (fs::exists(target) && !overwrite) {
     throw Error(ErrorContext{dir.string(), 0, "", ""}, "already exists (use --overwrite)");
   }
+  if (!fs::is_directory(target.parent_path())) {
+    throw Error(ErrorContext{dir.string(), 0, "", ""}, "its parent directory does not exist");
+  }
+}
+
+void writeRegistrationOutput(const RegistrationRun& run, const fs::path& dir, bool overwrite) {
+  checkRegistrationOutput(dir, overwrite);
+  const fs::path target = fs::absolute(dir).lexically_normal();
+  const fs::path parent = target.parent_path();
   const std::string stem = target.filename().string();
   const fs::path temporary = parent / ("." + stem + ".tmp-" + std::to_string(::getpid()));
   fs::remove_all(temporary);

@@ -30,8 +30,9 @@ void connect(BlockPattern& p, int a, int b) {
 
 // A trajectory-like chain of `nodes` 6-blocks, one 1-block (a scale) per 10
 // nodes tied to the nodes of its segment, and `hubs` 6-blocks (cameras), each
-// tied to the nodes of `passes` windows of `window` nodes spread along the chain.
-BlockPattern chainWithHubs(int nodes, int hubs, int passes, unsigned seed, int window = 8) {
+// tied to the nodes of `passes` windows of 8 nodes spread along the chain.
+BlockPattern chainWithHubs(int nodes, int hubs, int passes, unsigned seed) {
+  constexpr int window = 8;
   std::mt19937 rng(seed);
   BlockPattern p;
   const int segments = (nodes + 9) / 10;

@@ -109,6 +109,11 @@ class RegistrationController {
   std::vector<std::unique_ptr<RegistrationStage>> stages_;
 };
 
+/// Throws (naming `dir`) when writeRegistrationOutput would refuse `dir`: its
+/// parent directory missing, or `dir` existing without `overwrite`. For a
+/// caller to check before the work rather than after it.
+void checkRegistrationOutput(const std::filesystem::path& dir, bool overwrite);
+
 /// Writes the output directory (cameras.csv, registration.yaml,
 /// trajectory.tum, blob_associations.csv, scene.3Dscene) under a temporary
 /// name beside `dir` and renames it into place. An existing `dir` is an error
