@@ -263,10 +263,11 @@ struct JointOptions {
   /// With sparse_normal_cholesky, the elimination order of J^T J, chosen
   /// afresh for each round on its pattern of parameter blocks: "amd" (Ceres'
   /// own approximate minimum degree), "nested_dissection" (METIS) or "auto"
-  /// (whichever the block pattern's symbolic factorisation predicts needs
-  /// fewer flops). The trajectory is a long chain tied to the cameras over
-  /// it: with all blobs, nested dissection's factor takes about a third of
-  /// AMD's flops on `paper_det` (doc/benchmarks.md, fifteenth session).
+  /// (nested dissection when the block pattern's symbolic factorisation
+  /// predicts it needs under 0.6x AMD's flops; fill_reducing_ordering.h).
+  /// The trajectory is a long chain tied to the cameras over it: with all
+  /// blobs, nested dissection's factor takes about a third of AMD's flops on
+  /// `paper_det` (doc/benchmarks.md, fifteenth session).
   std::string fill_reducing_ordering = "auto";
   /// Per-camera 6x6 covariance (sparse LDL^T of the problem's J^T J; src/sparse_covariance.h).
   bool covariance = true;
