@@ -2,6 +2,7 @@
 // layer sets the keys it has; unknown keys are errors) and checks.
 #include <cmath>
 
+#include "fill_reducing_ordering.h"
 #include "lookboth/calib/stages.h"
 #include "lookboth/core/text.h"
 
@@ -402,8 +403,8 @@ std::string JointOptions::check() const {
            "'" +
            linear_solver + "'";
   }
-  if (fill_reducing_ordering != "auto" && fill_reducing_ordering != "amd" &&
-      fill_reducing_ordering != "nested_dissection") {
+  if (calib_detail::FillOrderingMethod method;
+      !calib_detail::parseFillOrderingMethod(fill_reducing_ordering, &method)) {
     return "'fill_reducing_ordering': must be auto, amd or nested_dissection, got '" +
            fill_reducing_ordering + "'";
   }
