@@ -4,8 +4,10 @@
 // memory does not grow with the length of the recording.
 #include <yaml-cpp/yaml.h>
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <functional>
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
@@ -212,9 +214,22 @@ class FrameStream final : public Stream {
   bool size_checked_ = false;
 };
 
-/// detections/markers.csv: one MarkerObservation per row. Several rows may
-/// share a timestamp (several cameras); the same (timestamp, camera,
-/// marker_id) twice is a duplicate.
+/// log det of an information matrix: the larger, the smaller the
+/// uncertainty; -infinity when it is not positive definite (none reported).
+double certainty(const Eigen::Matrix<double, 6, 6>& information) {
+  const Eigen::LLT<Eigen::Matrix<double, 6, 6>> llt(information);
+  if (llt.info() != Eigen::Success || !information.allFinite())
+    return -std::numeric_limits<double>::infinity();
+  return 2.0 * llt.matrixL().toDenseMatrix().diagonal().array().log().sum();
+}
+
+/// detections/markers.csv: one MarkerObservation per row, keyed by
+/// (timestamp, camera, marker_id): several cameras, and several markers in
+/// one frame, share a timestamp. The same key twice keeps the row with the
+/// smaller uncertainty (the larger determinant of its information; a row
+/// without information has none to compare), the first one when neither is
+/// smaller, and reports the other as an issue; the rawlog reader decides
+/// the same way. The rows of one timestamp are read together for that.
 class MarkerStream final : public Stream {
  public:
   MarkerStream(const fs::path& path, std::set<std::string> env_cameras, IssueSink issue)
@@ -223,6 +238,62 @@ class MarkerStream final : public Stream {
         issue_(std::move(issue)) {}
 
   std::optional<Record> next() override {
+    if (group_.empty()) readGroup();
+    if (group_.empty()) return std::nullopt;
+    MarkerObservation obs = std::move(group_.front());
+    group_.erase(group_.begin());
+    return obs;
+  }
+
+ private:
+  /// The rows of the next timestamp. An error in a row after the first one
+  /// waits for the next call, so that the rows before it are returned.
+  void readGroup() {
+    if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
+    while (true) {
+      std::optional<MarkerObservation> obs = std::move(lookahead_);
+      lookahead_.reset();
+      if (!obs) {
+        try {
+          obs = readRow();
+        } catch (const Error&) {
+          if (group_.empty()) throw;
+          error_ = std::current_exception();
+          return;
+        }
+        if (!obs) return;
+      }
+      if (!group_.empty() && obs->t != group_.front().t) {
+        lookahead_ = std::move(obs);
+        return;
+      }
+      add(std::move(*obs));
+    }
+  }
+
+  void add(MarkerObservation obs) {
+    const std::string where = location(csv_.path(), obs_line_);
+    for (MarkerObservation& kept : group_) {
+      if (kept.camera != obs.camera || kept.marker_id != obs.marker_id) continue;
+      const std::string what = "timestamp " + std::to_string(obs.t) + " repeats a row of camera '" +
+                               obs.camera + "' and marker " + std::to_string(obs.marker_id);
+      if (certainty(obs.information) > certainty(kept.information)) {
+        issue_(where, what + ": this row kept (smaller uncertainty), the earlier one skipped");
+        kept = std::move(obs);
+      } else {
+        issue_(where, what + ": marker observation skipped (the earlier row " +
+                          (certainty(kept.information) > certainty(obs.information)
+                               ? std::string("has a smaller uncertainty")
+                               : std::string("is kept: no smaller uncertainty reported")) +
+                          ")");
+      }
+      return;
+    }
+    group_.push_back(std::move(obs));
+  }
+
+  /// The next row in time order (earlier rows are skipped as issues).
+  std::optional<MarkerObservation> readRow() {
     while (csv_.next()) {
       MarkerObservation obs;
       obs.t = csv_.integer("timestamp_ns");
@@ -256,25 +327,18 @@ class MarkerStream final : public Stream {
                       "negative corner noise " + formatDouble(obs.corner_sigma_px));
         }
       }
-      const std::string where = location(csv_.path(), csv_.line());
       if (last_ && obs.t < *last_) {
-        issue_(where, timeOrderMessage(obs.t, *last_, "marker observation"));
+        issue_(location(csv_.path(), csv_.line()),
+               timeOrderMessage(obs.t, *last_, "marker observation"));
         continue;
       }
-      if (!last_ || obs.t > *last_) seen_.clear();
       last_ = obs.t;
-      if (!seen_.emplace(obs.camera, obs.marker_id).second) {
-        issue_(where, "timestamp " + std::to_string(obs.t) + " repeats a row of camera '" +
-                          obs.camera + "' and marker " + std::to_string(obs.marker_id) +
-                          ": marker observation skipped");
-        continue;
-      }
+      obs_line_ = csv_.line();
       return obs;
     }
     return std::nullopt;
   }
 
- private:
   /// 21 numbers: the upper triangle of the 6x6 information, row by row.
   Eigen::Matrix<double, 6, 6> readInformation() const {
     const std::vector<std::string> tokens = splitWhitespace(csv_.text("information"));
@@ -325,7 +389,10 @@ class MarkerStream final : public Stream {
   std::set<std::string> env_cameras_;
   IssueSink issue_;
   std::optional<TimeNs> last_;
-  std::set<std::pair<std::string, int>> seen_;  ///< (camera, marker id) at *last_.
+  int obs_line_ = 0;                            ///< Line of the row readRow() returned.
+  std::vector<MarkerObservation> group_;        ///< Rows of one timestamp, in file order.
+  std::optional<MarkerObservation> lookahead_;  ///< First row of the next timestamp.
+  std::exception_ptr error_;                    ///< Error of a row after group_'s.
 };
 
 /// detections/blobs.csv: consecutive rows with the same timestamp are the

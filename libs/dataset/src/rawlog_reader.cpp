@@ -1,6 +1,29 @@
 // Streams records out of an MRPT observations-only rawlog (also accepts
 // sensory-frame rawlogs from other MRPT tools: their observations are read,
 // their actions skipped).
+//
+// Corrupt input. MRPT's deserializers trust the lengths in the file: a
+// string or array length turned into 0xFFFFFFFF makes MRPT allocate (and
+// zero) 4 GB before it finds that the bytes are not there. While an entry
+// is deserialized, one allocation larger than the rest of the file could
+// hold (16 bytes of memory per byte left, plus 64 MiB) is refused, and the
+// entry is reported as corrupt. The refusal lives in this file's
+// replacement of the global operator new (a per-thread limit, unlimited
+// outside that read); builds with AddressSanitizer keep the sanitizer's own
+// operator new, without that bound. Errors name the file, the entry (1-based)
+// and its byte offset in the uncompressed stream, its class, and the cause
+// from MRPT's message (without its banner and call stack).
+//
+// Marker detections. The key of a marker observation is (camera, time,
+// marker id): two markers seen in one frame are two records. The same key
+// twice (a detector that reports one marker twice, a second marker printed
+// with the same id) keeps the detection with the smaller uncertainty
+// (the larger determinant of its information matrix; a detection without
+// information has none to compare) and drops the other with an issue naming
+// the camera, the time and the marker; when neither is smaller, the first
+// is kept. The folder reader decides the same way. Records are handed out
+// once an entry of another time has been read, so that a later detection
+// can still replace an earlier one of the same time.
 #include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/obs/CActionCollection.h>
 #include <mrpt/obs/CObservation6DFeatures.h>
@@ -9,10 +32,20 @@
 #include <mrpt/obs/CSensoryFrame.h>
 #include <mrpt/serialization/CArchive.h>
 
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cstdint>
+#include <cstdlib>
 #include <deque>
+#include <exception>
+#include <fstream>
+#include <limits>
 #include <map>
+#include <new>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <set>
+#include <sstream>
 #include <tuple>
 
 #include "internal.h"
@@ -25,11 +58,159 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The per-thread bound of the replacement operator new at the end of this
+// file: unlimited except while an entry is deserialized.
+thread_local std::size_t t_allocation_limit = std::numeric_limits<std::size_t>::max();
+// The size of the last allocation refused under that bound; 0 for none.
+thread_local std::size_t t_refused_allocation = 0;
+
+/// Bounds allocations on this thread for its lifetime.
+class AllocationLimit {
+ public:
+  explicit AllocationLimit(std::size_t limit) : previous_(t_allocation_limit) {
+    t_allocation_limit = limit;
+    t_refused_allocation = 0;
+  }
+  ~AllocationLimit() { t_allocation_limit = previous_; }
+  AllocationLimit(const AllocationLimit&) = delete;
+  AllocationLimit& operator=(const AllocationLimit&) = delete;
+
+ private:
+  std::size_t previous_;
+};
+
+/// Memory an entry may take beyond 16 bytes per byte left in the file:
+/// deserialized containers are larger than their serialized bytes (a
+/// std::string per 4-byte empty string), never by more than that.
+constexpr std::size_t kAllocationSlack = std::size_t{64} << 20;
+constexpr std::size_t kAllocationPerByteLeft = 16;
+
+std::string trim(const std::string& text) {
+  const size_t begin = text.find_first_not_of(" \t\r\n");
+  if (begin == std::string::npos) return "";
+  return text.substr(begin, text.find_last_not_of(" \t\r\n") + 1 - begin);
+}
+
+/// What an exception from MRPT says, without its decoration. MRPT's what()
+/// is "==== MRPT exception ====", "Message: <cause>", "Location: ...", a
+/// call stack, and, for an error while parsing an object, the inner
+/// exception's text after "Original exception:", decorated the same way.
+/// Keeps the message lines, innermost (the real cause) last, and drops the
+/// "Exception while parsing typed object" wrappers (the caller names the
+/// object itself).
+std::string mrptCause(const std::string& what) {
+  enum class State { kPlain, kMessage, kSkip };
+  State state = State::kPlain;
+  std::vector<std::string> parts;
+  std::istringstream lines(what);
+  std::string line;
+  while (std::getline(lines, line)) {
+    const std::string text = trim(line);
+    if (text.size() >= 8 && text.rfind("====", 0) == 0 &&
+        text.compare(text.size() - 4, 4, "====") == 0) {
+      state = State::kSkip;
+    } else if (text.rfind("Message:", 0) == 0) {
+      state = State::kMessage;
+      parts.push_back(trim(text.substr(8)));
+    } else if (text.rfind("Location:", 0) == 0 || text == "Call stack backtrace:" ||
+               text == "Original exception:") {
+      state = State::kSkip;
+    } else if (!text.empty() && state != State::kSkip) {
+      if (parts.empty() || state == State::kPlain) {
+        parts.push_back(text);
+      } else {
+        parts.back() += " " + text;
+      }
+    }
+  }
+  std::vector<std::string> causes;
+  for (const std::string& part : parts) {
+    if (part.empty() || part.rfind("Exception while parsing typed object", 0) == 0) continue;
+    if (std::find(causes.begin(), causes.end(), part) == causes.end()) causes.push_back(part);
+  }
+  if (causes.empty()) {
+    for (const std::string& part : parts)
+      if (!part.empty()) causes.push_back(part);
+  }
+  std::string out;
+  for (const std::string& cause : causes) out += (out.empty() ? "" : ": ") + cause;
+  return out.empty() ? trim(what) : out;
+}
+
+/// log det of an information matrix: the larger, the smaller the
+/// uncertainty; -infinity when it is not positive definite (none reported).
+double certainty(const Eigen::Matrix<double, 6, 6>& information) {
+  const Eigen::LLT<Eigen::Matrix<double, 6, 6>> llt(information);
+  if (llt.info() != Eigen::Success || !information.allFinite())
+    return -std::numeric_limits<double>::infinity();
+  return 2.0 * llt.matrixL().toDenseMatrix().diagonal().array().log().sum();
+}
+
+/// Reads the rawlog for MRPT's deserializers and notes what happened to the
+/// bytes: whether the file ended, and the first bytes of the entry (its
+/// class name and version).
+class EntryArchive final : public mrpt::serialization::CArchive {
+ public:
+  explicit EntryArchive(mrpt::io::CFileGZInputStream& stream) : stream_(stream) {}
+
+  void startEntry() {
+    hit_end_ = false;
+    unreadable_ = false;
+    head_.clear();
+  }
+  bool hitEnd() const { return hit_end_; }
+  /// gzip data that zlib cannot decompress.
+  bool unreadable() const { return unreadable_; }
+
+  /// "<class> v<version>" from the entry's first bytes, or "" before them.
+  std::string objectName() const {
+    if (head_.empty() || !(head_[0] & 0x80)) return "";
+    const size_t length = head_[0] & 0x7F;
+    if (head_.size() < 1 + length) return "";
+    std::string name(head_.begin() + 1, head_.begin() + 1 + static_cast<std::ptrdiff_t>(length));
+    for (char& c : name)
+      if (static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) > 0x7E) c = '?';
+    if (head_.size() > 1 + length) name += " v" + std::to_string(head_[1 + length]);
+    return name;
+  }
+
+ protected:
+  size_t write(const void*, size_t) override {
+    throw std::logic_error("a rawlog is read-only here");
+  }
+  size_t read(void* buffer, size_t count) override {
+    auto* out = static_cast<std::uint8_t*>(buffer);
+    size_t got = 0;
+    while (got < count) {
+      const size_t n = stream_.Read(out + got, count - got);
+      if (n == 0) break;
+      if (n > count - got) {  // gzread's -1: corrupt compressed data
+        unreadable_ = true;
+        break;
+      }
+      got += n;
+    }
+    if (got < count) hit_end_ = !unreadable_;
+    if (head_.size() < kHeadBytes) {
+      head_.insert(head_.end(), out, out + std::min(got, kHeadBytes - head_.size()));
+    }
+    return got;
+  }
+
+ private:
+  static constexpr size_t kHeadBytes = 130;  // length byte, <= 127 name bytes, version
+  mrpt::io::CFileGZInputStream& stream_;
+  std::vector<std::uint8_t> head_;
+  bool hit_end_ = false;
+  bool unreadable_ = false;
+};
+
 class RawlogReader : public DatasetReader {
  public:
   RawlogReader(const fs::path& rawlog, const DatasetReadOptions& options)
       : DatasetReader(rawlog, DatasetKind::kRawlog, options),
-        images_dir_(imagesDirectoryFor(rawlog)) {
+        images_dir_(imagesDirectoryFor(rawlog)),
+        archive_(stream_) {
     registerLookbothObservations();
     const fs::path manifest_path = manifestPathFor(rawlog);
     if (!fs::exists(manifest_path)) {
@@ -42,38 +223,134 @@ class RawlogReader : public DatasetReader {
     if (!stream_.open(rawlog.string())) {
       throw Error({rawlog.string(), 0, "", ""}, "cannot open for reading");
     }
-    archive_ =
-        std::make_unique<mrpt::serialization::CArchiveStreamBase<mrpt::io::CFileGZInputStream>>(
-            stream_);
+    if (!isGzip(rawlog)) total_bytes_ = fs::file_size(rawlog);
   }
 
   std::int64_t expectedCount() const override { return manifest_.rawlog_entries; }
 
   std::optional<Record> next() override {
-    // The marker poses of the last entry read may still get their corners
-    // from the next entries: read on before handing them out.
-    while (!at_end_ && pending_.size() <= unsettled_) readEntry();
+    // Records of the time of the last entry read may still be replaced (a
+    // better detection of the same marker) or get their corners from the
+    // next entries: read on until a record of another time comes.
+    while (!at_end_ && group_begin_ == 0) readEntry();
     if (pending_.empty()) return std::nullopt;
     Record record = std::move(pending_.front());
     pending_.pop_front();
+    if (group_begin_ > 0) --group_begin_;
     return record;
   }
 
  private:
   std::string where() const { return path_.string() + ": entry " + std::to_string(entry_); }
 
+  /// "<file>: entry <n> (byte <offset>, <class>)" of the entry being read.
+  std::string whereReading(std::uint64_t position) const {
+    const std::string name = archive_.objectName();
+    return path_.string() + ": entry " + std::to_string(entry_ + 1) + " (byte " +
+           std::to_string(position) + (name.empty() ? "" : ", " + name) + ")";
+  }
+
+  static bool isGzip(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    char magic[2] = {0, 0};
+    in.read(magic, 2);
+    return in && static_cast<unsigned char>(magic[0]) == 0x1F &&
+           static_cast<unsigned char>(magic[1]) == 0x8B;
+  }
+
+  /// Bytes of the uncompressed stream (what is readable of it): counted on
+  /// first need only, since it means decompressing the whole file.
+  std::uint64_t totalBytes() {
+    if (!total_bytes_) {
+      mrpt::io::CFileGZInputStream counter;
+      std::uint64_t total = 0;
+      if (counter.open(path_.string())) {
+        std::vector<char> buffer(1 << 20);
+        while (true) {
+          const size_t n = counter.Read(buffer.data(), buffer.size());
+          if (n == 0 || n > buffer.size()) break;
+          total += n;
+        }
+      }
+      total_bytes_ = total;
+    }
+    return *total_bytes_;
+  }
+
+  std::size_t allocationLimit(std::uint64_t position) {
+    if (!total_bytes_) return kAllocationSlack;
+    const std::uint64_t left = *total_bytes_ - std::min(*total_bytes_, position);
+    const std::uint64_t limit = left * kAllocationPerByteLeft + kAllocationSlack;
+    return limit > std::numeric_limits<std::size_t>::max() / 2
+               ? std::numeric_limits<std::size_t>::max() / 2
+               : static_cast<std::size_t>(limit);
+  }
+
+  /// Reopens the stream at `position` (the stream cannot seek).
+  void reopenAt(std::uint64_t position) {
+    stream_.close();
+    if (!stream_.open(path_.string())) {
+      throw Error({path_.string(), 0, "", ""}, "cannot reopen for reading");
+    }
+    std::vector<char> buffer(1 << 16);
+    for (std::uint64_t left = position; left > 0;) {
+      const size_t n = stream_.Read(
+          buffer.data(), static_cast<size_t>(std::min<std::uint64_t>(left, buffer.size())));
+      if (n == 0 || n > buffer.size())
+        throw Error(whereReading(position) + ": cannot read up to it again");
+      left -= n;
+    }
+  }
+
+  /// One object of the rawlog, its allocations bounded by what the rest of
+  /// the file can hold.
+  mrpt::serialization::CSerializable::Ptr readObject(std::uint64_t position) {
+    std::size_t limit = allocationLimit(position);
+    while (true) {
+      archive_.startEntry();
+      std::size_t refused = 0;
+      try {
+        const AllocationLimit bound(limit);
+        return archive_.ReadObject();
+      } catch (...) {
+        refused = t_refused_allocation;
+        if (refused == 0) throw;
+      }
+      if (!total_bytes_) {
+        // The bound was the slack alone: with the file's real size it may
+        // allow this allocation; then read the entry again.
+        totalBytes();
+        limit = allocationLimit(position);
+        if (refused <= limit) {
+          reopenAt(position);
+          continue;
+        }
+      }
+      const std::uint64_t left = *total_bytes_ - std::min(*total_bytes_, position);
+      throw Error(whereReading(position) + ": corrupt: a length in it asks for " +
+                  std::to_string(refused) + " bytes of memory, more than the " +
+                  std::to_string(left) + " bytes left in the file can hold");
+    }
+  }
+
   void readEntry() {
-    const uint64_t position = stream_.getPosition();
+    const std::uint64_t position = stream_.getPosition();
     mrpt::serialization::CSerializable::Ptr object;
     try {
-      object = archive_->ReadObject();
-    } catch (const mrpt::serialization::CExceptionEOF& e) {
+      object = readObject(position);
+    } catch (const Error&) {
+      at_end_ = true;
+      throw;
+    } catch (const mrpt::serialization::CExceptionEOF&) {
+      at_end_ = true;
+      if (archive_.unreadable()) {
+        throw Error(whereReading(position) +
+                    ": the compressed data cannot be decompressed (corrupt file)");
+      }
       if (stream_.getPosition() != position) {
-        at_end_ = true;
-        throw Error(where() + ": the file is truncated inside this entry (" +
+        throw Error(whereReading(position) + ": the file is truncated inside this entry (" +
                     std::to_string(entry_) + " complete entries were read)");
       }
-      at_end_ = true;
       if (manifest_.rawlog_entries >= 0 && entry_ < manifest_.rawlog_entries) {
         throw Error(path_.string() + ": truncated: " + std::to_string(entry_) + " of the " +
                     std::to_string(manifest_.rawlog_entries) +
@@ -82,16 +359,22 @@ class RawlogReader : public DatasetReader {
       return;
     } catch (const std::exception& e) {
       at_end_ = true;
-      std::string message = e.what();
-      if (message.find("not registered") != std::string::npos ||
-          message.find("Unknown class") != std::string::npos ||
-          message.find("registered") != std::string::npos) {
-        throw Error(where() +
+      const std::string cause = mrptCause(e.what());
+      if (archive_.unreadable()) {
+        throw Error(whereReading(position) +
+                    ": the compressed data cannot be decompressed (corrupt file)");
+      }
+      if (archive_.hitEnd()) {
+        throw Error(whereReading(position) + ": the file is truncated inside this entry (" +
+                    std::to_string(entry_) + " complete entries were read): " + cause);
+      }
+      if (cause.find("not registered") != std::string::npos) {
+        throw Error(whereReading(position) +
                     ": holds an object of a class that is not registered (an MRPT plugin "
                     "or a newer lookboth may be needed): " +
-                    firstLine(message));
+                    cause);
       }
-      throw Error(where() + ": cannot be read (corrupt or truncated file): " + firstLine(message));
+      throw Error(whereReading(position) + ": corrupt: " + cause);
     }
     ++entry_;
     if (auto frame = std::dynamic_pointer_cast<mrpt::obs::CSensoryFrame>(object)) {
@@ -103,11 +386,6 @@ class RawlogReader : public DatasetReader {
     } else {
       skippedOnce(std::string("objects of class ") + object->GetRuntimeClass()->className);
     }
-  }
-
-  static std::string firstLine(const std::string& text) {
-    const size_t newline = text.find('\n');
-    return newline == std::string::npos ? text : text.substr(0, newline);
   }
 
   void skippedOnce(const std::string& what) {
@@ -137,9 +415,72 @@ class RawlogReader : public DatasetReader {
     return true;
   }
 
+  void append(Record record) {
+    const TimeNs t = recordTime(record);
+    if (!group_time_ || *group_time_ != t) {
+      group_begin_ = pending_.size();
+      group_time_ = t;
+    }
+    pending_.push_back(std::move(record));
+  }
+
   bool push(Record record) {
     if (!acceptTime(record)) return false;
-    pending_.push_back(std::move(record));
+    append(std::move(record));
+    return true;
+  }
+
+  /// The pending marker observation with this key, if it was not handed out yet.
+  MarkerObservation* pendingMarker(const std::string& camera, TimeNs t, int id) {
+    for (auto it = pending_.rbegin(); it != pending_.rend(); ++it) {
+      auto* marker = std::get_if<MarkerObservation>(&*it);
+      if (marker && marker->camera == camera && marker->t == t && marker->marker_id == id)
+        return marker;
+    }
+    return nullptr;
+  }
+
+  /// A marker observation: key (camera, time, marker id); see the file's
+  /// header for a key seen twice. False when it is dropped.
+  bool pushMarker(MarkerObservation marker) {
+    const std::string key = "marker/" + marker.camera;
+    const auto it = last_time_.find(key);
+    std::set<int>& ids = marker_ids_[marker.camera];
+    if (it != last_time_.end() && it->second == marker.t) {
+      if (ids.insert(marker.marker_id).second) {
+        append(std::move(marker));
+        return true;
+      }
+      const std::string what = "marker " + std::to_string(marker.marker_id) + " of '" +
+                               marker.camera + "' repeats timestamp " + formatSeconds(marker.t) +
+                               " s";
+      MarkerObservation* earlier = pendingMarker(marker.camera, marker.t, marker.marker_id);
+      if (!earlier) {
+        reportIssue(where(), what + " after the first detection was passed on; this one dropped");
+        return false;
+      }
+      if (certainty(marker.information) > certainty(earlier->information)) {
+        reportIssue(where(), what +
+                                 ": kept this detection (smaller uncertainty), dropped the "
+                                 "earlier one");
+        *earlier = std::move(marker);
+        return true;
+      }
+      reportIssue(where(), what + ": kept the earlier detection (" +
+                               (certainty(earlier->information) > certainty(marker.information)
+                                    ? std::string("smaller uncertainty")
+                                    : std::string("no smaller uncertainty reported")) +
+                               "), dropped this one");
+      return false;
+    }
+    if (it != last_time_.end() && marker.t < it->second) {
+      reportIssue(where(), "marker of '" + marker.camera + "' at " + formatSeconds(marker.t) +
+                               " s is earlier than the previous one (" + formatSeconds(it->second) +
+                               " s)");
+    }
+    last_time_[key] = marker.t;
+    ids = {marker.marker_id};
+    append(std::move(marker));
     return true;
   }
 
@@ -181,7 +522,6 @@ class RawlogReader : public DatasetReader {
       return;
     }
     last_features_.clear();
-    unsettled_ = 0;
     if (auto image = std::dynamic_pointer_cast<mrpt::obs::CObservationImage>(obs)) {
       ImageFrame frame;
       frame.t = timeOf(*image);
@@ -213,8 +553,7 @@ class RawlogReader : public DatasetReader {
           for (int j = 0; j < 6; ++j) marker.information(i, j) = m.inf_matrix(i, j);
         }
         last_features_.emplace_back(marker.camera, marker.t, marker.marker_id, false);
-        std::get<3>(last_features_.back()) = push(std::move(marker));
-        unsettled_ += std::get<3>(last_features_.back()) ? 1 : 0;
+        std::get<3>(last_features_.back()) = pushMarker(std::move(marker));
       }
     } else if (auto blobs = std::dynamic_pointer_cast<CObservationBlobs>(obs)) {
       BlobObservation record;
@@ -237,16 +576,20 @@ class RawlogReader : public DatasetReader {
 
   fs::path images_dir_;
   mrpt::io::CFileGZInputStream stream_;
-  std::unique_ptr<mrpt::serialization::CArchiveStreamBase<mrpt::io::CFileGZInputStream>> archive_;
+  EntryArchive archive_;
+  /// Bytes of the uncompressed stream, once known.
+  std::optional<std::uint64_t> total_bytes_;
   std::deque<Record> pending_;
+  /// pending_[group_begin_..] are the records of the time of the last
+  /// record appended (group_time_): held back until a record of another time.
+  size_t group_begin_ = 0;
+  std::optional<TimeNs> group_time_;
   std::map<std::string, TimeNs> last_time_;
+  /// Camera -> the marker ids of its detections at its last marker time.
+  std::map<std::string, std::set<int>> marker_ids_;
   std::set<std::string> skipped_;
   std::int64_t entry_ = 0;
   bool at_end_ = false;
-  /// How many records at the back of pending_ are marker poses that the next
-  /// entries may still give corners to (those of the last 6DFeatures, while
-  /// only corners follow it).
-  size_t unsettled_ = 0;
   /// (label, stamp, id, kept) of the marker poses of the last 6DFeatures.
   std::vector<std::tuple<std::string, TimeNs, int, bool>> last_features_;
 };
@@ -259,3 +602,32 @@ std::unique_ptr<DatasetReader> openRawlogReader(const fs::path& rawlog,
 }
 
 }  // namespace lookboth::internal
+
+// The bounded allocation of the reader (see the header comment): the global
+// operator new, refusing on this thread what t_allocation_limit excludes.
+// The other forms of new (array, nothrow) call this one; delete stays the
+// library's (free). AddressSanitizer brings its own operator new, which a
+// second definition would clash with: sanitizer builds go without the bound.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define LOOKBOTH_SANITIZER_NEW 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || \
+    __has_feature(memory_sanitizer)
+#define LOOKBOTH_SANITIZER_NEW 1
+#endif
+#endif
+
+#ifndef LOOKBOTH_SANITIZER_NEW
+void* operator new(std::size_t size) {
+  if (size > lookboth::internal::t_allocation_limit) {
+    lookboth::internal::t_refused_allocation = size;
+    throw std::bad_alloc();
+  }
+  while (true) {
+    if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+    const std::new_handler handler = std::get_new_handler();
+    if (!handler) throw std::bad_alloc();
+    handler();
+  }
+}
+#endif

@@ -5,6 +5,14 @@
 #include <mrpt/obs/CObservationImage.h>
 #include <mrpt/obs/CRawlog.h>
 #include <mrpt/serialization/CArchive.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <set>
 
 #include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
@@ -267,8 +275,215 @@ TEST_F(RawlogIoTest, UnregisteredClassNamesTheEntry) {
     readAll(rawlog_);
     FAIL() << "expected an error";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("entry 4"), std::string::npos) << e.what();
+    // The fifth entry (the first blobs), 1-based as in the issues.
+    EXPECT_NE(std::string(e.what()).find("entry 5 (byte "), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("not registered"), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()).find("===="), std::string::npos) << e.what();
+  }
+}
+
+// MRPT's exception text is a banner, "Message: <cause>", a location and a
+// call stack: the error carries the cause, and names the entry and offset.
+TEST_F(RawlogIoTest, ReadErrorsCarryMrptsCauseAndTheEntry) {
+  writeSample(testing::sampleRecords(), rawlog_);
+  const std::string original = gunzip(rawlog_);
+  auto errorOf = [&](const std::string& bytes) -> std::string {
+    gzip(rawlog_, bytes);
+    try {
+      readAll(rawlog_);
+    } catch (const Error& e) {
+      return e.what();
+    } catch (const std::exception& e) {
+      return std::string("not a lookboth::Error: ") + e.what();
+    }
+    return "(no error)";
+  };
+  // The class name's length byte of the third entry (the first image): 127.
+  std::string bytes = original;
+  const std::string image_class = "mrpt::obs::CObservationImage";
+  const size_t image = bytes.find(image_class);
+  ASSERT_NE(image, std::string::npos);
+  bytes[image - 1] = static_cast<char>(0xFF);
+  std::string message = errorOf(bytes);
+  EXPECT_NE(message.find("sample.rawlog: entry 3 (byte " + std::to_string(image - 1)),
+            std::string::npos)
+      << message;
+  EXPECT_NE(message.find("Class name has more than 120 chars"), std::string::npos) << message;
+  EXPECT_EQ(message.find("===="), std::string::npos) << message;
+  EXPECT_EQ(message.find("Call stack"), std::string::npos) << message;
+
+  // The version of the fifth entry (the first blobs): 99.
+  bytes = original;
+  const std::string blobs_class = "lookboth::CObservationBlobs";
+  const size_t blobs = bytes.find(blobs_class);
+  ASSERT_NE(blobs, std::string::npos);
+  bytes[blobs + blobs_class.size()] = 99;
+  message = errorOf(bytes);
+  EXPECT_NE(message.find("entry 5 (byte " + std::to_string(blobs - 1) +
+                         ", lookboth::CObservationBlobs v99)"),
+            std::string::npos)
+      << message;
+  EXPECT_NE(message.find("unknown serialization version number: '99'"), std::string::npos)
+      << message;
+  EXPECT_EQ(message.find("===="), std::string::npos) << message;
+}
+
+// A string length of MRPT's serialization set to 0xFFFFFFFF: the reader
+// must say so at once, not allocate 4 GB first. Read in a child whose
+// address space is capped, so that an unbounded allocation fails there (and
+// the error differs) instead of taking the memory of the test machine.
+#if defined(__SANITIZE_ADDRESS__)
+#define LOOKBOTH_TEST_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define LOOKBOTH_TEST_ASAN 1
+#endif
+#endif
+
+TEST_F(RawlogIoTest, ACorruptLengthIsAnErrorWithoutAllocatingIt) {
+#ifdef LOOKBOTH_TEST_ASAN
+  GTEST_SKIP() << "AddressSanitizer's operator new replaces the reader's bounded one, and its "
+                  "shadow memory rules out an address-space cap";
+#endif
+  writeSample(testing::sampleRecords(), rawlog_);
+  std::string bytes = gunzip(rawlog_);
+  const std::string label("\x05\0\0\0cam00", 9);  // the first "cam00" string
+  const size_t at = bytes.find(label);
+  ASSERT_NE(at, std::string::npos);
+  bytes.replace(at, 4, std::string(4, '\xFF'));
+  gzip(rawlog_, bytes);
+
+  int pipe_fds[2];
+  ASSERT_EQ(::pipe(pipe_fds), 0);
+  const auto start = std::chrono::steady_clock::now();
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    ::close(pipe_fds[0]);
+    // Room for what the process maps already plus 1 GiB: not for 4 GB.
+    std::ifstream statm("/proc/self/statm");
+    std::uint64_t pages = 0;
+    statm >> pages;
+    const rlim_t cap = pages * static_cast<rlim_t>(::sysconf(_SC_PAGESIZE)) + (rlim_t{1} << 30);
+    const rlimit limit{cap, cap};
+    ::setrlimit(RLIMIT_AS, &limit);
+    std::string message = "(no error)";
+    int code = 3;
+    try {
+      auto reader = DatasetReader::open(rawlog_);
+      while (reader->next()) {
+      }
+    } catch (const Error& e) {
+      message = e.what();
+      code = 0;
+    } catch (const std::exception& e) {
+      message = std::string("not a lookboth::Error: ") + e.what();
+      code = 2;
+    }
+    const ssize_t written = ::write(pipe_fds[1], message.data(), message.size());
+    ::_exit(written < 0 ? 4 : code);
+  }
+  ::close(pipe_fds[1]);
+  std::string message;
+  char buffer[4096];
+  for (ssize_t n; (n = ::read(pipe_fds[0], buffer, sizeof buffer)) > 0;) message.append(buffer, n);
+  ::close(pipe_fds[0]);
+  int status = 0;
+  rusage usage{};
+  ASSERT_EQ(::wait4(child, &status, 0, &usage), child);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_TRUE(WIFEXITED(status)) << "the reader died: " << message;
+  EXPECT_EQ(WEXITSTATUS(status), 0) << message;
+  EXPECT_NE(message.find("sample.rawlog: entry "), std::string::npos) << message;
+  EXPECT_NE(message.find("corrupt: a length in it asks for 4294967296 bytes of memory"),
+            std::string::npos)
+      << message;
+  EXPECT_LT(seconds, 10.0);
+  EXPECT_LT(usage.ru_maxrss, 400 * 1024) << "peak resident KiB";  // Linux: KiB
+  std::printf("corrupt length: %.2f s, child's peak RSS %ld KiB: %s\n", seconds, usage.ru_maxrss,
+              message.c_str());
+}
+
+// Markers of two ids seen by one camera in one frame are two observations:
+// folder -> rawlog -> records keeps both. The same marker twice keeps the
+// detection with the smaller uncertainty, in both formats.
+TEST_F(RawlogIoTest, TwoMarkersInOneFrameSurviveAFolderRawlogRoundTrip) {
+  std::vector<Record> records = testing::sampleRecords();
+  MarkerObservation other;
+  for (const Record& r : records) {
+    if (const auto* m = std::get_if<MarkerObservation>(&r)) {
+      other = *m;
+      break;
+    }
+  }
+  other.marker_id = 3;  // another marker in the robot's frame, same camera and time
+  other.camera_from_marker.translation.x() += 0.5;
+  std::vector<Record> with_other;
+  for (const Record& r : records) {
+    with_other.push_back(r);
+    const auto* m = std::get_if<MarkerObservation>(&r);
+    if (m && m->t == other.t && m->camera == other.camera) with_other.push_back(other);
+  }
+  const fs::path folder = dir_ / "folder";
+  {
+    auto writer = DatasetWriter::create(folder, DatasetKind::kFolder, testing::sampleManifest());
+    for (const Record& r : with_other) writer->write(r);
+    writer->finish();
+  }
+  auto markersAt = [&](const std::vector<Record>& all) {
+    std::set<int> ids;
+    for (const Record& r : all) {
+      const auto* m = std::get_if<MarkerObservation>(&r);
+      if (m && m->t == other.t && m->camera == other.camera) ids.insert(m->marker_id);
+    }
+    return ids;
+  };
+  DatasetReadOptions no_image_check;  // the sample's images are smaller than its calibrations
+  no_image_check.check_images = false;
+  const std::vector<Record> from_folder = readAll(folder, no_image_check);
+  EXPECT_TRUE(issues_.empty()) << issues_.front().message;
+  EXPECT_EQ(markersAt(from_folder), (std::set<int>{3, 7}));
+  writeSample(from_folder, rawlog_);
+  const std::vector<Record> back = readAll(rawlog_);
+  EXPECT_TRUE(issues_.empty()) << issues_.front().where << ": " << issues_.front().message;
+  EXPECT_EQ(back.size(), from_folder.size());
+  EXPECT_EQ(markersAt(back), (std::set<int>{3, 7}));
+
+  // The robot's marker twice in that frame, the second detection more
+  // certain: both readers keep it, and say which was dropped.
+  MarkerObservation better = other;
+  better.marker_id = 7;
+  better.information *= 100.0;
+  std::vector<Record> twice;
+  for (const Record& r : with_other) {
+    twice.push_back(r);
+    const auto* m = std::get_if<MarkerObservation>(&r);
+    if (m && m->t == other.t && m->marker_id == 3) twice.push_back(better);
+  }
+  const fs::path folder2 = dir_ / "folder2";
+  {
+    auto writer = DatasetWriter::create(folder2, DatasetKind::kFolder, testing::sampleManifest());
+    for (const Record& r : twice) writer->write(r);
+    writer->finish();
+  }
+  const fs::path rawlog2 = dir_ / "twice.rawlog";
+  writeSample(twice, rawlog2);
+  for (const fs::path& path : {folder2, rawlog2}) {
+    const std::vector<Record> read = readAll(path, no_image_check);
+    EXPECT_EQ(read.size(), with_other.size()) << path;
+    ASSERT_EQ(issues_.size(), 1u) << path;
+    EXPECT_NE(issues_[0].message.find("'cam00'"), std::string::npos) << issues_[0].message;
+    EXPECT_NE(issues_[0].message.find("marker 7"), std::string::npos) << issues_[0].message;
+    EXPECT_NE(issues_[0].message.find("smaller uncertainty"), std::string::npos)
+        << issues_[0].message;
+    for (const Record& r : read) {
+      const auto* m = std::get_if<MarkerObservation>(&r);
+      if (m && m->t == other.t && m->marker_id == 7) {
+        EXPECT_EQ(m->information, better.information) << path;
+        EXPECT_EQ(m->camera_from_marker.translation, better.camera_from_marker.translation);
+      }
+    }
   }
 }
 

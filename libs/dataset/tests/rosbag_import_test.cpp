@@ -13,10 +13,14 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstring>
 #include <fstream>
+#include <functional>
+#include <iterator>
 #include <map>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <random>
 
 #include "lookboth/core/error.h"
 
@@ -104,6 +108,7 @@ geometry_msgs::Pose toRos(const Rigid3d& pose) {
 struct BagVariant {
   bool change_fisheye_info = false;  // the 4th fisheye CameraInfo differs
   rosbag::compression::CompressionType compression = rosbag::compression::Uncompressed;
+  bool small = false;  // 2 + 2 + 1 frames and 3 + 3 poses (still several chunks)
 };
 
 SampleBag writeSampleBag(const fs::path& path, const BagVariant& variant = {}) {
@@ -112,7 +117,7 @@ SampleBag writeSampleBag(const fs::path& path, const BagVariant& variant = {}) {
   bag.setCompression(variant.compression);
   bag.setChunkThreshold(4096);  // several chunks
   cv::RNG rng(42);
-  for (int i = 0; i < 5; ++i) {
+  for (int i = 0; i < (variant.small ? 2 : 5); ++i) {
     SampleBag::Frame frame;
     frame.stamp = rosTime(kSec0, 100'000'000 * i + 123);  // not a multiple of 100 ns
     frame.received = rosTime(kSec0, 100'000'000 * i + 5'000'000);
@@ -132,7 +137,7 @@ SampleBag writeSampleBag(const fs::path& path, const BagVariant& variant = {}) {
     bag.write("/fisheye/camera_info", frame.received, info);
     sample.fisheye.push_back(frame);
   }
-  for (int i = 0; i < 4; ++i) {
+  for (int i = 0; i < (variant.small ? 2 : 4); ++i) {
     SampleBag::Frame frame;
     frame.stamp = rosTime(kSec0, 120'000'000 * i + 7);
     frame.received = rosTime(kSec0, 120'000'000 * i + 9'000'000);
@@ -148,7 +153,7 @@ SampleBag writeSampleBag(const fs::path& path, const BagVariant& variant = {}) {
     bag.write("/cam03/image/compressed", frame.received, image);
     sample.cam03.push_back(frame);
   }
-  for (int i = 0; i < 3; ++i) {
+  for (int i = 0; i < (variant.small ? 1 : 3); ++i) {
     SampleBag::Frame frame;
     frame.stamp = rosTime(kSec0 + 1, 1000 * i);
     frame.received = frame.stamp;
@@ -162,7 +167,7 @@ SampleBag writeSampleBag(const fs::path& path, const BagVariant& variant = {}) {
     bag.write("/cam04/image/compressed", frame.received, image);
     sample.cam04.push_back(frame);
   }
-  for (int i = 0; i < 10; ++i) {
+  for (int i = 0; i < (variant.small ? 3 : 10); ++i) {
     SampleBag::Pose pose;
     pose.stamp = rosTime(kSec0, 50'000'000 * i + 999);
     pose.received = rosTime(kSec0, 50'000'000 * i + 2'000'000);
@@ -687,6 +692,196 @@ TEST_F(RosbagImportTest, CorruptOrTruncatedBagIsAnErrorNamingTheBag) {
     importRosbag(dir_ / "absent.bag", out, DatasetKind::kFolder, sampleOptions(), {}, {});
   });
   EXPECT_NE(message.find("absent.bag"), std::string::npos) << message;
+}
+
+// ---------------------------------------------------------------------------
+// Corrupted bags: rosbag_storage trusts the lengths and positions of a bag,
+// so every corruption below must be stopped by the import's own structure
+// check (an Error naming the bag), never reach a crash in the library.
+
+std::string readBytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+void writeBytes(const fs::path& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+}
+
+std::uint32_t get32(const std::string& b, size_t at) {
+  std::uint32_t v = 0;
+  std::memcpy(&v, b.data() + at, 4);
+  return v;
+}
+
+void put32(std::string& b, size_t at, std::uint32_t v) { std::memcpy(b.data() + at, &v, 4); }
+
+/// Positions of the 4-byte length and position fields of a bag 2.0: every
+/// record's header and data lengths, each header field's length, the
+/// numbers in its fields, the index entries' offsets, and the same inside
+/// uncompressed chunks.
+std::vector<size_t> lengthFields(const std::string& b) {
+  std::vector<size_t> at;
+  std::function<void(size_t, size_t)> walk = [&](size_t begin, size_t end) {
+    size_t o = begin;
+    while (o + 8 <= end) {
+      const std::uint32_t header = get32(b, o);
+      at.push_back(o);
+      size_t i = o + 4;
+      std::string op;
+      bool compressed = false;
+      while (i < o + 4 + header) {
+        const std::uint32_t length = get32(b, i);
+        at.push_back(i);
+        const std::string fieldText = b.substr(i + 4, length);
+        const size_t equals = fieldText.find('=');
+        const size_t value = i + 4 + equals + 1;
+        if (length - equals - 1 >= 4) at.push_back(value);  // u32, u64 (low half), time
+        if (fieldText.rfind("op=", 0) == 0) op = fieldText.substr(3);
+        if (fieldText.rfind("compression=", 0) == 0) compressed = fieldText != "compression=none";
+        i += 4 + length;
+      }
+      const std::uint32_t data = get32(b, i);
+      at.push_back(i);
+      if (op == "\x05" && !compressed) walk(i + 4, i + 4 + data);
+      if (op == "\x04") {
+        for (size_t k = 0; k + 12 <= data; k += 12) at.push_back(i + 4 + k + 8);
+      }
+      o = i + 4 + data;
+    }
+  };
+  walk(13, b.size());
+  return at;
+}
+
+/// Position of the offset field of the first index entry after chunk `n` (1-based).
+size_t firstIndexEntryAfterChunk(const std::string& b, int n) {
+  int chunks = 0;
+  for (size_t o = 13; o + 8 <= b.size();) {
+    const std::uint32_t header = get32(b, o);
+    const bool chunk = b.find("op=\x05", o + 4) < o + 4 + header;
+    const bool index = b.find("op=\x04", o + 4) < o + 4 + header;
+    const size_t data = o + 4 + header + 4;
+    if (index && chunks == n) return data + 8;
+    chunks += chunk;
+    o = data + get32(b, data - 4);
+  }
+  return 0;
+}
+
+TEST_F(RosbagImportTest, CorruptedBagsAreErrorsNeverCrashes) {
+  const fs::path good = dir_ / "good.bag";
+  writeSampleBag(good);
+  const std::string original = readBytes(good);
+  const fs::path bag = dir_ / "corrupt.bag";
+  const fs::path out = dir_ / "out";
+  DatasetWriteOptions overwrite;
+  overwrite.overwrite = true;
+  int errors = 0;
+  int imported = 0;
+  auto importCorrupted = [&](const std::string& bytes, const std::string& what) {
+    writeBytes(bag, bytes);
+    try {
+      importRosbag(bag, out, DatasetKind::kFolder, sampleOptions(), overwrite, {});
+      ++imported;
+    } catch (const Error& e) {
+      ++errors;
+      EXPECT_NE(std::string(e.what()).find(bag.string()), std::string::npos)
+          << what << ": " << e.what();
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << what << ": not a lookboth::Error: " << e.what();
+    }
+    for (const auto& entry : fs::directory_iterator(dir_)) {
+      const std::string name = entry.path().filename().string();
+      EXPECT_TRUE(name == "good.bag" || name == "corrupt.bag" || name == "out")
+          << what << ": left behind " << name;
+    }
+  };
+
+  // The offset of the first index entry after the third chunk (bytes
+  // 33721..33724 of the sample bag) pointing 2 GiB into the chunk, which
+  // crashed rosbag_storage: an error naming the bag and the chunk.
+  std::string bytes = original;
+  const std::vector<size_t> fields = lengthFields(original);
+  const size_t entry = firstIndexEntryAfterChunk(original, 3);
+  ASSERT_GT(entry, 0u);
+  EXPECT_EQ(entry, 33721u);  // as in the end-to-end test's sample.bag
+  put32(bytes, entry, 0x7fffffff);
+  writeBytes(bag, bytes);
+  const std::string message =
+      errorOf([&] { importRosbag(bag, out, DatasetKind::kFolder, sampleOptions(), {}, {}); });
+  EXPECT_NE(message.find(bag.string()), std::string::npos) << message;
+  EXPECT_NE(message.find("corrupt ROS bag"), std::string::npos) << message;
+  EXPECT_NE(message.find("chunk 3 of"), std::string::npos) << message;
+  EXPECT_NE(message.find("2147483647"), std::string::npos) << message;
+  EXPECT_FALSE(fs::exists(out));
+
+  // A smaller bag of the same kinds of records, for speed: each of its
+  // length or position fields set to a value that points nowhere (six kinds
+  // in turn), then random bytes anywhere, and cuts.
+  BagVariant small;
+  small.small = true;
+  writeSampleBag(good, small);
+  const std::string sample = readBytes(good);
+  const std::vector<size_t> small_fields = lengthFields(sample);
+  ASSERT_GT(small_fields.size(), 150u);
+  std::mt19937 rng(20240611);
+  for (size_t k = 0; k < small_fields.size(); ++k) {
+    const size_t at = small_fields[k];
+    const std::uint32_t value = get32(sample, at);
+    const std::uint32_t kinds[] = {0xffffffffu,
+                                   0x7fffffffu,
+                                   value + 1,
+                                   value - 1,
+                                   static_cast<std::uint32_t>(sample.size()),
+                                   static_cast<std::uint32_t>(rng())};
+    bytes = sample;
+    put32(bytes, at, kinds[k % 6]);
+    importCorrupted(bytes,
+                    "field at byte " + std::to_string(at) + " = " + std::to_string(kinds[k % 6]));
+  }
+  for (int round = 0; round < 100; ++round) {
+    bytes = sample;
+    const int flips = 1 + static_cast<int>(rng() % 8);
+    for (int k = 0; k < flips; ++k) bytes[rng() % bytes.size()] = static_cast<char>(rng());
+    if (round % 10 == 0) bytes.resize(13 + rng() % (bytes.size() - 13));
+    importCorrupted(bytes, "round " + std::to_string(round));
+  }
+  EXPECT_GT(errors, static_cast<int>(small_fields.size()) / 2);
+  std::printf("corrupted bags: %d errors, %d imported\n", errors, imported);
+}
+
+TEST_F(RosbagImportTest, CorruptedCompressedBagsAreErrorsNeverCrashes) {
+  for (const auto compression : {rosbag::compression::BZ2, rosbag::compression::LZ4}) {
+    BagVariant variant;
+    variant.compression = compression;
+    variant.small = true;
+    const fs::path good = dir_ / "good.bag";
+    writeSampleBag(good, variant);
+    const std::string original = readBytes(good);
+    const fs::path bag = dir_ / "corrupt.bag";
+    DatasetWriteOptions overwrite;
+    overwrite.overwrite = true;
+    std::mt19937 rng(7 + static_cast<int>(compression));
+    const std::vector<size_t> fields = lengthFields(original);
+    for (int round = 0; round < 60; ++round) {
+      std::string bytes = original;
+      if (round % 2 == 0) {
+        put32(bytes, fields[rng() % fields.size()],
+              round % 4 == 0 ? 0xffffffffu : static_cast<std::uint32_t>(rng()));
+      } else {
+        for (int k = 0; k < 4; ++k) bytes[rng() % bytes.size()] = static_cast<char>(rng());
+      }
+      writeBytes(bag, bytes);
+      try {
+        importRosbag(bag, dir_ / "out", DatasetKind::kFolder, sampleOptions(), overwrite, {});
+      } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find(bag.string()), std::string::npos) << e.what();
+      } catch (const std::exception& e) {
+        ADD_FAILURE() << "round " << round << ": not a lookboth::Error: " << e.what();
+      }
+    }
+  }
 }
 
 TEST_F(RosbagImportTest, StopRequestLeavesNothing) {
