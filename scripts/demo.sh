@@ -58,7 +58,7 @@ echo "== Pictures without a display: reprojection checks, camera views, 3-D over
   --ground-truth "$OUT/small.rawlog"
 echo
 echo "== The report: one self-contained HTML file"
-"$LOOKBOTH" report "$OUT/small.rawlog" "$OUT/registration" --out "$OUT/report.html" \
+"$LOOKBOTH" report "$OUT/small.rawlog" "$OUT/registration" --out "$OUT/report.html" --overwrite \
   --ground-truth "$OUT/small.rawlog" --against "$OUT/registration_metric"
 echo
 echo "Outputs in $OUT. Open the report in a browser: file://$(cd "$OUT" && pwd)/report.html"

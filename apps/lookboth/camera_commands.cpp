@@ -11,6 +11,7 @@
 #include "lookboth/cameras/camera_io.h"
 #include "lookboth/cameras/self_check.h"
 #include "lookboth/core/error.h"
+#include "lookboth/core/output_path.h"
 #include "lookboth/core/paths.h"
 #include "lookboth/core/text.h"
 
@@ -81,7 +82,8 @@ int runInfo(const std::string& file, const std::string& format_name,
 }
 
 int runConvert(const std::string& file, const std::string& format_name,
-               const std::string& camera_name, const std::string& out) {
+               const std::string& camera_name, const std::string& out, bool overwrite) {
+  checkOutputPath(out, {file}, overwrite);
   const Camera camera = loadCamera(file, kFormats.at(format_name), camera_name);
   saveCamera(camera, out);
   std::cout << "wrote " << out << " (" << camera.description() << ")\n";
@@ -136,6 +138,7 @@ void registerCameraCommands(CLI::App& app, const std::function<void(CommandBody)
 
   struct Options {
     std::string file, format = "auto", camera_name, out;
+    bool overwrite = false;
     std::vector<std::string> files;
     int samples = 5000;
   };
@@ -162,13 +165,15 @@ void registerCameraCommands(CLI::App& app, const std::function<void(CommandBody)
       ->required()
       ->check(CLI::ExistingFile);
   convert->add_option("--out", options->out, "Output lookboth camera YAML")->required();
+  convert->add_flag("--overwrite", options->overwrite, "Replace an existing --out");
   convert->add_option("--format", options->format, "Input format (default: detected)")
       ->check(format_check);
   convert->add_option("--camera", options->camera_name,
                       "Camera in a multi-camera file (e.g. cam1)");
   convert->callback([options, set_body] {
     set_body([options] {
-      return runConvert(options->file, options->format, options->camera_name, options->out);
+      return runConvert(options->file, options->format, options->camera_name, options->out,
+                        options->overwrite);
     });
   });
 

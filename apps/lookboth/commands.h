@@ -4,7 +4,9 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <filesystem>
 #include <functional>
+#include <string>
 
 namespace lookboth::app {
 
@@ -24,5 +26,8 @@ void registerOdometryCommand(CLI::App& app, const std::function<void(CommandBody
 void registerEvaluateCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerSnapshotCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerReportCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
+
+/// "cannot write 'path': No space left on device" for a failed file operation.
+std::string describeFilesystemError(const std::filesystem::filesystem_error& e);
 
 }  // namespace lookboth::app

@@ -2,11 +2,14 @@
 // Umeyama alignment, per-camera and RMS errors), against another registration
 // (the paper's Table II) and its fisheye reprojection RMSE before and after
 // the looking-up refinement (Table I). Writes <registration dir>/evaluation.json.
+#include <filesystem>
 #include <iostream>
 
 #include "commands.h"
 #include "lookboth/core/error.h"
+#include "lookboth/core/output_path.h"
 #include "lookboth/core/text.h"
+#include "lookboth/dataset/dataset_io.h"
 #include "lookboth/report/evaluate.h"
 
 namespace lookboth::app {
@@ -18,7 +21,24 @@ struct EvaluateArgs {
   std::string against;
   std::string json;
   bool with_scale = false;
+  bool overwrite = false;
 };
+
+/// Refuses a --json that would overwrite what is evaluated; the default
+/// <registration>/evaluation.json is the registration's own and is replaced.
+void checkJsonOutput(const EvaluateArgs& args) {
+  if (args.json.empty()) return;
+  std::vector<std::filesystem::path> inputs;
+  for (const std::string& p : {args.ground_truth, args.against}) {
+    if (p.empty()) continue;
+    for (const auto& part : datasetPaths(p)) inputs.push_back(part);
+  }
+  for (const auto& entry : std::filesystem::directory_iterator(args.registration)) {
+    if (entry.path().filename() != "evaluation.json") inputs.push_back(entry.path());
+  }
+  inputs.emplace_back(args.registration);
+  checkOutputPath(args.json, inputs, args.overwrite, "--json");
+}
 
 int runEvaluate(const EvaluateArgs& args) {
   report::EvaluateOptions options;
@@ -26,6 +46,7 @@ int runEvaluate(const EvaluateArgs& args) {
   options.against = args.against;
   options.with_scale = args.with_scale;
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
+  checkJsonOutput(args);
   const report::Evaluation evaluation = report::evaluateRegistration(args.registration, options);
   if (evaluation.ground_truth) {
     std::cout << report::formatComparisonTable(*evaluation.ground_truth,
@@ -80,6 +101,7 @@ void registerEvaluateCommand(CLI::App& app, const std::function<void(CommandBody
                 "Align with a similarity (Sim(3)) instead of a rigid transform");
   cmd->add_option("--json", args->json,
                   "Where to write the JSON (default: <registration>/evaluation.json)");
+  cmd->add_flag("--overwrite", args->overwrite, "Replace an existing --json");
   cmd->callback([args, set_body] { set_body([args] { return runEvaluate(*args); }); });
 }
 

@@ -3,7 +3,9 @@
 // Exit codes: 0 success, 1 bad input data (lookboth::Error), 2 usage error,
 // 3 internal error.
 #include <clocale>
+#include <filesystem>
 #include <iostream>
+#include <new>
 
 #include "commands.h"
 #include "lookboth/core/error.h"
@@ -41,6 +43,13 @@ int main(int argc, char** argv) {
     return body ? body() : 0;
   } catch (const lookboth::Error& e) {
     std::cerr << "lookboth: error: " << e.what() << "\n";
+    return 1;
+  } catch (const std::filesystem::filesystem_error& e) {
+    // A read-only folder, a full disk, a missing permission: the user's to fix.
+    std::cerr << "lookboth: error: " << lookboth::app::describeFilesystemError(e) << "\n";
+    return 1;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "lookboth: error: out of memory\n";
     return 1;
   } catch (const std::exception& e) {
     std::cerr << "lookboth: internal error: " << e.what() << "\n";

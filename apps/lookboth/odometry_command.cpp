@@ -55,6 +55,9 @@ int runOdometryCommand(const OdometryArgs& args) {
   options.write_dataset = !args.dry_run;
   options.camera = args.camera;
   options.max_duration_s = args.duration;
+  options.on_issue = [](const DatasetIssue& issue) {
+    std::cerr << "lookboth: warning: " << issue.where << ": " << issue.message << "\n";
+  };
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
 
   const ProgressReporter progress(makeConsoleProgress());

@@ -8,6 +8,7 @@
 #include "lookboth/calib/pipeline.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/progress.h"
+#include "lookboth/dataset/dataset_io.h"
 #include "signals.h"
 
 namespace lookboth::app {
@@ -23,8 +24,21 @@ struct RegisterArgs {
   bool overwrite = false;
   bool no_detect = false;
   bool no_odometry = false;
+  bool no_write_back = false;
   int threads = 0;
 };
+
+/// The files register reads: it must not write over any of them.
+std::vector<std::filesystem::path> registerInputs(const RegisterArgs& args) {
+  std::vector<std::filesystem::path> inputs = datasetPaths(args.dataset);
+  if (!args.trajectory_file.empty()) inputs.emplace_back(args.trajectory_file);
+  if (!args.config.empty()) inputs.emplace_back(args.config);
+  return inputs;
+}
+
+void printIssue(const DatasetIssue& issue) {
+  std::cerr << "lookboth: warning: " << issue.where << ": " << issue.message << "\n";
+}
 
 int runRegister(const RegisterArgs& args) {
   RegisterOptions options;
@@ -34,7 +48,7 @@ int runRegister(const RegisterArgs& args) {
   options.trajectory_file = args.trajectory_file;
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
   // Before the work, not after it (the output is written once all is done).
-  checkRegistrationOutput(args.out, args.overwrite);
+  checkRegistrationOutput(args.out, args.overwrite, registerInputs(args));
 
   const ProgressReporter progress(makeConsoleProgress());
   const StopOnSignal stop_on_signal(progress);
@@ -52,6 +66,8 @@ int runRegister(const RegisterArgs& args) {
     full.auto_detect = !args.no_detect;
     full.auto_odometry = !args.no_odometry;
     full.threads = args.threads;
+    full.write_back = !args.no_write_back;
+    full.on_issue = printIssue;
     const FullPipelineResult result = runFullPipeline(full, progress);
     for (const auto& step : result.steps) std::cout << step << "\n";
     const RegistrationRun& run = result.run;
@@ -97,6 +113,10 @@ void registerRegisterCommand(CLI::App& app, const std::function<void(CommandBody
                 "Do not run the visual odometry when the dataset has no 'vo' trajectory");
   cmd->add_option("--threads", args->threads, "Detection threads (0 = one per core)")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("--no-write-back", args->no_write_back,
+                "Leave the dataset untouched: the detections and odometry that register runs "
+                "go to a temporary copy beside --out, removed at the end (by default they are "
+                "added to the dataset, for the next run, the report and the desktop app)");
   cmd->callback([args, set_body] { set_body([args] { return runRegister(*args); }); });
 }
 

@@ -4,8 +4,10 @@
 
 #include "commands.h"
 #include "lookboth/core/error.h"
+#include "lookboth/core/output_path.h"
 #include "lookboth/core/progress.h"
 #include "lookboth/core/text.h"
+#include "lookboth/dataset/dataset_io.h"
 #include "lookboth/report/report.h"
 #include "signals.h"
 
@@ -22,6 +24,7 @@ struct ReportArgs {
   std::string size;
   bool with_scale = false;
   bool no_overview = false;
+  bool overwrite = false;
   double max_reprojection_px = 0;
 };
 
@@ -36,6 +39,11 @@ int runReport(const ReportArgs& args) {
   options.overview = !args.no_overview;
   options.max_reprojection_rms_px = args.max_reprojection_px;
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
+  std::vector<std::filesystem::path> inputs = datasetPaths(args.dataset);
+  for (const std::string& p : {args.registration, args.ground_truth, args.against}) {
+    if (!p.empty()) inputs.emplace_back(p);
+  }
+  checkOutputPath(args.out, inputs, args.overwrite);
 
   const ProgressReporter progress(makeConsoleProgress());
   const StopOnSignal stop_on_signal(progress);
@@ -67,6 +75,7 @@ void registerReportCommand(CLI::App& app, const std::function<void(CommandBody)>
       ->required()
       ->check(CLI::ExistingDirectory);
   cmd->add_option("--out", args->out, "The HTML file to write")->required();
+  cmd->add_flag("--overwrite", args->overwrite, "Replace an existing --out");
   cmd->add_option("--ground-truth", args->ground_truth,
                   "Compare with ground truth (dataset, folder or cameras.csv)");
   cmd->add_option("--against", args->against, "Compare with another registration directory");

@@ -1,12 +1,15 @@
 // `lookboth snapshot`: PNG pictures of a registration, without any display:
 // fisheye reprojection checks, environment camera views of the marker, the
 // 3-D overview, comparisons with a reference, loop closure.
+#include <filesystem>
 #include <iostream>
 
 #include "commands.h"
 #include "lookboth/calib/registration.h"
 #include "lookboth/core/error.h"
+#include "lookboth/core/output_path.h"
 #include "lookboth/core/progress.h"
+#include "lookboth/dataset/dataset_io.h"
 #include "lookboth/report/snapshot.h"
 #include "signals.h"
 
@@ -27,7 +30,27 @@ struct SnapshotArgs {
   int env_views = 12;
 };
 
+/// The pictures go to a folder of their own: not one of the inputs, not
+/// inside one (the registration folder is what is being shown), not one
+/// that holds an input (the existing pictures are replaced).
+void checkSnapshotOutput(const SnapshotArgs& args) {
+  std::vector<std::filesystem::path> inputs = datasetPaths(args.dataset);
+  for (const std::string& p : {args.registration, args.ground_truth, args.against}) {
+    if (p.empty()) continue;
+    for (const auto& part : datasetPaths(p)) inputs.push_back(part);
+  }
+  checkOutputPath(args.out, inputs, /*overwrite=*/true);
+  for (const std::filesystem::path& input : inputs) {
+    if (std::filesystem::is_directory(input) && contains(input, args.out)) {
+      throw Error({args.out, 0, "--out", ""},
+                  "is inside the input '" + input.string() +
+                      "'; inputs are never written to: choose a folder outside it");
+    }
+  }
+}
+
 int runSnapshot(const SnapshotArgs& args) {
+  checkSnapshotOutput(args);
   report::SnapshotOptions options;
   options.out = args.out;
   options.frames = report::FrameSelection::parse(args.frames);

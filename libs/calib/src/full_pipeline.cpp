@@ -1,5 +1,7 @@
 #include "lookboth/calib/full_pipeline.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 
 #include "lookboth/core/error.h"
@@ -58,16 +60,47 @@ namespace {
 
 std::filesystem::path defaultConfigFile() { return shareDirectory() / "config" / "default.yaml"; }
 
+/// A hidden dataset beside the registration output, in the input's layout,
+/// removed (with its manifest and images) when the run ends however it ends.
+struct ScratchDataset {
+  explicit ScratchDataset(const FullPipelineOptions& options) {
+    namespace fs = std::filesystem;
+    const fs::path out = fs::absolute(options.out).lexically_normal();
+    // No dot after the leading one: a folder dataset's name has no extension.
+    const std::string stem =
+        "." + out.filename().string() + "-dataset-tmp-" + std::to_string(::getpid());
+    const bool rawlog = detectDatasetKind(options.dataset) == DatasetKind::kRawlog;
+    path = out.parent_path() / (rawlog ? stem + ".rawlog" : stem);
+    parts = {path};
+    if (rawlog) parts = {manifestPathFor(path), path, imagesDirectoryFor(path)};
+  }
+  ScratchDataset(ScratchDataset&& other) noexcept
+      : path(std::move(other.path)), parts(std::move(other.parts)) {
+    other.parts.clear();
+  }
+  ScratchDataset(const ScratchDataset&) = delete;
+  ScratchDataset& operator=(const ScratchDataset&) = delete;
+  ScratchDataset& operator=(ScratchDataset&&) = delete;
+  ~ScratchDataset() {
+    std::error_code ignored;
+    for (const auto& part : parts) std::filesystem::remove_all(part, ignored);
+  }
+  std::filesystem::path path;
+  std::vector<std::filesystem::path> parts;
+};
+
 }  // namespace
 
 StepOutcome runDetectStep(const FullPipelineOptions& options, const DatasetContents& contents,
-                          const ProgressReporter& progress) {
+                          const ProgressReporter& progress, const std::filesystem::path& out) {
   StepOutcome outcome;
   const bool need_markers = contents.camera_frames > 0 && contents.markers == 0;
   const bool need_blobs = contents.fisheye_frames > 0 && contents.blob_records == 0;
   if (options.auto_detect && (need_markers || need_blobs)) {
     DetectOptions detect;
     detect.dataset = options.dataset;
+    detect.out = out;
+    detect.on_issue = options.on_issue;
     detect.threads = options.threads;
     detect.markers = need_markers;
     detect.blobs = need_blobs;
@@ -80,7 +113,8 @@ StepOutcome runDetectStep(const FullPipelineOptions& options, const DatasetConte
       (camera.fisheye ? blobs : markers) += camera.detections;
     outcome.ran = true;
     outcome.summary = "detect: " + std::to_string(markers) + " marker detections, " +
-                      std::to_string(blobs) + " fisheye frames with blobs added";
+                      std::to_string(blobs) + " fisheye frames with blobs added to " +
+                      (out.empty() ? options.dataset.string() : std::string("a temporary copy"));
   } else {
     outcome.summary = "detect: skipped (" +
                       std::string(contents.camera_frames + contents.fisheye_frames == 0
@@ -92,7 +126,7 @@ StepOutcome runDetectStep(const FullPipelineOptions& options, const DatasetConte
 }
 
 StepOutcome runOdometryStep(const FullPipelineOptions& options, const DatasetContents& contents,
-                            const ProgressReporter& progress) {
+                            const ProgressReporter& progress, const std::filesystem::path& out) {
   StepOutcome outcome;
   const std::string vo_label = options.trajectory_label.empty() ? "vo" : options.trajectory_label;
   if (options.mode == TrajectoryMode::kVisual && options.trajectory_file.empty() &&
@@ -113,13 +147,17 @@ StepOutcome runOdometryStep(const FullPipelineOptions& options, const DatasetCon
     if (options.config_file)
       odometry.odometry = vo::loadOdometryOptions(*options.config_file, odometry.odometry);
     odometry.write_dataset = true;  // adds the trajectory to the dataset (augmentDataset)
+    odometry.out = out;
+    odometry.on_issue = options.on_issue;
     const vo::OdometryRunSummary summary = vo::runOdometry(odometry, progress);
     if (summary.result.trajectory.empty())
       throw Error(options.dataset.string() + ": the visual odometry tracked no frame");
     outcome.ran = true;
     outcome.summary = "odometry: " + std::to_string(summary.records_written) +
-                      " poses added as trajectory '" + vo_label + "' (" +
-                      std::to_string(summary.result.statistics.loop_closures) + " loop closures)";
+                      " poses added as trajectory '" + vo_label + "' to " +
+                      (out.empty() ? options.dataset.string() : std::string("a temporary copy")) +
+                      " (" + std::to_string(summary.result.statistics.loop_closures) +
+                      " loop closures)";
   } else {
     outcome.summary = "odometry: skipped (" +
                       std::string(options.mode == TrajectoryMode::kMetric ? "metric trajectory"
@@ -137,14 +175,26 @@ FullPipelineResult runFullPipeline(const FullPipelineOptions& options,
   RegistrationController controller(loadRegistrationConfig(options.config_file));
 
   DatasetContents contents = inspectDataset(options.dataset, progress);
+  // Without write-back, steps 1-2 write a scratch copy that the stages read.
+  const std::optional<ScratchDataset> scratch =
+      options.write_back ? std::nullopt : std::optional<ScratchDataset>(ScratchDataset(options));
+  FullPipelineOptions working = options;
+  const std::filesystem::path step_out = scratch ? scratch->path : std::filesystem::path();
   // 1. Detection.
-  result.steps.push_back(runDetectStep(options, contents, progress).summary);
+  const StepOutcome detected = runDetectStep(working, contents, progress, step_out);
+  result.steps.push_back(detected.summary);
+  if (detected.ran && scratch) working.dataset = scratch->path;
   // 2. Visual odometry (on the contents before detection: detection adds no trajectory).
-  result.steps.push_back(runOdometryStep(options, contents, progress).summary);
+  const bool in_scratch = scratch && working.dataset == scratch->path;
+  const StepOutcome odometry =
+      runOdometryStep(working, contents, progress, in_scratch ? std::filesystem::path() : step_out);
+  result.steps.push_back(odometry.summary);
+  if (odometry.ran && scratch) working.dataset = scratch->path;
 
   // 3-4. Registration and its output.
   RegisterOptions register_options;
-  register_options.dataset = options.dataset;
+  register_options.dataset = working.dataset;
+  register_options.on_issue = options.on_issue;
   register_options.mode = options.mode;
   register_options.trajectory_label = options.trajectory_label;
   register_options.trajectory_file = options.trajectory_file;

@@ -14,7 +14,9 @@
 
 #include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
+#include "lookboth/core/output_path.h"
 #include "lookboth/core/paths.h"
+#include "lookboth/core/temporary_files.h"
 #include "lookboth/core/text.h"
 #include "lookboth/core/version.h"
 #include "lookboth/dataset/dataset_io.h"
@@ -76,6 +78,7 @@ RegistrationConfig registrationConfigFromYaml(
   for (const auto& [text, source] : text_and_source) {
     auto reader = std::make_shared<YamlReader>(source);
     const YAML::Node root = reader->parse(text);
+    reader->checkConfigRoot(root, text);
     config.files.push_back(source);
     config.readers.push_back(reader);
     StageConfig::Layer layer;
@@ -132,6 +135,7 @@ RegistrationInput loadRegistrationInput(const RegisterOptions& options,
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
   DatasetReadOptions read_options;
   read_options.check_images = false;
+  read_options.on_issue = options.on_issue;
   auto reader = DatasetReader::open(options.dataset, read_options);
   RegistrationInput input;
   input.dataset = fs::absolute(options.dataset).lexically_normal();
@@ -305,7 +309,9 @@ RegistrationRun RegistrationController::run(RegistrationInput input,
 
 // ---- output ----
 
-void checkRegistrationOutput(const fs::path& dir, bool overwrite) {
+void checkRegistrationOutput(const fs::path& dir, bool overwrite,
+                             const std::vector<fs::path>& inputs) {
+  checkOutputPath(dir, inputs, /*overwrite=*/true);
   const fs::path target = fs::absolute(dir).lexically_normal();
   if (fs::exists(target) && !overwrite) {
     throw Error(ErrorContext{dir.string(), 0, "", ""}, "already exists (use --overwrite)");
@@ -320,6 +326,7 @@ void writeRegistrationOutput(const RegistrationRun& run, const fs::path& dir, bo
   const fs::path target = fs::absolute(dir).lexically_normal();
   const fs::path parent = target.parent_path();
   const std::string stem = target.filename().string();
+  removeStaleTemporaries(parent);
   const fs::path temporary = parent / ("." + stem + ".tmp-" + std::to_string(::getpid()));
   fs::remove_all(temporary);
   try {

@@ -578,7 +578,7 @@ Registration loadRegistration(const std::filesystem::path& dir) {
                                                                   {"yaw", &e.yaw}}) {
         *target = r.number(r.require(d, key, at + key), at + key);
       }
-      if (d["updates"]) e.updates = static_cast<int>(r.integer(d["updates"], at + "updates"));
+      if (d["updates"]) e.updates = r.int32(d["updates"], at + "updates");
       reg.observability.drift_model = e;
     }
     if (o["aligned_position_rmse_m"]) {

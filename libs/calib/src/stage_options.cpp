@@ -20,7 +20,7 @@ struct Section {
     if (node[key]) target = r.number(node[key], path(key));
   }
   void integer(const char* key, int& target) const {
-    if (node[key]) target = static_cast<int>(r.integer(node[key], path(key)));
+    if (node[key]) target = r.int32(node[key], path(key));
   }
   void vector3(const char* key, Eigen::Vector3d& target) const {
     const YAML::Node n = node[key];
@@ -207,7 +207,9 @@ std::string LookUpOptions::check() const {
   if (!(min_gate_px > 0) || min_gate_px > gate_px) {
     return "'min_gate_px': must be positive and at most gate_px";
   }
-  if (rounds < 1) return "'rounds': must be at least 1";
+  // Each round is a full association and solve: a few are enough, thousands
+  // are a typo that would run for days.
+  if (rounds < 1 || rounds > 100) return "'rounds': must be 1-100, got " + std::to_string(rounds);
   if (min_blobs < 1) return "'min_blobs': must be at least 1";
   if (max_blobs_per_camera < 0) return "'max_blobs_per_camera': must not be negative";
   if (association_frame_step < 1) return "'association_frame_step': must be at least 1";
@@ -374,8 +376,11 @@ std::string JointOptions::check() const {
   if (min_blobs < 1) return "'min_blobs': must be at least 1";
   if (association_frame_step < 1) return "'association_frame_step': must be at least 1";
   if (max_blobs_per_camera < 0) return "'max_blobs_per_camera': must not be negative";
-  if (rounds < 1) return "'rounds': must be at least 1";
-  if (drift_model_updates < 0) return "'drift_model_updates': must not be negative";
+  // Each round is a full association and solve: a few are enough, thousands
+  // are a typo that would run for days.
+  if (rounds < 1 || rounds > 100) return "'rounds': must be 1-100, got " + std::to_string(rounds);
+  if (drift_model_updates < 0 || drift_model_updates > 100)
+    return "'drift_model_updates': must be 0-100, got " + std::to_string(drift_model_updates);
   if (drift_round_max_blobs_per_camera < 0) {
     return "'drift_round_max_blobs_per_camera': must not be negative (0 = max_blobs_per_camera)";
   }
@@ -389,7 +394,7 @@ std::string JointOptions::check() const {
   if (aligned_uncertainty_max_cameras < 0) {
     return "'aligned_uncertainty_max_cameras': must not be negative (0 = never)";
   }
-  if (threads < 1) return "'threads': must be at least 1";
+  if (threads < 1 || threads > 256) return "'threads': must be 1-256";
   if (!(initial_trust_region_radius > 0 && std::isfinite(initial_trust_region_radius))) {
     return "'initial_trust_region_radius': must be positive and finite, got " +
            formatDouble(initial_trust_region_radius);

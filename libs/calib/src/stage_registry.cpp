@@ -17,6 +17,26 @@ CameraRegistration& RegistrationProblem::camera(const std::string& label) {
   return result.cameras.back();
 }
 
+ErrorContext checkErrorContext(const StageConfig& config, const std::string& why) {
+  std::string key;
+  if (why.size() > 2 && why[0] == '\'') {
+    if (const std::size_t end = why.find('\'', 1); end != std::string::npos)
+      key = why.substr(1, end - 1);
+  }
+  for (auto layer = config.layers.rbegin(); layer != config.layers.rend(); ++layer) {
+    if (!layer->reader || !layer->node.IsDefined() || !layer->node.IsMap()) continue;
+    if (!key.empty()) {
+      const YAML::Node value = layer->node[key];
+      if (value.IsDefined()) return layer->reader->at(value, config.field + "." + key);
+    }
+  }
+  for (auto layer = config.layers.rbegin(); layer != config.layers.rend(); ++layer) {
+    if (layer->reader && layer->node.IsDefined() && !layer->node.IsNull())
+      return layer->reader->at(layer->node, config.field);
+  }
+  return ErrorContext{"", 0, config.field, ""};
+}
+
 StageRegistry& StageRegistry::global() {
   static StageRegistry* registry = [] {
     auto* r = new StageRegistry;

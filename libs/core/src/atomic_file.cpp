@@ -6,12 +6,14 @@
 #include <sstream>
 
 #include "lookboth/core/error.h"
+#include "lookboth/core/temporary_files.h"
 
 namespace lookboth {
 namespace {
 
 std::filesystem::path temporaryNameFor(const std::filesystem::path& destination) {
   static std::atomic<unsigned> counter{0};
+  removeStaleTemporaries(destination.has_parent_path() ? destination.parent_path() : ".");
   std::ostringstream name;
   name << "." << destination.filename().string() << ".tmp-" << ::getpid() << "-" << counter++;
   return destination.parent_path() / name.str();

@@ -69,4 +69,10 @@ std::string formatFixed(double value, int decimals) {
   return std::string(buffer, end);
 }
 
+std::string excerpt(std::string_view text, std::size_t max_chars) {
+  if (text.size() <= max_chars) return "'" + std::string(text) + "'";
+  return "'" + std::string(text.substr(0, max_chars)) + "...' (" + std::to_string(text.size()) +
+         " characters)";
+}
+
 }  // namespace lookboth

@@ -1,6 +1,7 @@
 #include "lookboth/core/yaml_reader.h"
 
 #include <cmath>
+#include <limits>
 #include <map>
 
 #include "lookboth/core/text.h"
@@ -30,7 +31,7 @@ double YamlReader::number(const YAML::Node& node, const std::string& field) cons
   if (!node.IsScalar()) throw Error(at(node, field), "expected a number");
   const auto value = parseDouble(node.Scalar());
   if (!value || !std::isfinite(*value)) {
-    throw Error(at(node, field), "'" + node.Scalar() + "' is not a finite number");
+    throw Error(at(node, field), excerpt(node.Scalar()) + " is not a finite number");
   }
   return *value;
 }
@@ -38,8 +39,30 @@ double YamlReader::number(const YAML::Node& node, const std::string& field) cons
 long long YamlReader::integer(const YAML::Node& node, const std::string& field) const {
   if (!node.IsScalar()) throw Error(at(node, field), "expected an integer");
   const auto value = parseInt(node.Scalar());
-  if (!value) throw Error(at(node, field), "'" + node.Scalar() + "' is not an integer");
+  if (!value) throw Error(at(node, field), excerpt(node.Scalar()) + " is not an integer");
   return *value;
+}
+
+int YamlReader::int32(const YAML::Node& node, const std::string& field) const {
+  const long long value = integer(node, field);
+  if (value < std::numeric_limits<int>::min() || value > std::numeric_limits<int>::max()) {
+    throw Error(at(node, field), excerpt(node.Scalar()) + " is out of range");
+  }
+  return static_cast<int>(value);
+}
+
+void YamlReader::checkConfigRoot(const YAML::Node& root, const std::string& text) const {
+  if (!root.IsDefined() || root.IsNull()) {
+    const bool blank = text.find_first_not_of(" \t\r\n") == std::string::npos;
+    throw Error(ErrorContext{source_, 0, "", ""},
+                blank ? "the configuration file is empty (nothing to apply)"
+                      : "the configuration file holds no section (only comments?); expected "
+                        "register:, odometry: or detect:");
+  }
+  if (!root.IsMap()) {
+    throw Error(at(root, ""), "expected a mapping of sections (register:, odometry:, detect:)");
+  }
+  rejectUnknownKeys(root, kConfigSections, "");
 }
 
 std::string YamlReader::text(const YAML::Node& node, const std::string& field) const {
@@ -51,7 +74,7 @@ bool YamlReader::boolean(const YAML::Node& node, const std::string& field) const
   const std::string value = text(node, field);
   if (value == "true" || value == "yes") return true;
   if (value == "false" || value == "no") return false;
-  throw Error(at(node, field), "expected true or false, got '" + value + "'");
+  throw Error(at(node, field), "expected true or false, got " + excerpt(value));
 }
 
 void YamlReader::rejectUnknownKeys(const YAML::Node& node, const std::set<std::string>& known,

@@ -8,6 +8,8 @@
 
 #include "internal.h"
 #include "lookboth/core/error.h"
+#include "lookboth/core/file_lock.h"
+#include "lookboth/core/temporary_files.h"
 
 namespace lookboth {
 
@@ -40,6 +42,7 @@ std::vector<fs::path> datasetParts(const fs::path& path, DatasetKind kind) {
 fs::path hiddenSibling(const fs::path& path, DatasetKind kind, const std::string& tag) {
   static int counter = 0;
   const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
+  removeStaleTemporaries(dir);
   const std::string stem = "." + path.stem().string() + "." + tag + "-" +
                            std::to_string(::getpid()) + "-" + std::to_string(counter++);
   return dir / (kind == DatasetKind::kRawlog ? stem + ".rawlog" : stem);
@@ -83,6 +86,14 @@ void removeDataset(const fs::path& path, DatasetKind kind) {
   for (const fs::path& part : datasetParts(path, kind)) fs::remove_all(part, ignored);
 }
 
+/// The path that names the dataset `options` rewrites (its .rawlog, or its folder).
+fs::path lockTargetOf(const AugmentOptions& options) {
+  const DatasetKind kind = detectDatasetKind(options.input);
+  const fs::path input = kind == DatasetKind::kRawlog ? rawlogPath(options.input) : options.input;
+  if (options.output.empty()) return input;
+  return kind == DatasetKind::kRawlog ? rawlogPath(options.output) : options.output;
+}
+
 std::int64_t stepOf(std::int64_t expected) { return std::max<std::int64_t>(1, expected / 200); }
 
 }  // namespace
@@ -95,6 +106,18 @@ std::string AugmentOptions::check() const {
 AugmentSummary augmentDataset(const AugmentOptions& options, std::vector<Record> added,
                               const ProgressReporter& progress) {
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
+  // One writer at a time per destination, from before the input is read
+  // until the new dataset is in place: a second run reads what the first
+  // wrote, so neither's additions are lost.
+  if (!fs::exists(options.input))
+    throw Error({options.input.string(), 0, "", ""}, "no such file or folder");
+  const fs::path lock_target = lockTargetOf(options);
+  const PathLock lock(lock_target, progress, [&] {
+    if (options.on_issue) {
+      options.on_issue(
+          {lock_target.string(), "another lookboth run is rewriting it; waiting for it to finish"});
+    }
+  });
   DatasetReadOptions read_options;
   read_options.on_issue = options.on_issue;
   std::unique_ptr<DatasetReader> reader = DatasetReader::open(options.input, read_options);

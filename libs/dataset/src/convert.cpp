@@ -2,6 +2,7 @@
 
 #include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
+#include "lookboth/core/output_path.h"
 #include "lookboth/geometry/tum.h"
 
 namespace lookboth {
@@ -42,11 +43,19 @@ DataKind detectDataKind(const fs::path& path) {
 std::string ConvertOptions::check() const {
   if (from.empty()) return "'--from': required";
   if (to.empty()) return "'--to': required";
-  if (fs::absolute(from).lexically_normal() == fs::absolute(to).lexically_normal()) {
-    return "'--to': must differ from --from (inputs are never written to)";
-  }
   for (const TrajectoryInput& t : add_trajectories) {
     if (t.info.label.empty()) return "'--trajectory': a label is needed for " + t.file.string();
+  }
+  // However the paths are spelled: the same file, a link to it, "ds/" for "ds".
+  std::vector<fs::path> inputs = datasetPaths(from);
+  for (const TrajectoryInput& t : add_trajectories) inputs.push_back(t.file);
+  for (const fs::path& output : datasetPaths(to)) {
+    for (const fs::path& input : inputs) {
+      if (sameFile(output, input) || contains(output, input)) {
+        return "'--to': " + to.string() + " would overwrite the input '" + input.string() +
+               "' (inputs are never written to)";
+      }
+    }
   }
   return "";
 }

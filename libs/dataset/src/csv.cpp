@@ -51,12 +51,16 @@ CsvReader::CsvReader(const std::filesystem::path& path, const std::vector<std::s
   std::string line;
   while (std::getline(in_, line)) {
     ++line_;
+    // A byte-order mark (spreadsheet programs write one) is not part of the
+    // first column's name.
+    if (line_ == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);
     if (isCommentOrBlank(line)) continue;
     const std::vector<std::string> names = splitCsvLine(line);
     for (size_t i = 0; i < names.size(); ++i) {
       if (names[i].empty()) continue;  // e.g. a trailing comma
       if (!columns_.emplace(names[i], i).second) {
-        throw Error({path_.string(), line_, names[i], ""}, "column appears twice in the header");
+        throw Error({path_.string(), line_, excerpt(names[i]), ""},
+                    "column appears twice in the header");
       }
     }
     break;
@@ -109,10 +113,10 @@ double CsvReader::number(const std::string& column) const {
   const std::string& value = text(column);
   if (value.empty()) throw Error(where(column), "empty field, expected a number");
   const std::optional<double> parsed = parseDouble(value);
-  if (!parsed) throw Error(where(column), "not a number: '" + value + "'");
+  if (!parsed) throw Error(where(column), "not a number: " + excerpt(value));
   if (std::isnan(*parsed)) throw Error(where(column), "NaN is not allowed");
   if (!std::isfinite(*parsed))
-    throw Error(where(column), "infinite value '" + value + "' is not allowed");
+    throw Error(where(column), "infinite value " + excerpt(value) + " is not allowed");
   return *parsed;
 }
 
@@ -120,7 +124,7 @@ long long CsvReader::integer(const std::string& column) const {
   const std::string& value = text(column);
   if (value.empty()) throw Error(where(column), "empty field, expected an integer");
   const std::optional<long long> parsed = parseInt(value);
-  if (!parsed) throw Error(where(column), "not an integer: '" + value + "'");
+  if (!parsed) throw Error(where(column), "not an integer: " + excerpt(value));
   return *parsed;
 }
 

@@ -6,6 +6,7 @@
 
 #include "internal.h"
 #include "lookboth/core/error.h"
+#include "lookboth/core/temporary_files.h"
 
 namespace lookboth {
 
@@ -21,6 +22,20 @@ fs::path manifestPathFor(const fs::path& rawlog) {
 
 fs::path imagesDirectoryFor(const fs::path& rawlog) {
   return rawlog.parent_path() / (rawlog.stem().string() + "_Images");
+}
+
+std::vector<fs::path> datasetPaths(const fs::path& path) {
+  DatasetKind kind = DatasetKind::kFolder;
+  try {
+    kind = detectDatasetKind(path);
+  } catch (const Error&) {
+    return {path};
+  }
+  if (kind == DatasetKind::kFolder) return {path};
+  const fs::path rawlog = path.extension() == ".rawlog"
+                              ? path
+                              : path.parent_path() / (path.stem().string() + ".rawlog");
+  return {rawlog, manifestPathFor(rawlog), imagesDirectoryFor(rawlog)};
 }
 
 DatasetKind detectDatasetKind(const fs::path& path) {
@@ -74,6 +89,7 @@ namespace internal {
 fs::path temporarySibling(const fs::path& destination) {
   static std::atomic<unsigned> counter{0};
   const fs::path parent = destination.has_parent_path() ? destination.parent_path() : fs::path(".");
+  removeStaleTemporaries(parent);
   return parent / ("." + destination.filename().string() + ".tmp-" + std::to_string(::getpid()) +
                    "-" + std::to_string(counter++));
 }

@@ -19,6 +19,7 @@
 #include "lookboth/cameras/camera_io.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
+#include "lookboth/dataset/image_header.h"
 #include "lookboth/geometry/tum.h"
 
 namespace lookboth::internal {
@@ -185,17 +186,22 @@ class FrameStream final : public Stream {
       return false;
     }
     if (size_checked_ || !camera_) return true;
-    // The first readable frame of each camera is decoded to compare its size
-    // with the calibration's.
-    const cv::Mat decoded = cv::imread(image.string(), cv::IMREAD_UNCHANGED);
-    if (decoded.empty()) {
-      issue_(where, "cannot decode image file '" + image.string() + "': frame skipped");
-      return false;
+    // The first readable frame of each camera is compared with the
+    // calibration's size: from its header when the format tells (a huge
+    // image is not decoded into gigabytes), else decoded.
+    std::optional<ImageSize> size = imageFileSize(image);
+    if (!size) {
+      const cv::Mat decoded = cv::imread(image.string(), cv::IMREAD_UNCHANGED);
+      if (decoded.empty()) {
+        issue_(where, "cannot decode image file '" + image.string() + "': frame skipped");
+        return false;
+      }
+      size = ImageSize{decoded.cols, decoded.rows};
     }
     size_checked_ = true;
-    if (decoded.cols != camera_->width() || decoded.rows != camera_->height()) {
-      issue_(where, "image '" + image.string() + "' is " + std::to_string(decoded.cols) + "x" +
-                        std::to_string(decoded.rows) + " px but the calibration of camera '" +
+    if (size->width != camera_->width() || size->height != camera_->height()) {
+      issue_(where, "image '" + image.string() + "' is " + std::to_string(size->width) + "x" +
+                        std::to_string(size->height) + " px but the calibration of camera '" +
                         label_ + "' (" + calibration_file_.string() + ") is " +
                         std::to_string(camera_->width()) + "x" + std::to_string(camera_->height()) +
                         " px");

@@ -229,8 +229,7 @@ Manifest manifestFromYaml(const std::string& yaml, const std::string& source) {
   r.rejectUnknownKeys(marker, {"dictionary", "id", "size_m"}, "marker");
   manifest.marker.dictionary =
       r.text(r.require(marker, "dictionary", "marker.dictionary"), "marker.dictionary");
-  manifest.marker.id =
-      static_cast<int>(r.integer(r.require(marker, "id", "marker.id"), "marker.id"));
+  manifest.marker.id = r.int32(r.require(marker, "id", "marker.id"), "marker.id");
   manifest.marker.size_m = r.number(r.require(marker, "size_m", "marker.size_m"), "marker.size_m");
   if (const std::string why = manifest.marker.check(); !why.empty()) {
     throw Error(r.at(marker, "marker"), why);

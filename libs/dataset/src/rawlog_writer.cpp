@@ -5,6 +5,8 @@
 #include <mrpt/obs/CObservationRobotPose.h>
 #include <mrpt/serialization/CArchive.h>
 
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <set>
 
@@ -87,8 +89,23 @@ class RawlogWriter : public DatasetWriter {
 
  private:
   void writeObservation(const mrpt::obs::CObservation& obs) {
-    (*archive_) << obs;
+    errno = 0;
+    try {
+      (*archive_) << obs;
+    } catch (const std::exception&) {
+      throw writeError();
+    }
     ++entries_;
+  }
+
+  /// A failed write is the environment's (a full disk, a read-only or
+  /// removed folder), not a bug: say so plainly, not with MRPT's stack dump.
+  Error writeError() const {
+    const int cause = errno;
+    return Error({rawlog_.string(), 0, "", ""},
+                 std::string("cannot write the rawlog") +
+                     (cause != 0 ? std::string(": ") + std::strerror(cause) : std::string()) +
+                     " (a full disk or a read-only folder?); nothing was written");
   }
 
   void writeRecord(const ImageFrame& frame) {

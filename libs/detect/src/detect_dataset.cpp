@@ -13,6 +13,7 @@
 #include "lookboth/core/error.h"
 #include "lookboth/core/paths.h"
 #include "lookboth/core/yaml_reader.h"
+#include "lookboth/dataset/image_header.h"
 
 namespace lookboth {
 
@@ -33,8 +34,7 @@ void readMarkerOptions(const YamlReader& r, const YAML::Node& node, MarkerDetect
                        "ambiguity_ratio", "max_speed_mps", "track_window_s"},
                       "detect.markers");
   const std::string f = "detect.markers.";
-  if (node["detect_scale"])
-    o.detect_scale = static_cast<int>(r.integer(node["detect_scale"], f + "detect_scale"));
+  if (node["detect_scale"]) o.detect_scale = r.int32(node["detect_scale"], f + "detect_scale");
   if (node["track_roi"]) o.track_roi = r.boolean(node["track_roi"], f + "track_roi");
   if (node["roi_margin"]) o.roi_margin = r.number(node["roi_margin"], f + "roi_margin");
   if (node["refine_edges"]) o.refine_edges = r.boolean(node["refine_edges"], f + "refine_edges");
@@ -68,8 +68,7 @@ void readBlobOptions(const YamlReader& r, const YAML::Node& node, BlobDetectorOp
   number("max_threshold", o.max_threshold);
   number("threshold_step", o.threshold_step);
   if (node["min_repeatability"])
-    o.min_repeatability =
-        static_cast<int>(r.integer(node["min_repeatability"], f + "min_repeatability"));
+    o.min_repeatability = r.int32(node["min_repeatability"], f + "min_repeatability");
   number("min_dist_between_blobs_px", o.min_dist_between_blobs_px);
   if (node["dark"]) o.dark = r.boolean(node["dark"], f + "dark");
   number("min_area_px", o.min_area_px);
@@ -90,8 +89,8 @@ DetectConfig loadDetectConfig(const fs::path& yaml) {
   text << in.rdbuf();
   const YamlReader reader(yaml.string());
   const YAML::Node root = reader.parse(text.str());
+  reader.checkConfigRoot(root, text.str());
   DetectConfig config;
-  if (!root.IsMap()) return config;
   const YAML::Node detect = root["detect"];
   if (!detect || detect.IsNull()) return config;
   reader.rejectUnknownKeys(detect, {"markers", "blobs"}, "detect");
@@ -155,6 +154,21 @@ std::string frameName(const FrameRef& frame) {
                        : "'" + frame.file.string() + "'";
 }
 
+/// The frame's size from its header, without decoding it; nullopt when the
+/// format does not tell (the decoded image is checked then).
+std::optional<ImageSize> headerSize(const FrameRef& frame) {
+  if (frame.encoded) return encodedImageSize(frame.encoded->data(), frame.encoded->size());
+  return imageFileSize(frame.file);
+}
+
+/// Empty when the frame's size is the calibration's; else why it is skipped.
+std::string sizeMismatch(const FrameRef& frame, const Camera* camera, int width, int height) {
+  if (!camera || (width == camera->width() && height == camera->height())) return "";
+  return "image " + frameName(frame) + " is " + std::to_string(width) + "x" +
+         std::to_string(height) + ", the calibration " + std::to_string(camera->width()) + "x" +
+         std::to_string(camera->height()) + "; frame skipped";
+}
+
 JobResult runJob(const CameraWork& work, const Job& job, const DetectConfig& config,
                  const MarkerSpec& marker, std::atomic<std::int64_t>& done,
                  const std::atomic<bool>& stop) {
@@ -170,12 +184,30 @@ JobResult runJob(const CameraWork& work, const Job& job, const DetectConfig& con
   std::vector<std::pair<TimeNs, MarkerDetection>> detections;
   for (size_t i = job.begin; i < job.end && !stop.load(); ++i) {
     const FrameRef& frame = work.frames[i];
+    const Camera* camera = work.sensor->camera ? &*work.sensor->camera : nullptr;
+    // A frame of the wrong size would give detections at pixels the camera
+    // does not have; a huge one would be decoded into gigabytes first.
+    if (const std::optional<ImageSize> size = headerSize(frame)) {
+      if (std::string why = sizeMismatch(frame, camera, size->width, size->height); !why.empty()) {
+        ++done;
+        ++result.skipped;
+        result.issues.push_back({label, std::move(why)});
+        if (marker_detector) marker_detector->resetTrack();
+        continue;
+      }
+    }
     const cv::Mat grey = decode(frame);
     ++done;
     if (grey.empty()) {
       ++result.skipped;
       result.issues.push_back(
           {label, "cannot decode image " + frameName(frame) + " (corrupt?); frame skipped"});
+      if (marker_detector) marker_detector->resetTrack();
+      continue;
+    }
+    if (std::string why = sizeMismatch(frame, camera, grey.cols, grey.rows); !why.empty()) {
+      ++result.skipped;
+      result.issues.push_back({label, std::move(why)});
       if (marker_detector) marker_detector->resetTrack();
       continue;
     }
@@ -188,16 +220,6 @@ JobResult runJob(const CameraWork& work, const Job& job, const DetectConfig& con
       obs.blobs = blob_detector->detect(grey);
       result.blobs += static_cast<std::int64_t>(obs.blobs.size());
       result.records.push_back(std::move(obs));
-      continue;
-    }
-    const Camera& camera = *work.sensor->camera;
-    if (grey.cols != camera.width() || grey.rows != camera.height()) {
-      ++result.skipped;
-      result.issues.push_back({label, "image " + frameName(frame) + " is " +
-                                          std::to_string(grey.cols) + "x" +
-                                          std::to_string(grey.rows) + ", the calibration " +
-                                          std::to_string(camera.width()) + "x" +
-                                          std::to_string(camera.height()) + "; frame skipped"});
       continue;
     }
     for (MarkerDetection& d : marker_detector->detect(grey)) {
@@ -294,6 +316,7 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
   std::atomic<size_t> next{0};
   std::atomic<std::int64_t> done{0};
   std::atomic<bool> stop{false};
+  std::atomic<int> running{0};
   std::mutex error_mutex;
   std::exception_ptr error;
   const int threads = std::max(
@@ -301,7 +324,13 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
                            ? options.threads
                            : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
                        static_cast<int>(std::max<size_t>(1, jobs.size()))));
+  // Workers leave as soon as the stop flag is up; the loop below waits for
+  // all of them (not for the job queue to drain, which never happens then).
   auto worker = [&] {
+    struct Leaving {
+      std::atomic<int>& running;
+      ~Leaving() { --running; }
+    } leaving{running};
     for (;;) {
       const size_t k = next++;
       if (k >= order.size() || stop.load()) return;
@@ -318,22 +347,18 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
   };
   const auto started = std::chrono::steady_clock::now();
   std::vector<std::thread> pool;
+  running = threads;
   for (int i = 0; i < threads; ++i) pool.emplace_back(worker);
   bool stopped = false;
-  while (true) {
-    bool finished = next.load() >= order.size();
-    if (finished) {
-      for (auto& t : pool) t.join();
-      pool.clear();
-      break;
-    }
+  while (running.load() > 0) {
     progress.report("detect", done.load(), total);
     if (progress.stopRequested()) {
       stop = true;
       stopped = true;
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
+  for (auto& t : pool) t.join();
   if (error) std::rethrow_exception(error);
   if (stopped || progress.stopRequested()) throw StopRequested();
   progress.report("detect", total, total);
@@ -376,14 +401,22 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
 
 AugmentSummary writeDetections(const DetectOptions& options, std::vector<Record> records,
                                const DetectSummary& summary, const ProgressReporter& progress) {
+  // A camera without frames in the dataset was not detected again: its
+  // detections (a detections-only dataset's, say) are its only ones and stay.
   std::set<std::string> marker_cameras, blob_cameras;
   for (const CameraDetectSummary& c : summary.cameras) {
-    (c.fisheye ? blob_cameras : marker_cameras).insert(c.camera);
+    if (c.frames > 0) (c.fisheye ? blob_cameras : marker_cameras).insert(c.camera);
+  }
+  if (marker_cameras.empty() && blob_cameras.empty()) {
+    throw Error({options.dataset.string(), 0, "", ""},
+                "no frames to detect in (a detections-only dataset?); nothing written, its "
+                "detections are kept");
   }
   AugmentOptions augment;
   augment.input = options.dataset;
   augment.output = options.out;
   augment.overwrite = options.overwrite;
+  augment.on_issue = options.on_issue;
   augment.drop = [&](const Record& record) {
     if (const auto* m = std::get_if<MarkerObservation>(&record))
       return marker_cameras.count(m->camera) > 0;

@@ -11,6 +11,7 @@
 #include "lookboth/calib/registration.h"
 #include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
+#include "lookboth/core/temporary_files.h"
 #include "lookboth/core/text.h"
 #include "lookboth/core/version.h"
 #include "lookboth/dataset/dataset_io.h"
@@ -238,6 +239,7 @@ ReportSummary writeReport(const fs::path& dataset, const fs::path& registration_
     throw Error({options.out.string(), 0, "", ""}, "the output's folder does not exist");
   }
   static int counter = 0;
+  removeStaleTemporaries(out_dir);
   const fs::path pictures_dir = out_dir / (".lookboth-report-" + std::to_string(::getpid()) + "-" +
                                            std::to_string(counter++));
   struct RemoveDir {

@@ -81,15 +81,16 @@ OdometryOptions loadOdometryOptions(const std::filesystem::path& yaml,
   text << in.rdbuf();
   const YamlReader reader(yaml.string());
   const YAML::Node root = reader.parse(text.str());
+  reader.checkConfigRoot(root, text.str());
   OdometryOptions o = defaults;
-  if (!root.IsMap() || !root["odometry"]) return o;
+  if (!root["odometry"]) return o;
   const YAML::Node node = root["odometry"];
   if (!node.IsMap()) throw Error(reader.at(node, "odometry"), "expected a mapping");
 
   std::map<std::string, std::function<void(const YAML::Node&, const std::string&)>> fields;
   auto integer = [&](const char* name, int* target) {
     fields[name] = [&reader, target](const YAML::Node& n, const std::string& f) {
-      *target = static_cast<int>(reader.integer(n, f));
+      *target = reader.int32(n, f);
     };
   };
   auto number = [&](const char* name, double* target) {

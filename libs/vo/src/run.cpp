@@ -14,6 +14,7 @@
 #include "lookboth/core/error.h"
 #include "lookboth/dataset/augment.h"
 #include "lookboth/dataset/dataset_io.h"
+#include "lookboth/dataset/image_header.h"
 #include "lookboth/geometry/time.h"
 #include "lookboth/geometry/tum.h"
 #include "lookboth/vo/landmark_map.h"
@@ -75,7 +76,27 @@ class FrameQueue {
   std::exception_ptr error_;
 };
 
-cv::Mat decode(const ImageFrame& frame) {
+std::string frameName(const ImageFrame& frame) {
+  return frame.encoded ? "the fisheye frame at t=" + formatSeconds(frame.t) + " (embedded)"
+                       : frame.image_file.string();
+}
+
+/// Refuses a frame whose size is not the calibration's: tracking it would
+/// put features at pixels the camera does not have (and a huge one would be
+/// decoded into gigabytes first). The header is read before decoding.
+void checkFrameSize(const ImageFrame& frame, const Camera& camera, int width, int height) {
+  if (width == camera.width() && height == camera.height()) return;
+  throw Error(frameName(frame) + ": the image is " + std::to_string(width) + "x" +
+              std::to_string(height) + ", the fisheye's calibration " +
+              std::to_string(camera.width()) + "x" + std::to_string(camera.height()) +
+              " (wrong calibration or wrong camera label?)");
+}
+
+cv::Mat decode(const ImageFrame& frame, const Camera& camera) {
+  const std::optional<ImageSize> header =
+      frame.encoded ? encodedImageSize(frame.encoded->data(), frame.encoded->size())
+                    : imageFileSize(frame.image_file);
+  if (header) checkFrameSize(frame, camera, header->width, header->height);
   cv::Mat image;
   if (frame.encoded) {
     const cv::Mat bytes(1, static_cast<int>(frame.encoded->size()), CV_8U,
@@ -87,6 +108,7 @@ cv::Mat decode(const ImageFrame& frame) {
   if (image.empty())
     throw Error(frame.image_file.string() +
                 ": cannot decode the fisheye frame at t=" + formatSeconds(frame.t));
+  checkFrameSize(frame, camera, image.cols, image.rows);
   return image;
 }
 
@@ -164,7 +186,8 @@ OdometryRunSummary runOdometry(const OdometryRunOptions& options,
         if (options.max_duration_s > 0 && frame->t - *first > secondsToNs(options.max_duration_s))
           continue;
         const double t0 = threadCpuSeconds();
-        DecodedFrame decoded{frame->t, VisualOdometry::prepareImage(decode(*frame), factor)};
+        DecodedFrame decoded{frame->t,
+                             VisualOdometry::prepareImage(decode(*frame, camera), factor)};
         decode_seconds += threadCpuSeconds() - t0;
         if (!queue.push(std::move(decoded))) break;
       }
@@ -228,6 +251,7 @@ OdometryRunSummary runOdometry(const OdometryRunOptions& options,
     augment.input = options.dataset;
     augment.output = options.out;
     augment.overwrite = options.overwrite;
+    augment.on_issue = options.on_issue;
     augment.drop = [](const Record& record) {
       const auto* pose = std::get_if<PoseSample>(&record);
       return pose && pose->label == kVoTrajectoryLabel;

@@ -6,11 +6,16 @@
 //                 (the result is added to the dataset as trajectory "vo");
 //   3. register - the configured stages (RegistrationController);
 //   4. output   - the registration directory, written atomically.
-// Steps 1-2 rewrite the dataset through augmentDataset (a complete new
-// dataset swapped in; never a half-written one).
+// Steps 1-2 add their results to the dataset through augmentDataset (a
+// complete new dataset swapped in, never a half-written one), so that the
+// next run, the report and the desktop app find them; each says so in its
+// step line. With write_back off they go to a temporary copy beside the
+// output instead (images hard-linked for a folder, copied for a rawlog),
+// removed when the run ends: the dataset is not touched.
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -31,6 +36,9 @@ struct FullPipelineOptions {
   bool auto_detect = true;                           ///< Run detection when detections are missing.
   bool auto_odometry = true;  ///< Run odometry when the visual trajectory is missing.
   int threads = 0;            ///< Detection threads (0 = one per core).
+  bool write_back = true;     ///< Add detections and odometry to the dataset (see above).
+  /// Problems found in the input as it is read (rows dropped, frames skipped).
+  std::function<void(const DatasetIssue&)> on_issue;
   std::string check() const;
 };
 
@@ -56,13 +64,15 @@ struct StepOutcome {
 /// Step 1 alone: detection when `contents` (of options.dataset) shows frames
 /// without their detections and options.auto_detect is set; else skipped.
 /// (options.out is not used.)
+/// `out`: where the augmented dataset goes (empty: into options.dataset).
 StepOutcome runDetectStep(const FullPipelineOptions& options, const DatasetContents& contents,
-                          const ProgressReporter& progress);
+                          const ProgressReporter& progress, const std::filesystem::path& out = {});
 /// Step 2 alone: visual odometry in visual mode when the dataset has no VO
 /// trajectory; else skipped. Throws lookboth::Error when it is needed but
 /// cannot run (no fisheye frames, auto_odometry off, another label).
 StepOutcome runOdometryStep(const FullPipelineOptions& options, const DatasetContents& contents,
-                            const ProgressReporter& progress);
+                            const ProgressReporter& progress,
+                            const std::filesystem::path& out = {});
 
 struct FullPipelineResult {
   std::vector<std::string> steps;  ///< One line per step run or skipped, and why.

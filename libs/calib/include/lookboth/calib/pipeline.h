@@ -5,6 +5,7 @@
 // and a stop flag, and writes the output directory atomically.
 #pragma once
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -13,6 +14,7 @@
 #include "lookboth/calib/registration.h"
 #include "lookboth/calib/stage.h"
 #include "lookboth/core/progress.h"
+#include "lookboth/dataset/dataset_io.h"
 
 namespace lookboth {
 
@@ -41,6 +43,9 @@ struct RegisterOptions {
   std::string trajectory_label;
   /// A TUM file instead of a dataset trajectory (world_from_fisheye, robot clock).
   std::filesystem::path trajectory_file;
+  /// Called for every problem found in the input (rows dropped as out of
+  /// order or repeated, ...), as it is found.
+  std::function<void(const DatasetIssue&)> on_issue;
   std::string check() const;
 };
 
@@ -110,9 +115,11 @@ class RegistrationController {
 };
 
 /// Throws (naming `dir`) when writeRegistrationOutput would refuse `dir`: its
-/// parent directory missing, or `dir` existing without `overwrite`. For a
+/// parent directory missing, `dir` existing without `overwrite`, or `dir`
+/// being or containing one of `inputs` (inputs are never written to). For a
 /// caller to check before the work rather than after it.
-void checkRegistrationOutput(const std::filesystem::path& dir, bool overwrite);
+void checkRegistrationOutput(const std::filesystem::path& dir, bool overwrite,
+                             const std::vector<std::filesystem::path>& inputs = {});
 
 /// Writes the output directory (cameras.csv, registration.yaml,
 /// trajectory.tum, blob_associations.csv, scene.3Dscene) under a temporary

@@ -41,9 +41,15 @@ struct StageConfig {
   std::string field;
 };
 
+/// Where a `check()` message about a stage's options points: the file and
+/// line of the last layer that sets the option the message names ('key': ...),
+/// else of the last layer that has the section.
+ErrorContext checkErrorContext(const StageConfig& config, const std::string& why);
+
 /// Reads a stage's options from its layers: `Options::read(reader, node,
 /// field)` is applied layer after layer (each sets the keys present and
-/// rejects unknown ones), then `check()` (an error names the section).
+/// rejects unknown ones), then `check()` (an error names the file, line and
+/// option, see checkErrorContext).
 template <typename Options>
 Options readStageOptions(const StageConfig& config) {
   Options options;
@@ -53,7 +59,7 @@ Options readStageOptions(const StageConfig& config) {
     }
   }
   if (const std::string why = options.check(); !why.empty()) {
-    throw Error(ErrorContext{"", 0, config.field, ""}, why);
+    throw Error(checkErrorContext(config, why), why);
   }
   return options;
 }

@@ -2,6 +2,7 @@
 // a camera never detected). Programmer errors are assertions, not these.
 #pragma once
 
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 
@@ -16,6 +17,10 @@ struct ErrorContext {
   std::string field;    ///< Field or key, e.g. "camera_matrix.data".
   std::string subject;  ///< Camera label, sensor, marker id... when relevant.
 };
+
+/// Each part of a message is cut to this many characters (its start and end
+/// kept): a value echoed from a corrupt file may be megabytes long.
+inline constexpr std::size_t kMaxMessagePart = 2000;
 
 /// An error in input data or configuration. `what()` is a complete message
 /// in the form "file:line: field: message [subject]" with the unknown parts

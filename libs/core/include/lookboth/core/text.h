@@ -26,4 +26,8 @@ std::string formatDouble(double value);
 /// Fixed notation with `decimals` digits after the point.
 std::string formatFixed(double value, int decimals);
 
+/// `text` in single quotes for a message, cut to `max_chars` with "..." (a
+/// value echoed from a bad file may be a whole 200 MB line).
+std::string excerpt(std::string_view text, std::size_t max_chars = 60);
+
 }  // namespace lookboth

@@ -13,6 +13,9 @@
 
 namespace lookboth {
 
+/// The sections of a lookboth configuration file (share/lookboth/config/default.yaml).
+inline const std::set<std::string> kConfigSections = {"register", "odometry", "detect"};
+
 class YamlReader {
  public:
   /// `source` names the document in errors (usually its path).
@@ -31,6 +34,8 @@ class YamlReader {
 
   double number(const YAML::Node& node, const std::string& field) const;  ///< finite
   long long integer(const YAML::Node& node, const std::string& field) const;
+  /// An integer that fits an int (a larger one is an error, not a wrapped value).
+  int int32(const YAML::Node& node, const std::string& field) const;
   std::string text(const YAML::Node& node, const std::string& field) const;
   bool boolean(const YAML::Node& node, const std::string& field) const;  ///< true/false/yes/no
 
@@ -38,6 +43,12 @@ class YamlReader {
   /// listing the known ones), or that appears twice.
   void rejectUnknownKeys(const YAML::Node& node, const std::set<std::string>& known,
                          const std::string& field) const;
+
+  /// Checks the top level of a lookboth configuration file (`text` parsed as
+  /// `root`): a mapping whose keys are among kConfigSections. A misspelled
+  /// section ("registr:") or an empty file would otherwise be ignored, and
+  /// the run would use the defaults without a word.
+  void checkConfigRoot(const YAML::Node& root, const std::string& text) const;
 
  private:
   std::string source_;

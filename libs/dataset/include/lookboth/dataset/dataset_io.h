@@ -117,5 +117,9 @@ std::filesystem::path manifestPathFor(const std::filesystem::path& rawlog);
 /// MRPT's external images folder of a rawlog: <dir>/<stem>_Images (computed
 /// here: MRPT 2.5.8's CRawlog::detectImagesDirectory is wrong for absolute paths).
 std::filesystem::path imagesDirectoryFor(const std::filesystem::path& rawlog);
+/// Every file or folder a dataset given by `path` consists of (a rawlog's
+/// .rawlog, manifest and images folder; a folder itself), for checking that
+/// an output does not overwrite one. Never throws.
+std::vector<std::filesystem::path> datasetPaths(const std::filesystem::path& path);
 
 }  // namespace lookboth

@@ -6,10 +6,12 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 
 #include "lookboth/core/progress.h"
+#include "lookboth/dataset/dataset_io.h"
 #include "lookboth/vo/odometry.h"
 #include "lookboth/vo/options.h"
 
@@ -30,6 +32,9 @@ struct OdometryRunOptions {
   bool overwrite = false;     ///< Replace an existing `out`, `tum_out` or `map_out`.
   std::string camera;         ///< The fisheye's label; empty = the manifest's fisheye.
   double max_duration_s = 0;  ///< Only the first seconds of frames [s]; 0 = all.
+  /// Told of what the user should know while the dataset is written (e.g.
+  /// waiting for another run that is rewriting it).
+  std::function<void(const DatasetIssue&)> on_issue;
   std::string check() const;
 };
 
