@@ -20,6 +20,7 @@
 #include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
+#include "structure_check.h"
 
 namespace lookboth {
 namespace {
@@ -181,6 +182,7 @@ const char* nodeKind(const YAML::Node& node) {
 
 YAML::Node parseYaml(const std::string& text, const std::string& file) {
   try {
+    checkYamlStructure(text, file);
     return YAML::Load(text);
   } catch (const YAML::Exception& error) {
     const int line = error.mark.is_null() ? 0 : error.mark.line + 1;
@@ -215,7 +217,7 @@ class YamlFields {
     }
     const auto value = parseDouble(node.Scalar());
     if (!value || !std::isfinite(*value)) {
-      throw Error(context(node, name), "not a finite number: '" + node.Scalar() + "'");
+      throw Error(context(node, name), "not a finite number: " + excerpt(node.Scalar()));
     }
     return *value;
   }
@@ -225,7 +227,7 @@ class YamlFields {
       throw Error(context(node, name), std::string("expected an integer, got ") + nodeKind(node));
     }
     const auto value = parseIntegral(node.Scalar());
-    if (!value) throw Error(context(node, name), "not an integer: '" + node.Scalar() + "'");
+    if (!value) throw Error(context(node, name), "not an integer: " + excerpt(node.Scalar()));
     return *value;
   }
 
@@ -305,7 +307,8 @@ Camera parseLookbothYaml(const std::string& yaml, const std::string& source) {
   for (const auto& entry : root) {
     const std::string key = entry.first.Scalar();
     if (std::find(kKeys.begin(), kKeys.end(), key) == kKeys.end()) {
-      throw Error(in.context(entry.first, key), "unknown key (expected " + joinNames(kKeys) + ")");
+      throw Error(in.context(entry.first, shortenedName(key)),
+                  "unknown key (expected " + joinNames(kKeys) + ")");
     }
   }
   const YAML::Node version_node = in.require(root, "lookboth_camera");
@@ -337,8 +340,8 @@ Camera parseLookbothYaml(const std::string& yaml, const std::string& source) {
   } else {
     const auto found = fixedSizeModelByName(model_name);
     if (!found) {
-      throw Error(in.context(model_node, "model"),
-                  "unknown camera model '" + model_name + "' (known: " + knownModelNames() + ")");
+      throw Error(in.context(model_node, "model"), "unknown camera model " + excerpt(model_name) +
+                                                       " (known: " + knownModelNames() + ")");
     }
     model = *found;
     scalar_names = modelParamNames(model);
@@ -353,9 +356,9 @@ Camera parseLookbothYaml(const std::string& yaml, const std::string& source) {
   for (const auto& entry : params_node) {
     const std::string key = entry.first.Scalar();
     if (std::find(scalar_names.begin(), scalar_names.end(), key) == scalar_names.end()) {
-      throw Error(in.context(entry.first, "params." + key), "unknown parameter for model " +
-                                                                model_name + " (expected " +
-                                                                joinNames(scalar_names) + ")");
+      throw Error(in.context(entry.first, "params." + shortenedName(key)),
+                  "unknown parameter for model " + model_name + " (expected " +
+                      joinNames(scalar_names) + ")");
     }
   }
   std::vector<double> params;
@@ -432,7 +435,7 @@ Camera loadRosCameraInfo(const std::string& text, const std::string& file) {
   const int height = in.integer(in.require(root, "image_height"), "image_height");
   std::string subject;
   if (root["camera_name"].IsDefined() && root["camera_name"].IsScalar()) {
-    subject = root["camera_name"].Scalar();
+    subject = shortenedName(root["camera_name"].Scalar());
   }
 
   int rows = 0;
@@ -490,8 +493,8 @@ Camera loadRosCameraInfo(const std::string& text, const std::string& file) {
     params.insert(params.end(), d.begin(), d.end());
   } else {
     throw Error(at(file, lineOf(model_node), "distortion_model", subject),
-                "unsupported distortion model '" + distortion +
-                    "' (supported: plumb_bob, rational_polynomial, equidistant)");
+                "unsupported distortion model " + excerpt(distortion) +
+                    " (supported: plumb_bob, rational_polynomial, equidistant)");
   }
   return makeCamera(std::move(model), width, height, std::move(params), at(file, 0, "", subject));
 }
@@ -516,6 +519,14 @@ std::vector<std::string> kalibrCameraNames(const YAML::Node& root) {
   std::vector<std::string> names;
   for (const auto& item : found) names.push_back(item.second);
   return names;
+}
+
+/// The cameras of a camchain for a message: a broken file may hold thousands.
+std::string cameraList(const std::vector<std::string>& names) {
+  constexpr size_t kMaxNames = 10;
+  if (names.size() <= kMaxNames) return joinNames(names);
+  const std::vector<std::string> first(names.begin(), names.begin() + kMaxNames);
+  return joinNames(first) + ", ... (" + std::to_string(names.size()) + " cameras)";
 }
 
 Camera loadKalibrCamera(const YAML::Node& node, const std::string& name, const std::string& file) {
@@ -567,12 +578,12 @@ Camera loadKalibrCamera(const YAML::Node& node, const std::string& name, const s
       model = PinholeModel{};
     } else {
       throw Error(at(file, lineOf(distortion_node), name + ".distortion_model"),
-                  "camera model " + combination + " is not supported (" + supported + ")");
+                  "camera model " + excerpt(combination) + " is not supported (" + supported + ")");
     }
   } else if (camera_model == "ds") {
     if (distortion != "none") {
       throw Error(at(file, lineOf(distortion_node), name + ".distortion_model"),
-                  "camera model " + combination + " is not supported (" + supported + ")");
+                  "camera model " + excerpt(combination) + " is not supported (" + supported + ")");
     }
     expectCount(intrinsics_node, "intrinsics", intrinsics.size(), 6, "[xi alpha fu fv pu pv]");
     expectCount(coeffs_node, "distortion_coeffs", coeffs.size(), 0, "(no distortion)");
@@ -582,7 +593,7 @@ Camera loadKalibrCamera(const YAML::Node& node, const std::string& name, const s
               intrinsics[5], intrinsics[0], intrinsics[1]};
   } else {
     throw Error(at(file, lineOf(model_node), name + ".camera_model"),
-                "camera model " + combination + " is not supported (" + supported + ")");
+                "camera model " + excerpt(combination) + " is not supported (" + supported + ")");
   }
   return makeCamera(std::move(model), resolution[0], resolution[1], std::move(params),
                     at(file, lineOf(intrinsics_node), name + ".intrinsics"));
@@ -601,7 +612,7 @@ std::map<std::string, Camera> loadKalibr(const std::string& text, const std::str
   if (!only.empty()) {
     if (std::find(names.begin(), names.end(), only) == names.end()) {
       throw Error(at(file, 0, only),
-                  "no such camera in the camchain (it has " + joinNames(names) + ")");
+                  "no such camera in the camchain (it has " + cameraList(names) + ")");
     }
     cameras.emplace(only, loadKalibrCamera(root[only], only, file));
     return cameras;
@@ -626,7 +637,7 @@ std::vector<double> ocamNumbers(const OCamLine& data, size_t first, const std::s
   for (size_t i = first; i < data.tokens.size(); ++i) {
     const auto value = parseDouble(data.tokens[i]);
     if (!value || !std::isfinite(*value)) {
-      throw Error(at(file, data.line, block), "not a number: '" + data.tokens[i] + "'");
+      throw Error(at(file, data.line, block), "not a number: " + excerpt(data.tokens[i]));
     }
     out.push_back(*value);
   }
@@ -639,8 +650,8 @@ std::vector<double> ocamCountedList(const OCamLine& data, const std::string& fil
   const auto count = parseIntegral(data.tokens.front());
   if (!count || *count < 1) {
     throw Error(at(file, data.line, block),
-                "expected the number of coefficients (a positive integer) first, got '" +
-                    data.tokens.front() + "'");
+                "expected the number of coefficients (a positive integer) first, got " +
+                    excerpt(data.tokens.front()));
   }
   const size_t got = data.tokens.size() - 1;
   if (got != static_cast<size_t>(*count)) {
@@ -661,6 +672,21 @@ std::vector<double> ocamFixedList(const OCamLine& data, size_t count, const std:
   return ocamNumbers(data, 0, file, block);
 }
 
+/// The block a header comment of calib_results.txt names (an index into the
+/// blocks loadOCamCalib reads), or nullopt for any other comment.
+std::optional<size_t> ocamHeaderBlock(const std::string& comment) {
+  std::string lower = trim(std::string_view(comment).substr(1));
+  std::transform(lower.begin(), lower.end(), lower.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (startsWith(lower, "polynomial coefficients")) {
+    return lower.find("inverse") != std::string::npos ? size_t{1} : size_t{0};
+  }
+  if (startsWith(lower, "center")) return size_t{2};
+  if (startsWith(lower, "affine parameters")) return size_t{3};
+  if (startsWith(lower, "image size")) return size_t{4};
+  return std::nullopt;
+}
+
 Camera loadOCamCalib(const std::string& text, const std::string& file) {
   // Blocks in the order OCamCalib writes them; comments ('#') and blank
   // lines between them are skipped, each block is one line of numbers.
@@ -670,10 +696,24 @@ Camera loadOCamCalib(const std::string& text, const std::string& file) {
   constexpr size_t kNumBlocks = sizeof(kBlocks) / sizeof(kBlocks[0]);
   std::vector<OCamLine> data;
   const std::vector<std::string> lines = splitLines(text);
+  // The header comments name the blocks: one named twice means two blocks
+  // for one (as when two files were joined), and reading them by position
+  // would take the wrong numbers for the wrong block.
+  std::map<size_t, int> header_lines;
   for (size_t i = 0; i < lines.size(); ++i) {
     const std::string content = trim(lines[i]);
+    const int line = static_cast<int>(i) + 1;
+    if (!content.empty() && content[0] == '#') {
+      if (const auto block = ocamHeaderBlock(content)) {
+        const auto [first, inserted] = header_lines.emplace(*block, line);
+        if (!inserted) {
+          throw Error(at(file, line, kBlocks[*block]), "duplicate block header (first at line " +
+                                                           std::to_string(first->second) + ")");
+        }
+      }
+    }
     if (content.empty() || content[0] == '#') continue;
-    data.push_back({static_cast<int>(i) + 1, splitWhitespace(content)});
+    data.push_back({line, splitWhitespace(content)});
   }
   auto block = [&](size_t index) -> const OCamLine& {
     if (index >= data.size()) {
@@ -699,7 +739,7 @@ Camera loadOCamCalib(const std::string& text, const std::string& file) {
     const auto value = parseIntegral(size_line.tokens[static_cast<size_t>(i)]);
     if (!value || *value <= 0) {
       throw Error(at(file, size_line.line, kBlocks[4]),
-                  "not a positive integer: '" + size_line.tokens[static_cast<size_t>(i)] + "'");
+                  "not a positive integer: " + excerpt(size_line.tokens[static_cast<size_t>(i)]));
     }
     size[i] = *value;
   }
@@ -726,6 +766,7 @@ Camera loadOCamCalib(const std::string& text, const std::string& file) {
 // OpenCV FileStorage (YAML or XML)
 
 Camera loadOpenCv(const std::string& text, const std::string& file) {
+  checkFileStorageStructure(text, file);
   std::string field;  // what is being read, for OpenCV's own exceptions
   try {
     cv::FileStorage storage(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
@@ -816,8 +857,8 @@ Camera loadOpenCv(const std::string& text, const std::string& file) {
       } else if (name != "plumb_bob" && name != "radtan" && name != "rational_polynomial" &&
                  name != "pinhole" && name != "none") {
         throw Error(at(file, 0, "distortion_model"),
-                    "unknown distortion model '" + name +
-                        "' (known: fisheye, equidistant, kannala_brandt, plumb_bob, radtan, "
+                    "unknown distortion model " + excerpt(name) +
+                        " (known: fisheye, equidistant, kannala_brandt, plumb_bob, radtan, "
                         "rational_polynomial, none)");
       }
     }
@@ -881,6 +922,12 @@ Camera loadOpenCv(const std::string& text, const std::string& file) {
       }
     }
     throw Error(at(file, 0, field), "OpenCV could not read it: " + error.err);
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& error) {
+    // Not a parse error but a failure inside OpenCV's reader: an element
+    // with type_id="str" makes it read a string length it never stored.
+    throw Error(at(file, 0, field), std::string("OpenCV could not read it: ") + error.what());
   }
 }
 

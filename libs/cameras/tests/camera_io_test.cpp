@@ -8,6 +8,9 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <functional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -432,6 +435,250 @@ TEST(CameraIo, OpenCvErrorsNameTheField) {
   expectLoadError(dataFile("opencv_four_ambiguous.yaml"), {"'distortion_coefficients'", "fisheye"});
   expectLoadError(dataFile("opencv_syntax_error.xml"), {"OpenCV could not read it"});
   expectLoadError(dataFile("ocam_small_crlf.txt"), {}, CameraFileFormat::kOpenCV);
+}
+
+// ---------------------------------------------------------------------------
+// Broken or hostile files: deep nesting, repeated keys, huge values
+
+std::string readText(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+fs::path writeText(const TempDir& dir, const std::string& name, const std::string& text) {
+  const fs::path path = dir.path() / name;
+  std::ofstream(path, std::ios::binary) << text;
+  return path;
+}
+
+std::string repeat(const std::string& unit, size_t count) {
+  std::string out;
+  out.reserve(unit.size() * count);
+  for (size_t i = 0; i < count; ++i) out += unit;
+  return out;
+}
+
+// Far more levels than OpenCV's recursive readers survive on an 8 MB stack.
+constexpr size_t kDeep = 100000;
+
+TEST(CameraIo, DeeplyNestedFilesAreErrorsNotCrashes) {
+  TempDir dir("deep");
+  const std::string yaml = "%YAML:1.0\n---\nimage_width: 10\nimage_height: 10\n";
+  const std::string xml = "<?xml version=\"1.0\"?>\n<opencv_storage>\n";
+  struct Case {
+    std::string name;
+    std::string text;
+    CameraFileFormat format;
+    int line;  // where the 65th level opens
+  };
+  const std::vector<Case> cases = {
+      // OpenCV's YAML: flow collections, and the block collections it nests on
+      // one line ("- - -", "a: a: a:", "-----", and with a tag before each).
+      {"flow_seq.yaml", yaml + "x: " + repeat("[", kDeep) + repeat("]", kDeep) + "\n",
+       CameraFileFormat::kAuto, 5},
+      {"flow_map.yaml", yaml + "x: " + repeat("{a: ", kDeep) + "1" + repeat("}", kDeep) + "\n",
+       CameraFileFormat::kAuto, 5},
+      {"block_seq.yaml", yaml + "x:\n  " + repeat("- ", kDeep) + "1\n", CameraFileFormat::kAuto, 6},
+      {"keys.yaml", yaml + "x: " + repeat("a: ", kDeep) + "1\n", CameraFileFormat::kAuto, 5},
+      {"dashes.yaml", yaml + "x: " + repeat("-", kDeep) + "a\n", CameraFileFormat::kAuto, 5},
+      {"tags.yaml", yaml + "x: " + repeat("!t - ", kDeep) + "1\n", CameraFileFormat::kAuto, 5},
+      {"elements.xml",
+       xml + repeat("<a>", kDeep) + "1" + repeat("</a>", kDeep) + "\n</opencv_storage>\n",
+       CameraFileFormat::kAuto, 3},
+      // JSON: cv::FileStorage reads it when the format is given as OpenCV.
+      {"arrays.json", "{\"x\": " + repeat("[", kDeep) + repeat("]", kDeep) + "}\n",
+       CameraFileFormat::kOpenCV, 1},
+      // The formats yaml-cpp reads.
+      {"lookboth.yaml",
+       "lookboth_camera: 1\nmodel: pinhole\nwidth: " + repeat("[", kDeep) + repeat("]", kDeep) +
+           "\n",
+       CameraFileFormat::kAuto, 3},
+      {"ros.yaml", "image_width: 10\ncamera_matrix:\n  " + repeat("- ", kDeep) + "1\n",
+       CameraFileFormat::kRosCameraInfo, 3},
+      {"kalibr.yaml", "cam0: " + repeat("{a: ", kDeep) + "1" + repeat("}", kDeep) + "\n",
+       CameraFileFormat::kAuto, 1},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const Error error = expectLoadError(writeText(dir, c.name, c.text),
+                                        {"nesting deeper than 64 levels"}, c.format);
+    EXPECT_EQ(error.context().line, c.line);
+  }
+  EXPECT_THROW(loadKalibrCamchain(dir.path() / "kalibr.yaml"), Error);
+}
+
+TEST(CameraIo, NestingUpToTheLimitLoads) {
+  TempDir dir("limit");
+  // The root collection and `extra` levels more.
+  auto yamlWith = [](const fs::path& sample, size_t extra) {
+    return readText(sample) + "extra: " + repeat("[", extra) + repeat("]", extra) + "\n";
+  };
+  auto xmlWith = [](const fs::path& sample, size_t extra) {
+    std::string text = readText(sample);
+    const std::string nested = repeat("<a>", extra) + "1" + repeat("</a>", extra) + "\n";
+    return text.insert(text.rfind("</opencv_storage>"), nested);
+  };
+  const std::vector<std::pair<std::string, std::function<std::string(const fs::path&, size_t)>>>
+      samples = {{"ros_rational.yaml", yamlWith},
+                 {"opencv_pinhole.yaml", yamlWith},
+                 {"opencv_rational.xml", xmlWith}};
+  for (const auto& [name, with] : samples) {
+    SCOPED_TRACE(name);
+    const Camera at_limit = loadCamera(writeText(dir, "63_" + name, with(dataFile(name), 63)));
+    EXPECT_EQ(at_limit.params(), loadCamera(dataFile(name)).params());
+    expectLoadError(writeText(dir, "64_" + name, with(dataFile(name), 64)),
+                    {"nesting deeper than 64 levels"});
+  }
+}
+
+TEST(CameraIo, BracketsInStringsCommentsAndEntitiesOpenNothing) {
+  TempDir dir("not_nesting");
+  std::string yaml = readText(dataFile("opencv_pinhole.yaml"));
+  yaml += "# " + repeat("[{", 200) + "\n";
+  yaml += "note: '" + repeat("[", 200) + "'\n";
+  yaml += "other: \"" + repeat("{", 200) + "\" # " + repeat("-", 200) + "\n";
+  expectParams(loadCamera(writeText(dir, "strings.yaml", yaml)), "pinhole", 640, 480,
+               {500, 500, 319.5, 239.5});
+  std::string xml = readText(dataFile("opencv_rational.xml"));
+  xml.insert(xml.rfind("</opencv_storage>"), "<!-- " + repeat("<a>", 200) + " -->\n<note>" +
+                                                 repeat("&lt;a&gt;", 200) + "</note>\n");
+  EXPECT_EQ(loadCamera(writeText(dir, "entities.xml", xml)).params(),
+            loadCamera(dataFile("opencv_rational.xml")).params());
+  // Matrices written by OpenCV in base64 ("!!binary", type_id="binary").
+  for (const char* name : {"opencv_base64.yaml", "opencv_base64.xml"}) {
+    expectParams(loadCamera(dataFile(name)), "radtan", 640, 480,
+                 {500, 500, 319.5, 239.5, -0.25, 0.0625, 0.001, -0.0005, -0.015625});
+  }
+}
+
+TEST(CameraIo, TextThatWouldCrashOrHangOpenCvIsAnError) {
+  TempDir dir("traps");
+  const std::string yaml = "%YAML:1.0\n---\nimage_width: 10\nimage_height: 10\n";
+  // Base64 whose 24-byte header is all spaces: a type spec naming no type.
+  const std::string spaces = repeat("ICAg", 12);
+  struct Case {
+    std::string name;
+    std::string text;
+    std::string needle;
+    int line;
+  };
+  const std::vector<Case> cases = {
+      // OpenCV dereferences a null pointer when the text ends after "=".
+      {"attribute.xml",
+       "<?xml version=\"1.0\"?>\n<opencv_storage>\n<a b=", "where OpenCV's reader would crash", 3},
+      // A document after the first that does not start with "---": OpenCV
+      // loops forever.
+      {"documents.yaml", "%YAML:1.0\n---\n[1]\n...\n-x\n", "would never finish", 5},
+      // After the first document OpenCV skips three characters, here past
+      // the end of the line, and reads on in what the longer line before
+      // left in its buffer: 100000 brackets.
+      {"stale.yaml", "%YAML:1.0\n---\n[a, ---" + repeat("[", kDeep) + "]\nx\ny: 1\n",
+       "past the end of this line", 4},
+      // No key before ':': OpenCV computes a negative length and throws
+      // std::length_error, not a parse error.
+      {"empty_key.yaml", yaml + "x:\n  a: 1\n  : 2\n", "a key is missing", 7},
+      {"base64.yaml", yaml + "x: !!binary |\n  " + spaces + "\ny: 1\n", "would never finish", 6},
+      {"base64.xml",
+       "<?xml version=\"1.0\"?>\n<opencv_storage>\n<x type_id=\"binary\">\n  " + spaces +
+           "\n</x>\n</opencv_storage>\n",
+       "would never finish", 4},
+      {"base64.json", "{\"x\": \"$base64$" + spaces + "\"}\n", "would never finish", 1},
+      // An element typed as a string: OpenCV reads a length it never stored
+      // and throws std::length_error.
+      {"string_type.xml",
+       "<?xml version=\"1.0\"?>\n<opencv_storage>\n<a type_id=\"str\">x</a>\n</opencv_storage>\n",
+       "OpenCV could not read it", 0},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const Error error =
+        expectLoadError(writeText(dir, c.name, c.text), {c.needle}, CameraFileFormat::kOpenCV);
+    EXPECT_EQ(error.context().line, c.line);
+  }
+}
+
+TEST(CameraIo, RepeatedKeysAreErrors) {
+  struct Case {
+    std::string file;
+    std::vector<std::string> needles;  // the line, the key, the first line
+  };
+  const std::vector<Case> cases = {
+      {"lookboth_duplicate_key.yaml", {":6:", "'width'", "duplicate key (first at line 4)"}},
+      {"lookboth_duplicate_param.yaml", {":11:", "'fx'", "duplicate key (first at line 7)"}},
+      {"ros_duplicate_key.yaml", {":13:", "'data'", "duplicate key (first at line 12)"}},
+      {"kalibr_duplicate_camera.yaml", {":7:", "'cam0'", "duplicate key (first at line 1)"}},
+      {"opencv_duplicate_key.yaml",
+       {":15:", "'distortion_coefficients'", "duplicate key (first at line 10)"}},
+      {"opencv_duplicate_key.xml", {":11:", "'data'", "duplicate key (first at line 9)"}},
+      // calib_results.txt has no keys; its header comments name the blocks.
+      {"ocam_duplicate_header.txt",
+       {":17:", "'center'", "duplicate block header (first at line 9)"}},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.file);
+    expectLoadError(dataFile(c.file), c.needles);
+  }
+  EXPECT_THROW(loadKalibrCamchain(dataFile("kalibr_duplicate_camera.yaml")), Error);
+  EXPECT_THROW(cameraFromYaml(readText(dataFile("lookboth_duplicate_key.yaml")), "string"), Error);
+
+  TempDir dir("repeated");
+  const fs::path json = writeText(dir, "repeated.json",
+                                  "{\n  \"image_width\": 640,\n  \"image_height\": 480,\n"
+                                  "  \"image_width\": 1280\n}\n");
+  expectLoadError(json, {":4:", "'image_width'", "duplicate key (first at line 2)"},
+                  CameraFileFormat::kOpenCV);
+}
+
+TEST(CameraIo, MessagesQuoteOnlyTheStartOfAHugeValue) {
+  TempDir dir("huge");
+  const std::string huge = repeat("x", 100000);
+  struct Case {
+    std::string name;
+    std::string text;
+    CameraFileFormat format;
+    std::string needle;
+  };
+  const std::string ros =
+      "image_width: 640\nimage_height: 480\ncamera_matrix:\n  rows: 3\n  cols: 3\n"
+      "  data: [500, 0, 319.5, 0, 500, 239.5, 0, 0, 1]\n"
+      "distortion_coefficients:\n  rows: 1\n  cols: 0\n  data: []\n";
+  const std::vector<Case> cases = {
+      {"model.yaml",
+       "lookboth_camera: 1\nmodel: " + huge +
+           "\nwidth: 640\nheight: 480\nparams: {fx: 500, fy: 500, cx: 319.5, cy: 239.5}\n",
+       CameraFileFormat::kAuto, "unknown camera model 'xxx"},
+      {"number.yaml",
+       "lookboth_camera: 1\nmodel: pinhole\nwidth: 640\nheight: 480\n"
+       "params: {fx: " +
+           huge + ", fy: 500, cx: 319.5, cy: 239.5}\n",
+       CameraFileFormat::kAuto, "not a finite number: 'xxx"},
+      // An explicit key ("? "): YAML allows no implicit key this long.
+      {"key.yaml", "lookboth_camera: 1\n? " + huge + "\n: 1\n", CameraFileFormat::kAuto, "'xxx"},
+      {"ros.yaml", ros + "distortion_model: " + huge + "\n", CameraFileFormat::kRosCameraInfo,
+       "unsupported distortion model 'xxx"},
+      {"ros_name.yaml", ros + "camera_name: " + huge + "\ndistortion_model: fisheye\n",
+       CameraFileFormat::kRosCameraInfo, "[xxx"},
+      {"kalibr.yaml",
+       "cam0:\n  camera_model: " + huge +
+           "\n  intrinsics: [500, 500, 319.5, 239.5]\n  distortion_model: none\n"
+           "  resolution: [640, 480]\n",
+       CameraFileFormat::kAuto, "camera model 'xxx"},
+      {"ocam.txt", "#polynomial coefficients for the DIRECT mapping function\n1 " + huge + "\n",
+       CameraFileFormat::kAuto, "not a number: 'xxx"},
+      {"opencv.yaml",
+       readText(dataFile("opencv_pinhole.yaml")) + "distortion_model: " + huge + "\n",
+       CameraFileFormat::kAuto, "unknown distortion model 'xxx"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const Error error = expectLoadError(writeText(dir, c.name, c.text), {c.needle}, c.format);
+    const std::string what = error.what();
+    EXPECT_LT(what.size(), 400u) << what.substr(0, 400);
+    EXPECT_NE(what.find("..."), std::string::npos) << what.substr(0, 400);
+    EXPECT_EQ(what.find(repeat("x", 61)), std::string::npos) << what.substr(0, 400);
+  }
 }
 
 // ---------------------------------------------------------------------------
