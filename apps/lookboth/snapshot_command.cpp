@@ -51,6 +51,10 @@ void checkSnapshotOutput(const SnapshotArgs& args) {
 
 int runSnapshot(const SnapshotArgs& args) {
   checkSnapshotOutput(args);
+  // Before the references and the registration are loaded (seconds on a
+  // large ground-truth dataset): a stop asked then is not lost.
+  const ProgressReporter progress(makeConsoleProgress());
+  const StopOnSignal stop_on_signal(progress);
   report::SnapshotOptions options;
   options.out = args.out;
   options.frames = report::FrameSelection::parse(args.frames);
@@ -72,9 +76,6 @@ int runSnapshot(const SnapshotArgs& args) {
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
   const report::RegistrationView view =
       report::viewOfRegistration(loadRegistration(args.registration), "registration");
-
-  const ProgressReporter progress(makeConsoleProgress());
-  const StopOnSignal stop_on_signal(progress);
   try {
     const report::SnapshotResult result =
         report::writeSnapshots(args.dataset, view, options, progress);

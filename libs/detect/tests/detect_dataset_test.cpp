@@ -209,7 +209,7 @@ TEST_F(DetectDatasetTest, WritesInPlaceReplacesOnRerunAndSkipsCorruptImages) {
 
 TEST(DetectConfig, ReadsTheDetectSectionStrictly) {
   const fs::path file = fs::temp_directory_path() / "lookboth_detect_config_test.yaml";
-  std::ofstream(file) << "other: {x: 1}\n"
+  std::ofstream(file) << "odometry: {x: 1}\n"
                          "detect:\n"
                          "  markers: {detect_scale: 1, corner_sigma_px: 0.2}\n"
                          "  blobs: {min_area_px: 7}\n";
@@ -217,6 +217,15 @@ TEST(DetectConfig, ReadsTheDetectSectionStrictly) {
   EXPECT_EQ(config.markers.detect_scale, 1);
   EXPECT_DOUBLE_EQ(config.markers.corner_sigma_px, 0.2);
   EXPECT_DOUBLE_EQ(config.blobs.min_area_px, 7);
+  // Another stage's section is its owner's; a misspelled one is an error.
+  std::ofstream(file) << "detekt:\n  blobs: {min_area_px: 7}\n";
+  try {
+    loadDetectConfig(file);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(":1: 'detekt': unknown key"), std::string::npos)
+        << e.what();
+  }
   std::ofstream(file) << "detect:\n  blobs:\n    min_aera_px: 7\n";
   try {
     loadDetectConfig(file);

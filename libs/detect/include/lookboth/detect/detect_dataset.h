@@ -30,8 +30,8 @@ struct DetectConfig {
 };
 
 /// Reads the `detect:` section (`markers:`, `blobs:`) of a YAML configuration;
-/// other top-level sections are left to their owners; unknown keys inside
-/// `detect:` are errors naming the file, line and field.
+/// the other sections (`register:`, `odometry:`) are left to their owners; an
+/// unknown section or key is an error naming the file, line and field.
 DetectConfig loadDetectConfig(const std::filesystem::path& yaml);
 /// share/lookboth/config/default.yaml's section.
 DetectConfig defaultDetectConfig();
