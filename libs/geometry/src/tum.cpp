@@ -51,6 +51,8 @@ Trajectory readTumFile(const std::filesystem::path& path) {
   int line_number = 0;
   while (std::getline(in, line)) {
     ++line_number;
+    // A byte-order mark (written by some editors) is not part of the first line.
+    if (line_number == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);
     const auto first = line.find_first_not_of(" \t\r");
     if (first == std::string::npos || line[first] == '#') continue;
     const ErrorContext where{path.string(), line_number, "", ""};

@@ -69,6 +69,17 @@ void expectErrorMentions(const fs::path& path, const std::string& contents,
   }
 }
 
+// Editors and spreadsheet exports may start a file with a byte-order mark.
+TEST_F(TumTest, AByteOrderMarkIsNotPartOfTheFirstLine) {
+  const fs::path path = dir_ / "bom.tum";
+  writeFileAtomically(path, "\xEF\xBB\xBF# t x y z qx qy qz qw\n1.0 0 0 0 0 0 0 1\n");
+  EXPECT_EQ(readTumFile(path).size(), 1u);
+  writeFileAtomically(path,
+                      "\xEF\xBB\xBF"
+                      "1.0 0 0 0 0 0 0 1\n2.0 1 0 0 0 0 0 1\n");
+  EXPECT_EQ(readTumFile(path).size(), 2u);
+}
+
 TEST_F(TumTest, ErrorsNameTheFileAndLine) {
   const fs::path path = dir_ / "bad.tum";
   const std::string good = "1.0 0 0 0 0 0 0 1\n";
