@@ -1,0 +1,55 @@
+# Sanitizer and fuzzing builds (doc/reliability.md, "Fuzzing and sanitizers").
+#
+#   LOOKBOTH_SANITIZE=ON  the project's code with AddressSanitizer and
+#                         UndefinedBehaviorSanitizer (gcc or clang); every UB
+#                         report aborts, so a test cannot pass over one.
+#   LOOKBOTH_FUZZ=ON      also the libFuzzer targets of libs/*/fuzz (clang only).
+#                         Implies the sanitizers, and adds libFuzzer's coverage
+#                         instrumentation (-fsanitize=fuzzer-no-link) to the
+#                         project's code, so that the same build also runs the
+#                         unit tests (scripts/test.sh --sanitize, scripts/fuzz.sh).
+#
+# Only the project's code is instrumented: the dependencies are Debian's
+# prebuilt libraries, which ASan handles through its malloc interceptors.
+#
+#   lookboth_add_fuzzer(<name> SOURCES ... DEPS ...)
+#     -> the libFuzzer executable fuzz_<name>, run by scripts/fuzz.sh <name>.
+
+option(LOOKBOTH_SANITIZE "Build project code with AddressSanitizer and UBSan" OFF)
+option(LOOKBOTH_FUZZ "Build the libFuzzer targets (libs/*/fuzz); needs clang" OFF)
+
+if(LOOKBOTH_FUZZ AND NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+  message(FATAL_ERROR "LOOKBOTH_FUZZ needs clang's libFuzzer; configure with "
+    "-DCMAKE_CXX_COMPILER=clang++ (scripts/fuzz.sh does)")
+endif()
+
+if(LOOKBOTH_SANITIZE OR LOOKBOTH_FUZZ)
+  # Directory-wide, so that every project target below gets them (the
+  # module's include comes before the add_subdirectory calls).
+  add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer
+    -fno-sanitize-recover=undefined)
+  add_link_options(-fsanitize=address,undefined)
+  if(LOOKBOTH_FUZZ)
+    add_compile_options(-fsanitize=fuzzer-no-link)
+  endif()
+endif()
+
+function(lookboth_add_fuzzer name)
+  if(NOT LOOKBOTH_FUZZ)
+    return()
+  endif()
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  set(target fuzz_${name})
+  add_executable(${target} ${ARG_SOURCES})
+  target_link_libraries(${target} PRIVATE ${ARG_DEPS})
+  # libFuzzer's main() and driver; the project's code is already instrumented.
+  target_link_options(${target} PRIVATE -fsanitize=fuzzer)
+  target_include_directories(${target} PRIVATE ${PROJECT_SOURCE_DIR}/libs/core/fuzz)
+  target_compile_definitions(${target} PRIVATE
+    LOOKBOTH_SHARE_DIR="${LOOKBOTH_SHARE_DIR}"
+    LOOKBOTH_TEST_DATA_DIR="${LOOKBOTH_TEST_DATA_DIR}")
+  lookboth_target_defaults(${target})
+  # The fuzz targets are warning-free with gcc's and clang's warnings alike,
+  # whatever LOOKBOTH_WERROR says for the rest of this tree.
+  target_compile_options(${target} PRIVATE -Werror)
+endfunction()
