@@ -793,6 +793,7 @@ Camera loadOpenCv(const std::string& text, const std::string& file) {
       }
       return static_cast<int>(value);
     };
+    constexpr int kMaxMatrixSide = 64;
     auto readMatrix = [&](const char* key, bool required) {
       field = key;
       const cv::FileNode node = storage[key];
@@ -803,6 +804,15 @@ Camera loadOpenCv(const std::string& text, const std::string& file) {
       }
       if (!node.isMap() && !node.isSeq()) throw Error(at(file, 0, key), "expected a matrix");
       if (node.isMap()) {
+        // OpenCV allocates rows x cols before it reads the data: a corrupt
+        // size would ask for gigabytes. Calibration matrices are small.
+        for (const char* dimension : {"rows", "cols"}) {
+          const cv::FileNode n = node[dimension];
+          if (!n.isInt() || static_cast<int>(n) < 1 || static_cast<int>(n) > kMaxMatrixSide) {
+            throw Error(at(file, 0, std::string(key) + "." + dimension),
+                        "expected an integer from 1 to " + std::to_string(kMaxMatrixSide));
+          }
+        }
         node >> matrix;
       } else {  // a plain list of numbers
         std::vector<double> values;

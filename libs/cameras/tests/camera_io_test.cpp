@@ -599,6 +599,23 @@ TEST(CameraIo, TextThatWouldCrashOrHangOpenCvIsAnError) {
   }
 }
 
+// Found by the fuzz target: OpenCV allocates a matrix's declared rows x cols
+// before reading its data, so a corrupt size asked for 48 GB.
+TEST(CameraIo, AHugeDeclaredMatrixSizeIsAnErrorNotAnAllocation) {
+  TempDir dir("matrix_size");
+  const std::string head = "%YAML:1.0\n---\nimage_width: 320\nimage_height: 240\n";
+  const std::string tail = "   dt: d\n   data: [100, 0, 160, 0, 100, 120, 0, 0, 1]\n";
+  for (const char* rows : {"400000000", "-3", "x3", "3.5"}) {
+    SCOPED_TRACE(rows);
+    const std::string text =
+        head + "camera_matrix: !!opencv-matrix\n   rows: " + rows + "\n   cols: 3\n" + tail;
+    expectLoadError(writeText(dir, "k.yaml", text), {"camera_matrix.rows", "from 1 to 64"},
+                    CameraFileFormat::kOpenCV);
+  }
+  const std::string good = head + "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n" + tail;
+  EXPECT_NO_THROW(loadCamera(writeText(dir, "good.yaml", good), CameraFileFormat::kOpenCV));
+}
+
 TEST(CameraIo, RepeatedKeysAreErrors) {
   struct Case {
     std::string file;
