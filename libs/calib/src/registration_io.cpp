@@ -210,7 +210,7 @@ CameraRegistration readCamera(const Reader& r, const YAML::Node& node, const std
   if (const YAML::Node stages = node["stages"]; stages && !stages.IsNull()) {
     if (!stages.IsMap()) throw Error(r.at(stages, field + ".stages"), "expected a mapping");
     for (const auto& entry : stages) {
-      const std::string stage = entry.first.as<std::string>();
+      const std::string stage = r.key(entry.first, field + ".stages");
       camera.stage_poses[stage] = r.pose(entry.second, field + ".stages." + stage);
     }
   }
@@ -506,7 +506,7 @@ Registration loadRegistration(const std::filesystem::path& dir) {
   if (const YAML::Node versions = root["versions"]; versions && !versions.IsNull()) {
     if (!versions.IsMap()) throw Error(r.at(versions, "versions"), "expected a mapping");
     for (const auto& entry : versions) {
-      const std::string name = entry.first.as<std::string>();
+      const std::string name = r.key(entry.first, "versions");
       reg.versions[name] = r.text(entry.second, "versions." + name);
     }
   }
@@ -608,7 +608,7 @@ Registration loadRegistration(const std::filesystem::path& dir) {
         throw Error(r.at(seconds, "statistics.seconds_per_stage"), "expected a mapping");
       }
       for (const auto& entry : seconds) {
-        const std::string stage = entry.first.as<std::string>();
+        const std::string stage = r.key(entry.first, "statistics.seconds_per_stage");
         reg.statistics.seconds_per_stage[stage] =
             r.number(entry.second, "statistics.seconds_per_stage." + stage);
       }

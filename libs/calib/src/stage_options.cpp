@@ -76,7 +76,7 @@ void AssociateOptions::read(const YamlReader& r, const YAML::Node& node, const s
       throw Error(r.at(offsets, field + ".clock_offsets_ns"), "expected a mapping label: ns");
     }
     for (const auto& entry : offsets) {
-      const std::string label = entry.first.as<std::string>();
+      const std::string label = r.key(entry.first, field + ".clock_offsets_ns");
       clock_offsets_ns[label] = r.integer(entry.second, field + ".clock_offsets_ns." + label);
     }
   }

@@ -104,12 +104,16 @@ inline void writeBytes(const fs::path& path, const std::uint8_t* data, std::size
 /// Call from LLVMFuzzerInitialize.
 inline void installTerminateHandler() { std::set_terminate(reportEscapedException); }
 
-/// Runs `body`; lookboth::Error is the expected outcome of bad input.
+/// Runs `body`; lookboth::Error is the expected outcome of bad input. With
+/// LOOKBOTH_FUZZ_VERBOSE set, its message is printed (to see what an input
+/// does: fuzz_<target> <input file>).
 template <typename Body>
 void expectOnlyLookbothErrors(Body&& body) {
+  static const bool verbose = std::getenv("LOOKBOTH_FUZZ_VERBOSE") != nullptr;
   try {
     body();
-  } catch (const lookboth::Error&) {
+  } catch (const lookboth::Error& e) {
+    if (verbose) std::fprintf(stderr, "lookboth-fuzz: lookboth::Error: %s\n", e.what());
   }
 }
 

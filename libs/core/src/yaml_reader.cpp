@@ -77,6 +77,11 @@ bool YamlReader::boolean(const YAML::Node& node, const std::string& field) const
   throw Error(at(node, field), "expected true or false, got " + excerpt(value));
 }
 
+std::string YamlReader::key(const YAML::Node& key_node, const std::string& field) const {
+  if (!key_node.IsScalar()) throw Error(at(key_node, field), "expected a text key");
+  return key_node.Scalar();
+}
+
 void YamlReader::rejectUnknownKeys(const YAML::Node& node, const std::set<std::string>& known,
                                    const std::string& field) const {
   if (!node.IsMap()) throw Error(at(node, field), "expected a mapping");
@@ -84,7 +89,7 @@ void YamlReader::rejectUnknownKeys(const YAML::Node& node, const std::set<std::s
   // the second would be silently ignored.
   std::map<std::string, int> first_line;
   for (const auto& entry : node) {
-    const std::string key = entry.first.as<std::string>();
+    const std::string key = this->key(entry.first, field);
     const int line = entry.first.Mark().line + 1;
     if (const auto [it, inserted] = first_line.emplace(key, line); !inserted) {
       throw Error(at(entry.first, field.empty() ? key : field + "." + key),

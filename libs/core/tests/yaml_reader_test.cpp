@@ -49,5 +49,19 @@ TEST(YamlReader, RejectsARepeatedKey) {
             "cfg.yaml:4: 's.a': duplicate key (first at line 2)");
 }
 
+// Legal YAML, found by the manifest fuzz target: yaml-cpp's own conversion
+// of such a key throws its exception, not a lookboth::Error.
+TEST(YamlReader, AKeyThatIsNotTextIsAnError) {
+  const YamlReader r("m.yaml");
+  const YAML::Node root = r.parse("s:\n  a: 1\n  ? [x, y]\n  : 2\n");
+  EXPECT_EQ(errorOf([&] { r.rejectUnknownKeys(root["s"], {"a"}, "s"); }),
+            "m.yaml:3: 's': expected a text key");
+  const YAML::Node map_key = r.parse("{a: 1}: 2\n");
+  for (const auto& entry : map_key) {
+    EXPECT_EQ(errorOf([&] { r.key(entry.first, "labels"); }),
+              "m.yaml:1: 'labels': expected a text key");
+  }
+}
+
 }  // namespace
 }  // namespace lookboth

@@ -294,14 +294,14 @@ Manifest manifestFromYaml(const std::string& yaml, const std::string& source) {
     }
     if (const YAML::Node cams = gt["world_from_camera"]; cams) {
       for (const auto& entry : cams) {
-        const std::string label = entry.first.as<std::string>();
+        const std::string label = r.key(entry.first, "ground_truth.world_from_camera");
         manifest.ground_truth.world_from_camera[label] =
             r.pose(entry.second, "ground_truth.world_from_camera." + label);
       }
     }
     if (const YAML::Node offsets = gt["clock_offsets_ns"]; offsets) {
       for (const auto& entry : offsets) {
-        const std::string label = entry.first.as<std::string>();
+        const std::string label = r.key(entry.first, "ground_truth.clock_offsets_ns");
         manifest.ground_truth.clock_offset[label] =
             r.integer(entry.second, "ground_truth.clock_offsets_ns." + label);
       }

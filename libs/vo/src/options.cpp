@@ -153,7 +153,7 @@ OdometryOptions loadOdometryOptions(const std::filesystem::path& yaml,
   for (const auto& entry : fields) known.insert(entry.first);
   reader.rejectUnknownKeys(node, known, "odometry");
   for (const auto& entry : node) {
-    const std::string key = entry.first.as<std::string>();
+    const std::string key = reader.key(entry.first, "odometry");
     fields.at(key)(entry.second, "odometry." + key);
   }
   if (const std::string why = o.check(); !why.empty())

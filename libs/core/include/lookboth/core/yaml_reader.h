@@ -39,6 +39,10 @@ class YamlReader {
   std::string text(const YAML::Node& node, const std::string& field) const;
   bool boolean(const YAML::Node& node, const std::string& field) const;  ///< true/false/yes/no
 
+  /// A mapping's key as text; a key that is itself a list or a mapping
+  /// (`? [a, b]: 1`, legal YAML) is an error naming `field` and its line.
+  std::string key(const YAML::Node& key_node, const std::string& field) const;
+
   /// Throws naming the first key of a mapping that is not in `known` (and
   /// listing the known ones), or that appears twice.
   void rejectUnknownKeys(const YAML::Node& node, const std::set<std::string>& known,
