@@ -17,6 +17,11 @@
 
 option(LOOKBOTH_SANITIZE "Build project code with AddressSanitizer and UBSan" OFF)
 option(LOOKBOTH_FUZZ "Build the libFuzzer targets (libs/*/fuzz); needs clang" OFF)
+# UBSan doubles the compile time of optimised template-heavy code (Ceres,
+# Eigen); these modules' libraries are compiled without optimisation, as the
+# sanitizer tests and fuzz targets run little of their code (option parsing).
+set(LOOKBOTH_SANITIZE_O0_MODULES calib detect vo report studio CACHE STRING
+  "Modules whose library is compiled at -O0 in sanitizer builds")
 
 if(LOOKBOTH_FUZZ AND NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
   message(FATAL_ERROR "LOOKBOTH_FUZZ needs clang's libFuzzer; configure with "
@@ -32,7 +37,17 @@ if(LOOKBOTH_SANITIZE OR LOOKBOTH_FUZZ)
   if(LOOKBOTH_FUZZ)
     add_compile_options(-fsanitize=fuzzer-no-link)
   endif()
+  cmake_language(DEFER DIRECTORY ${CMAKE_SOURCE_DIR} CALL lookboth_sanitize_unoptimised_modules)
 endif()
+
+# Called once every module is defined: a -O0 after the build type's -O1.
+function(lookboth_sanitize_unoptimised_modules)
+  foreach(module IN LISTS LOOKBOTH_SANITIZE_O0_MODULES)
+    if(TARGET lookboth_${module})
+      target_compile_options(lookboth_${module} PRIVATE -O0)
+    endif()
+  endforeach()
+endfunction()
 
 function(lookboth_add_fuzzer name)
   if(NOT LOOKBOTH_FUZZ)

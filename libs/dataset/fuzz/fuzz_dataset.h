@@ -9,6 +9,7 @@
 #include <memory>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,16 +20,23 @@
 namespace lookboth::fuzz {
 
 /// The dataset written by writeSampleRawlog: a fisheye and one environment
-/// camera with calibrations, both trajectories and every ground truth field.
-inline Manifest fuzzManifest() {
+/// camera, both trajectories and every ground truth field. Without
+/// calibrations when `calibrated` is false: building a camera model is most
+/// of the time of reading a small dataset in a sanitizer build, and the rawlog
+/// reader does not use them.
+inline Manifest fuzzManifest(bool calibrated = true) {
   const std::filesystem::path cameras = std::filesystem::path(LOOKBOTH_SHARE_DIR) / "cameras";
+  auto calibration = [&](const char* file) -> std::optional<Camera> {
+    if (!calibrated) return std::nullopt;
+    return loadCamera(cameras / file);
+  };
   Manifest m;
   m.name = "sample";
   m.marker = {"DICT_5X5_100", 3, 0.15};
   m.cameras.push_back(
-      {"fisheye", SensorRole::kFisheye, loadCamera(cameras / "fisheye_640x360_calib_results.txt")});
+      {"fisheye", SensorRole::kFisheye, calibration("fisheye_640x360_calib_results.txt")});
   m.cameras.push_back(
-      {"cam03", SensorRole::kEnvCamera, loadCamera(cameras / "ceiling_camera_640x360_ros.yaml")});
+      {"cam03", SensorRole::kEnvCamera, calibration("ceiling_camera_640x360_ros.yaml")});
   m.trajectories.push_back({"odometry", true, "wheels"});
   m.trajectories.push_back({"ground_truth", true, "simulated"});
   m.ground_truth.world_from_camera["cam03"] =
@@ -87,10 +95,11 @@ inline std::vector<Record> fuzzRecords() {
 }
 
 /// Writes the sample dataset as `rawlog` (+ its manifest and images).
-inline void writeSampleRawlog(const std::filesystem::path& rawlog) {
+inline void writeSampleRawlog(const std::filesystem::path& rawlog, bool calibrated = true) {
   DatasetWriteOptions options;
   options.overwrite = true;
-  auto writer = DatasetWriter::create(rawlog, DatasetKind::kRawlog, fuzzManifest(), options);
+  auto writer =
+      DatasetWriter::create(rawlog, DatasetKind::kRawlog, fuzzManifest(calibrated), options);
   for (const Record& record : fuzzRecords()) writer->write(record);
   writer->finish();
 }

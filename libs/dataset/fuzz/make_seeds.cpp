@@ -66,6 +66,8 @@ void manifestSeeds(const fs::path& dir, const fs::path& work) {
   lookboth::Manifest bare;
   bare.name = "bare";
   writeText(dir / "bare.yaml", lookboth::manifestToYaml(bare));
+  writeText(dir / "uncalibrated.yaml",
+            lookboth::manifestToYaml(lookboth::fuzz::fuzzManifest(/*calibrated=*/false)));
 }
 
 void folderSeeds(const fs::path& dir) {
@@ -107,7 +109,7 @@ geometry_msgs::Pose rosPose(int i) {
 void writeBag(const fs::path& path, rosbag::compression::CompressionType compression) {
   rosbag::Bag bag(path.string(), rosbag::bagmode::Write);
   bag.setCompression(compression);
-  bag.setChunkThreshold(1024);  // a few chunks, so that the index spans several
+  bag.setChunkThreshold(4096);  // more than one chunk, so that the index spans several
   const int width = 8, height = 6;
   for (int i = 0; i < 3; ++i) {
     const ros::Time t = stamp(i);
