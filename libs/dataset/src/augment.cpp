@@ -9,6 +9,7 @@
 #include "internal.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/file_lock.h"
+#include "lookboth/core/output_path.h"
 #include "lookboth/core/temporary_files.h"
 
 namespace lookboth {
@@ -16,12 +17,6 @@ namespace lookboth {
 namespace fs = std::filesystem;
 
 namespace {
-
-bool samePath(const fs::path& a, const fs::path& b) {
-  std::error_code ec;
-  if (fs::exists(a, ec) && fs::exists(b, ec)) return fs::equivalent(a, b, ec);
-  return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec);
-}
 
 /// The .rawlog of a rawlog dataset given by its .rawlog or manifest path.
 fs::path rawlogPath(const fs::path& path) {
@@ -125,8 +120,8 @@ AugmentSummary augmentDataset(const AugmentOptions& options, std::vector<Record>
   const fs::path input =
       kind == DatasetKind::kRawlog ? rawlogPath(options.input) : fs::path(options.input);
   const bool in_place =
-      options.output.empty() || samePath(options.output, input) ||
-      (kind == DatasetKind::kRawlog && samePath(rawlogPath(options.output), input));
+      options.output.empty() || sameFile(options.output, input) ||
+      (kind == DatasetKind::kRawlog && sameFile(rawlogPath(options.output), input));
   fs::path destination = in_place ? input : options.output;
   if (!in_place) {
     if (detectDatasetKind(destination) != kind) {
@@ -217,7 +212,7 @@ std::string MergeOptions::check() const {
   if (inputs.size() < 2) return "'inputs': give at least two datasets to merge";
   if (output.empty()) return "'output': no output given";
   for (const fs::path& input : inputs) {
-    if (samePath(input, output)) {
+    if (sameFile(input, output)) {
       return "'output': '" + output.string() + "' is also an input";
     }
   }
