@@ -850,6 +850,23 @@ class BagStructureCheck {
     }
   }
 
+  /// The data of a record that lists `count` entries of `entry_bytes` each
+  /// (a chunk info's connections, an index's messages): the count must
+  /// account for the data exactly, before anything is read or allocated.
+  std::vector<std::uint8_t> readEntries(ByteSource& file, const BagRecord& record,
+                                        std::uint32_t count, std::uint64_t entry_bytes,
+                                        const char* noun, const std::string& what) {
+    if (std::uint64_t{count} * entry_bytes != record.data_length) {
+      corrupt(what, record.offset,
+              "it lists " + std::to_string(count) + " " + noun + " (" +
+                  std::to_string(count * entry_bytes) + " bytes) in " +
+                  std::to_string(record.data_length) + " bytes of data");
+    }
+    std::vector<std::uint8_t> data(record.data_length);
+    if (!data.empty()) file.read(record.data_offset, data.size(), data.data());
+    return data;
+  }
+
   std::pair<std::uint64_t, std::set<std::uint32_t>> checkChunkInfo(ByteSource& file,
                                                                    const BagRecord& record,
                                                                    const std::string& what) {
@@ -861,14 +878,7 @@ class BagStructureCheck {
     u64(record, "start_time", what);
     u64(record, "end_time", what);
     const std::uint32_t count = u32(record, "count", what);
-    if (std::uint64_t{count} * 8 != record.data_length) {
-      corrupt(what, record.offset,
-              "it lists " + std::to_string(count) + " connections (" +
-                  std::to_string(count * 8ull) + " bytes) in " +
-                  std::to_string(record.data_length) + " bytes of data");
-    }
-    std::vector<std::uint8_t> data(record.data_length);
-    if (!data.empty()) file.read(record.data_offset, data.size(), data.data());
+    const std::vector<std::uint8_t> data = readEntries(file, record, count, 8, "connections", what);
     std::set<std::uint32_t> connections;
     for (std::uint32_t i = 0; i < count; ++i) {
       const std::uint32_t id = le32(data.data() + 8 * i);
@@ -908,14 +918,8 @@ class BagStructureCheck {
                 "it indexes connection " + std::to_string(connection) + ", not in the bag");
       }
       const std::uint32_t count = u32(record, "count", index_what);
-      if (std::uint64_t{count} * 12 != record.data_length) {
-        corrupt(index_what, record.offset,
-                "it lists " + std::to_string(count) + " messages (" +
-                    std::to_string(count * 12ull) + " bytes) in " +
-                    std::to_string(record.data_length) + " bytes of data");
-      }
-      std::vector<std::uint8_t> data(record.data_length);
-      if (!data.empty()) file.read(record.data_offset, data.size(), data.data());
+      const std::vector<std::uint8_t> data =
+          readEntries(file, record, count, 12, "messages", index_what);
       for (std::uint32_t k = 0; k < count; ++k)
         entries.emplace_back(connection, le32(data.data() + 12 * k + 8));
       offset = record.end();
