@@ -8,8 +8,8 @@
 // from its ends and every node it reaches inherits the hubs of the part
 // already eliminated: on `paper_det` with all blobs the factor needs 6.6e8
 // flops. Nested dissection (METIS, through CHOLMOD's partition module) cuts
-// the chain between passes first and needs 2.0e8 (doc/benchmarks.md,
-// fifteenth session). Neither wins everywhere (with 60 blobs per camera AMD
+// the chain between passes first and needs 2.0e8 (doc/benchmarks-history.md,
+// "The elimination order of J^T J"). Neither wins everywhere (with 60 blobs per camera AMD
 // needs 7.0e7 and nested dissection 8.2e7), so kAuto computes both and
 // predicts their flops from the symbolic factorisation of the block pattern
 // (a few milliseconds; the factorisation is repeated at every step). Flops

@@ -40,8 +40,8 @@ Rigid3<T> poseAt(const Bracket& b, const T* node_k, const T* node_k1, const T& t
   // during a round; the next round brackets it anew). Extrapolated, the two
   // nodes' difference would be amplified by the offset's excursion: a lever
   // with which the optimiser fitted detection noise by running every camera's
-  // clock and the marker's mount away together (doc/benchmarks.md, twelfth
-  // session: 0.4 m and 0.4 s on the 1,000-camera facility).
+  // clock and the marker's mount away together (doc/benchmarks-history.md, "A time
+  // outside its bracket": 0.4 m and 0.4 s on the 1,000-camera facility).
   T alpha = tau / T(b.duration_s);
   if (alpha < T(0)) alpha = T(0);
   if (alpha > T(1)) alpha = T(1);

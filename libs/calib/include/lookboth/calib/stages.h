@@ -153,7 +153,7 @@ struct JointOptions {
   /// not known, the usual case (lookboth's own VO on the rendered scenarios is
   /// 2-4x looser than the sigmas above, the simulator's wheel odometry 6-8x
   /// tighter): the result is as if the model had been declared. On by default
-  /// since the thirteenth session (doc/benchmarks.md).
+  /// for that reason (doc/benchmarks-history.md, "The drift model estimated by default").
   bool estimate_drift_model = true;
   int drift_model_updates = 4;  ///< At most this many updates (and extra rounds).
   /// A round followed by another drift model update (its solution only
@@ -205,7 +205,7 @@ struct JointOptions {
   /// square root of chi-square 8 dof at 99 % (6 dof: 4.1). A threshold of 3
   /// down-weighted 17 % (6 dof) and 34 % (8 dof) of clean detections, an
   /// iteratively reweighted fit of the inliers that made large problems' last
-  /// round creep (doc/benchmarks.md, twelfth session).
+  /// round creep (doc/benchmarks-history.md, "Robust losses").
   double huber = 4.5;
   /// Detections whose whitened squared residual exceeds these are rejected
   /// (chi-square 99.9 %: 6 dof for poses, 8 for corners).
@@ -228,8 +228,8 @@ struct JointOptions {
   /// a residual at this norm gets half the weight, which 13.5 % of clean
   /// 1-sigma blobs reach. Kept below the chi-square 99 % point (3.0): the
   /// rendered blobs' errors are heavier-tailed than blob_sigma_px says, and
-  /// 3.0 made the rendered `revisit` 12.7 -> 16.4 mm (doc/benchmarks.md,
-  /// twelfth session).
+  /// 3.0 made the rendered `revisit` 12.7 -> 16.4 mm (doc/benchmarks-history.md,
+  /// "Robust losses").
   double cauchy = 2.0;
   double gate_px = 10;           ///< Nearest blob within this distance of the projection [px]...
   double ambiguity_ratio = 1.5;  ///< ...and the second nearest this many times farther (both ways).
@@ -258,7 +258,7 @@ struct JointOptions {
   /// supernodal factorisation of the whole J^T J, once it runs on one thread
   /// (core/threads.h), is faster than Ceres' Schur complement, whose reduced
   /// matrix is sorted anew at every step: 43 cameras 0.80x, 300 0.73x,
-  /// 1,000 0.88x the time, same results (doc/benchmarks.md, fourteenth session).
+  /// 1,000 0.88x the time, same results (doc/benchmarks-history.md, "The linear solver").
   std::string linear_solver = "sparse_normal_cholesky";
   /// With sparse_normal_cholesky, the elimination order of J^T J, chosen
   /// afresh for each round on its pattern of parameter blocks: "amd" (Ceres'
@@ -267,7 +267,7 @@ struct JointOptions {
   /// predicts it needs under 0.6x AMD's flops; fill_reducing_ordering.h).
   /// The trajectory is a long chain tied to the cameras over it: with all
   /// blobs, nested dissection's factor takes about a third of AMD's flops on
-  /// `paper_det` (doc/benchmarks.md, fifteenth session).
+  /// `paper_det` (doc/benchmarks-history.md, "The elimination order of J^T J").
   std::string fill_reducing_ordering = "auto";
   /// Per-camera 6x6 covariance (sparse LDL^T of the problem's J^T J; src/sparse_covariance.h).
   bool covariance = true;

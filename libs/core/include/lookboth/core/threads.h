@@ -13,8 +13,8 @@ namespace lookboth {
 /// which OMP_NUM_THREADS does not override). On a 2-core machine each
 /// factorisation then wakes and waits for 3 spinning threads: `joint` on the
 /// 43-camera `paper` spent a fifth of its samples in the kernel's futex calls
-/// and libgomp, and the registration ran 1.7x longer (doc/benchmarks.md,
-/// thirteenth session). This sets the
+/// and libgomp, and the registration ran 1.7x longer (doc/benchmarks-history.md,
+/// "CHOLMOD's OpenMP threads"). This sets the
 /// calling thread's OpenMP ICVs nthreads-var to 1 and dyn-var to true, with
 /// which libgomp caps any num_threads clause at nthreads-var. The runtime's
 /// functions are looked up in the process (dlsym), so nothing links OpenMP
