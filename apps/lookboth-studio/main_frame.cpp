@@ -1047,8 +1047,12 @@ void MainFrame::registrationReady(std::shared_ptr<const studio::DatasetIndex> in
     if (logged_.insert(line).second) log("  " + wxString::FromUTF8(line));
   };
   for (const auto& w : registration_->warnings) once("warning: " + w);
+  for (const auto& c : registration_->cameras) {
+    for (const auto& w : c.warnings) once("warning: " + c.label + ": " + w);
+  }
+  // Short lines, one sentence each: the statement is long.
   if (!registration_->observability.message.empty())
-    once("observability: " + registration_->observability.message);
+    once("observability:\n" + wrapSentences(registration_->observability.message, "    "));
   datasetLoaded(std::move(index));
 }
 
@@ -1204,7 +1208,7 @@ void MainFrame::refreshTable() {
       std::string notes = reg->reason;
       for (const auto& w : reg->warnings) notes += (notes.empty() ? "" : "; ") + w;
       row.cells[7] = notes;
-      row.warn = reg->status != CameraStatus::kRegistered;
+      row.warn = reg->status != CameraStatus::kRegistered || !reg->warnings.empty();
     } else {
       const auto& truth = index_->manifest().ground_truth.world_from_camera;
       if (const auto it = truth.find(summary.label); it != truth.end()) {

@@ -17,7 +17,7 @@ namespace {
 struct RegisterArgs {
   std::string dataset;
   std::string out;
-  std::string trajectory = "visual";
+  std::string trajectory;  ///< "" = chosen from the dataset (chooseTrajectory).
   std::string trajectory_label;
   std::string trajectory_file;
   std::string config;
@@ -25,6 +25,7 @@ struct RegisterArgs {
   bool no_detect = false;
   bool no_odometry = false;
   bool no_write_back = false;
+  bool verbose = false;
   int threads = 0;
 };
 
@@ -43,7 +44,7 @@ void printIssue(const DatasetIssue& issue) {
 int runRegister(const RegisterArgs& args) {
   RegisterOptions options;
   options.dataset = args.dataset;
-  options.mode = *parseTrajectoryMode(args.trajectory);
+  if (!args.trajectory.empty()) options.mode = *parseTrajectoryMode(args.trajectory);
   options.trajectory_label = args.trajectory_label;
   options.trajectory_file = args.trajectory_file;
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
@@ -59,6 +60,7 @@ int runRegister(const RegisterArgs& args) {
     full.dataset = options.dataset;
     full.out = args.out;
     full.overwrite = args.overwrite;
+    full.choose_trajectory = args.trajectory.empty() && args.trajectory_label.empty();
     full.mode = options.mode;
     full.trajectory_label = options.trajectory_label;
     full.trajectory_file = options.trajectory_file;
@@ -71,7 +73,7 @@ int runRegister(const RegisterArgs& args) {
     const FullPipelineResult result = runFullPipeline(full, progress);
     for (const auto& step : result.steps) std::cout << step << "\n";
     const RegistrationRun& run = result.run;
-    std::cout << registrationSummary(run.registration);
+    std::cout << registrationSummary(run.registration, args.verbose);
     std::cout << "wrote " << args.out << "\n";
     if (run.registration.registeredCount() == 0) {
       std::cerr << "lookboth: no camera could be registered\n";
@@ -94,12 +96,15 @@ void registerRegisterCommand(CLI::App& app, const std::function<void(CommandBody
   cmd->add_option("--out", args->out, "Output directory (cameras.csv, registration.yaml, ...)")
       ->required();
   cmd->add_option("--trajectory", args->trajectory,
-                  "visual: the dataset's visual odometry (up to scale, label 'vo'); metric: a "
-                  "metric trajectory (label 'odometry'), scale fixed to 1")
-      ->check(CLI::IsMember({"visual", "metric"}))
-      ->capture_default_str();
+                  "visual: a trajectory up to scale (the scale is estimated; label 'vo' unless "
+                  "--trajectory-label); metric: a metric trajectory, scale 1 (label 'odometry' "
+                  "unless --trajectory-label). Default: chosen from the dataset, in this order: "
+                  "its visual odometry 'vo'; its only trajectory marked not metric; visual "
+                  "odometry run on its fisheye frames; its metric 'odometry' (or its only "
+                  "metric one). The first output line says which")
+      ->check(CLI::IsMember({"visual", "metric"}));
   cmd->add_option("--trajectory-label", args->trajectory_label,
-                  "The dataset trajectory to use instead of the mode's default");
+                  "The dataset trajectory to use (with visual mode unless --trajectory metric)");
   cmd->add_option("--trajectory-file", args->trajectory_file,
                   "A TUM file (world_from_fisheye, robot clock) instead of a dataset trajectory")
       ->check(CLI::ExistingFile);
@@ -107,6 +112,9 @@ void registerRegisterCommand(CLI::App& app, const std::function<void(CommandBody
                   "A YAML file whose 'register:' keys override share/lookboth/config/default.yaml")
       ->check(CLI::ExistingFile);
   cmd->add_flag("--overwrite", args->overwrite, "Replace an existing output directory");
+  cmd->add_flag("--verbose", args->verbose,
+                "Also print what the data determines and the notes (nothing to act on); both "
+                "are in registration.yaml too");
   cmd->add_flag("--no-detect", args->no_detect,
                 "Do not run the detection when the dataset has frames but no detections");
   cmd->add_flag("--no-odometry", args->no_odometry,

@@ -6,8 +6,16 @@
 
 #include "lookboth/calib/stages.h"
 #include "lookboth/core/error.h"
+#include "lookboth/core/text.h"
 
 namespace lookboth {
+namespace {
+
+/// Dropped detections above these fractions of all are a warning, not a note.
+constexpr double kMaxGapFraction = 0.1;      ///< In the trajectory's gaps.
+constexpr double kMaxOutsideFraction = 0.5;  ///< Before its start or after its end.
+
+}  // namespace
 
 void runAssociate(RegistrationProblem& problem, const AssociateOptions& options,
                   const ProgressReporter& progress) {
@@ -69,16 +77,31 @@ void runAssociate(RegistrationProblem& problem, const AssociateOptions& options,
     });
   }
   if (other_marker > 0) {
-    problem.result.warnings.push_back(std::to_string(other_marker) +
-                                      " detections of other marker ids than the robot's (" +
-                                      std::to_string(marker_id) + ") ignored");
+    problem.result.notes.push_back(std::to_string(other_marker) +
+                                   " detections of other marker ids than the robot's (" +
+                                   std::to_string(marker_id) + ") ignored");
   }
-  if (stats.dropped_outside_trajectory + stats.dropped_gap > 0) {
-    problem.result.warnings.push_back(
-        std::to_string(stats.dropped_outside_trajectory) +
-        " detections outside the trajectory and " + std::to_string(stats.dropped_gap) +
-        " inside gaps longer than " + std::to_string(options.max_gap_s) +
-        " s were dropped (never extrapolated)");
+  const std::int64_t dropped = stats.dropped_outside_trajectory + stats.dropped_gap;
+  if (dropped > 0) {
+    const std::string text = std::to_string(stats.dropped_outside_trajectory) +
+                             " detections outside the trajectory and " +
+                             std::to_string(stats.dropped_gap) + " inside its gaps (longer than " +
+                             formatDouble(options.max_gap_s) +
+                             " s) were dropped (never extrapolated)";
+    // Detections before the trajectory starts and after it ends are
+    // expected: the cameras record the whole drive, the odometry starts
+    // late (visual odometry initialises). Gaps mean the odometry lost
+    // track; many of either mean the trajectory misses part of the drive.
+    const double total = static_cast<double>(stats.detections_total);
+    if (stats.dropped_gap > kMaxGapFraction * total ||
+        stats.dropped_outside_trajectory > kMaxOutsideFraction * total) {
+      problem.result.warnings.push_back(
+          text +
+          ": the trajectory misses part of the drive; check the odometry (lost track?) and "
+          "the clock offsets between the cameras and the robot");
+    } else {
+      problem.result.notes.push_back(text);
+    }
   }
   problem.associated = true;
   progress.report("associate", static_cast<std::int64_t>(n), static_cast<std::int64_t>(n));

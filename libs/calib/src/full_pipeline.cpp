@@ -22,7 +22,70 @@ std::string FullPipelineOptions::check() const {
 }
 
 bool DatasetContents::hasTrajectory(const std::string& label) const {
-  return std::find(trajectories.begin(), trajectories.end(), label) != trajectories.end();
+  return std::any_of(trajectories.begin(), trajectories.end(),
+                     [&](const TrajectoryInfo& info) { return info.label == label; });
+}
+
+namespace {
+
+constexpr const char* kGroundTruthLabel = "ground_truth";
+
+/// "odometry (metric), vo (up to scale)" or "none".
+std::string describeTrajectories(const DatasetContents& contents) {
+  std::string list;
+  for (const TrajectoryInfo& info : contents.trajectories) {
+    list +=
+        (list.empty() ? "" : ", ") + info.label + (info.metric ? " (metric)" : " (up to scale)");
+  }
+  return list.empty() ? "none" : list;
+}
+
+std::vector<std::string> labelsWhere(const DatasetContents& contents, bool metric) {
+  std::vector<std::string> labels;
+  for (const TrajectoryInfo& info : contents.trajectories) {
+    if (info.metric == metric && info.label != kGroundTruthLabel) labels.push_back(info.label);
+  }
+  return labels;
+}
+
+}  // namespace
+
+TrajectoryChoice chooseTrajectory(const std::filesystem::path& dataset,
+                                  const DatasetContents& contents) {
+  const std::string vo = vo::kVoTrajectoryLabel;
+  const std::string other = "; choose another with --trajectory or --trajectory-label";
+  if (contents.hasTrajectory(vo))
+    return {TrajectoryMode::kVisual, vo, "its visual odometry '" + vo + "', up to scale" + other};
+  const std::vector<std::string> unscaled = labelsWhere(contents, false);
+  if (unscaled.size() > 1) {
+    throw Error(dataset.string() + ": several trajectories up to scale (" +
+                describeTrajectories(contents) +
+                "): choose one with --trajectory-label <label> (--trajectory visual)");
+  }
+  if (unscaled.size() == 1) {
+    return {TrajectoryMode::kVisual, unscaled.front(),
+            "its only trajectory up to scale, '" + unscaled.front() +
+                "' (visual mode: the scale is estimated)" + other};
+  }
+  if (contents.fisheye_frames > 0) {
+    return {TrajectoryMode::kVisual, vo,
+            "visual odometry on its fisheye frames, as '" + vo + "'" + other};
+  }
+  const std::vector<std::string> metric = labelsWhere(contents, true);
+  if (contents.hasTrajectory("odometry") || metric.size() == 1) {
+    const std::string label = contents.hasTrajectory("odometry") ? "odometry" : metric.front();
+    return {
+        TrajectoryMode::kMetric, label,
+        "its metric trajectory '" + label + "' (no visual odometry, no fisheye frames)" + other};
+  }
+  throw Error(dataset.string() + ": no trajectory to register with (the dataset's trajectories: " +
+              describeTrajectories(contents) +
+              (metric.empty()
+                   ? std::string(")")
+                   : "): choose one with --trajectory metric --trajectory-label <label>") +
+              (metric.empty() ? "; add one (`lookboth convert --from trajectory.tum ...`) or "
+                                "give --trajectory-file"
+                              : ""));
 }
 
 DatasetContents inspectDataset(const std::filesystem::path& dataset,
@@ -33,7 +96,7 @@ DatasetContents inspectDataset(const std::filesystem::path& dataset,
   const Manifest& manifest = reader->manifest();
   const CameraSensor* fisheye = manifest.fisheye();
   DatasetContents contents;
-  for (const auto& info : manifest.trajectories) contents.trajectories.push_back(info.label);
+  contents.trajectories = manifest.trajectories;
   std::int64_t n = 0;
   const std::int64_t expected = std::max<std::int64_t>(reader->expectedCount(), 0);
   while (auto record = reader->next()) {
@@ -136,8 +199,12 @@ StepOutcome runOdometryStep(const FullPipelineOptions& options, const DatasetCon
                   "': run `lookboth odometry` first");
     if (contents.fisheye_frames == 0)
       throw Error(options.dataset.string() + ": no visual odometry trajectory '" + vo_label +
-                  "' and no fisheye frames to run `lookboth odometry` on; use a metric "
-                  "trajectory (--trajectory metric)");
+                  "' and no fisheye frames to run `lookboth odometry` on (the dataset's "
+                  "trajectories: " +
+                  describeTrajectories(contents) +
+                  "); leave out --trajectory to let register choose, or name one: "
+                  "--trajectory-label <label> for one up to scale, --trajectory metric for a "
+                  "metric one");
     if (vo_label != vo::kVoTrajectoryLabel)
       throw Error(options.dataset.string() + ": no visual odometry trajectory '" + vo_label +
                   "': `lookboth odometry` writes '" + std::string(vo::kVoTrajectoryLabel) + "'");
@@ -175,10 +242,16 @@ FullPipelineResult runFullPipeline(const FullPipelineOptions& options,
   RegistrationController controller(loadRegistrationConfig(options.config_file));
 
   DatasetContents contents = inspectDataset(options.dataset, progress);
+  FullPipelineOptions working = options;
+  if (options.choose_trajectory && options.trajectory_file.empty()) {
+    const TrajectoryChoice choice = chooseTrajectory(options.dataset, contents);
+    working.mode = choice.mode;
+    working.trajectory_label = choice.label;
+    result.steps.push_back("trajectory: " + choice.reason);
+  }
   // Without write-back, steps 1-2 write a scratch copy that the stages read.
   const std::optional<ScratchDataset> scratch =
       options.write_back ? std::nullopt : std::optional<ScratchDataset>(ScratchDataset(options));
-  FullPipelineOptions working = options;
   const std::filesystem::path step_out = scratch ? scratch->path : std::filesystem::path();
   // 1. Detection.
   const StepOutcome detected = runDetectStep(working, contents, progress, step_out);
@@ -195,9 +268,9 @@ FullPipelineResult runFullPipeline(const FullPipelineOptions& options,
   RegisterOptions register_options;
   register_options.dataset = working.dataset;
   register_options.on_issue = options.on_issue;
-  register_options.mode = options.mode;
-  register_options.trajectory_label = options.trajectory_label;
-  register_options.trajectory_file = options.trajectory_file;
+  register_options.mode = working.mode;
+  register_options.trajectory_label = working.trajectory_label;
+  register_options.trajectory_file = working.trajectory_file;
   RegistrationInput input = loadRegistrationInput(register_options, progress);
   result.run = controller.run(std::move(input), progress);
   progress.checkStop();

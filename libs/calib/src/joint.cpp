@@ -73,6 +73,13 @@ constexpr TimeNs kMaxGapNs = 500'000'000;     // trajectory gaps longer than thi
 constexpr double kDriftModelTolerance = 0.1;  // a drift sigma factor changed by more: another round
 constexpr TimeNs kSmoothingGapNs = 100'000'000;  // samples farther apart: not smoothed across
 constexpr double kRebracketS = 0.005;            // clock offsets moved less: no new round (below)
+// A clock offset estimated this far [ms] from the configured one, and
+// beyond 3 sigma, is reported: a sixth of a 30 Hz frame period.
+constexpr double kMinClockChangeMs = 5.0;
+// A fisheye_from_marker component neither determined nor held by a prior is
+// a warning when its sigma exceeds this many times max_*_sigma (1 cm and
+// 2.5 deg by default); below, a note.
+constexpr double kLooseFactor = 5.0;
 
 struct Detection {
   std::size_t association = 0;
@@ -741,7 +748,8 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     SparseCovariance cov;
     if (!cov.compute(pairs, &Q, options.threads)) {
       result.warnings.push_back("joint: the drift model could not be estimated (" + cov.message() +
-                                ")");
+                                "); the configured one was used, so the reported uncertainty "
+                                "may not fit this trajectory's drift");
       drift_model_failed = true;  // no further attempts
       return false;
     }
@@ -1130,9 +1138,9 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       }
       const double ordering_cpu = cpu() - ordering_start;
       const std::string warning = "joint: " + message + "; Ceres' own ordering was used";
-      if (!message.empty() && std::find(result.warnings.begin(), result.warnings.end(), warning) ==
-                                  result.warnings.end()) {
-        result.warnings.push_back(warning);  // once, not every round
+      if (!message.empty() &&
+          std::find(result.notes.begin(), result.notes.end(), warning) == result.notes.end()) {
+        result.notes.push_back(warning);  // once, not every round
       }
       if (method == FillOrderingMethod::kAuto) {
         ordering_choice = {true, residuals, chosen.method};
@@ -1270,7 +1278,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
         << " residuals are " << variance_factor[kind]
         << "x (in variance) what the detector's covariance says (median chi-square); they were "
            "weighted and rejected with that factor";
-      result.warnings.push_back(w.str());
+      result.notes.push_back(w.str());
     }
   }
 
@@ -1331,7 +1339,9 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       std::cerr << "joint covariance: CPU " << lap() << " s" << covariance.describe() << "\n";
     if (!have_covariance) {
       result.warnings.push_back("joint: the covariance could not be computed (" +
-                                covariance.message() + ")");
+                                covariance.message() +
+                                "): the registration has no uncertainty; check the cameras "
+                                "with few detections");
     }
   }
   auto poseCovariance = [&](const double* block) {
@@ -1385,7 +1395,8 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     } else if (have_covariance) {
       const Matrix6d cov = poseCovariance(x_params);
       result.fisheye_from_marker_covariance = cov;
-      std::string undetermined;
+      std::string undetermined;  // components the data leaves to a prior or free
+      bool free_component = false;
       for (int c = 0; c < 6; ++c) {
         const double sigma = std::sqrt(std::max(0.0, cov(c, c)));
         const double prior_sigma =
@@ -1396,6 +1407,9 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
         const bool determined = sigma <= max_sigma && !by_prior;
         result.fisheye_from_marker_determined[c] = determined;
         if (!determined) {
+          // Loosely known is worth a note; a warning when the cameras move
+          // with it by more than centimetres (or degrees).
+          free_component = free_component || (!by_prior && sigma > kLooseFactor * max_sigma);
           undetermined += std::string(undetermined.empty() ? "" : ", ") + kComponentNames[c] +
                           " (sigma " +
                           (c < 3 ? formatFixed(sigma * 1000, 2) + " mm"
@@ -1411,8 +1425,20 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
                             : ""));
       } else {
         notes.push_back("joint: not determined by the data: fisheye_from_marker " + undetermined);
-        result.warnings.push_back("joint: fisheye_from_marker " + undetermined +
-                                  " is not determined by the data");
+        if (free_component) {
+          // Nothing holds it: the cameras move with its arbitrary value.
+          result.warnings.push_back(
+              "joint: fisheye_from_marker " + undetermined +
+              " is not determined by the data and no prior holds it: measure the marker's "
+              "mount on the robot and set register.motion_calibration.prior_translation_m / "
+              "prior_rotation_xyzw, or drive with more turns and slopes");
+        } else {
+          // A flat floor cannot determine the marker's height (or tilt):
+          // expected, and the configured mount then decides it.
+          result.notes.push_back("joint: fisheye_from_marker " + undetermined +
+                                 ": loosely determined, or held by the configured mount where a "
+                                 "flat floor cannot determine it (expected)");
+        }
       }
     }
     for (const std::string& n : notes) {
@@ -1478,8 +1504,8 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       continue;
     }
     if (restarted.count(camera.label)) {
-      camera.warnings.push_back("joint: registered although look_down was not (" + camera.reason +
-                                ")");
+      camera.notes.push_back("joint: registered although look_down was not (" + camera.reason +
+                             ")");
     }
     const Rigid3d pose = paramsToPose(jc.pose);
     camera.world_from_camera = pose;
@@ -1492,15 +1518,24 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     if (have_covariance && options.estimate_clock_offsets) {
       offset.sigma_ms = std::sqrt(std::max(0.0, scalarVariance(&jc.offset_s, &jc.offset_s))) * 1e3;
       if (offset.sigma_ms > options.max_clock_sigma_ms) {
-        camera.warnings.push_back("joint: the clock offset is not determined by the data (sigma " +
-                                  formatFixed(offset.sigma_ms, 2) + " ms)");
+        camera.warnings.push_back(
+            "joint: the clock offset is uncertain (sigma " + formatFixed(offset.sigma_ms, 1) +
+            " ms, more than max_clock_sigma_ms " + formatFixed(options.max_clock_sigma_ms, 1) +
+            " ms): the robot passed too few times or too slowly under the camera; drive under "
+            "it again, or synchronise its clock and set estimate_clock_offsets: false");
       }
     }
     camera.clock_offset = offset;
-    if (std::abs(jc.offset_s - jc.offset0_s) > 0.005) {
-      camera.warnings.push_back("joint: clock offset " + formatFixed(jc.offset_s * 1e3, 2) +
-                                " ms (node - robot) estimated; configured " +
-                                formatFixed(jc.offset0_s * 1e3, 2) + " ms");
+    // Off by more than its own uncertainty can explain: the camera's clock is
+    // wrong. The registration corrected for it; the clock itself needs fixing.
+    const double clock_change_ms = (jc.offset_s - jc.offset0_s) * 1e3;
+    if (std::abs(clock_change_ms) > std::max(kMinClockChangeMs, 3 * offset.sigma_ms)) {
+      camera.warnings.push_back(
+          "joint: clock offset " + formatFixed(jc.offset_s * 1e3, 1) + " ms (node - robot) +- " +
+          formatFixed(offset.sigma_ms, 1) + " ms estimated; configured " +
+          formatFixed(jc.offset0_s * 1e3, 1) +
+          " ms: the registration corrected for it; fix the camera's time synchronisation, or "
+          "set register.associate.clock_offsets_ns for it");
     }
     // Residuals as look_down reports them (marker pose by the camera vs by the robot).
     double sum_p = 0, sum_r = 0;
@@ -1532,8 +1567,8 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
       camera.reason.clear();
     }
     if (jc.blobs > 0 && jc.blobs < options.min_blobs) {
-      camera.warnings.push_back("joint: only " + std::to_string(jc.blobs) +
-                                " blobs associated; not used");
+      camera.notes.push_back("joint: only " + std::to_string(jc.blobs) +
+                             " blobs associated; not used");
     }
   }
 

@@ -242,8 +242,8 @@ void runLookDown(RegistrationProblem& problem, const LookDownOptions& options,
       camera.reason.clear();
     }
     if (n - used > 0 && camera.status == CameraStatus::kRegistered) {
-      camera.warnings.push_back(std::to_string(n - used) + " of " + std::to_string(n) +
-                                " detections rejected as outliers");
+      camera.notes.push_back(std::to_string(n - used) + " of " + std::to_string(n) +
+                             " detections rejected as outliers");
     }
   }
   progress.report("look_down", done, static_cast<std::int64_t>(labels.size()));

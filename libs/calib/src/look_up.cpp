@@ -268,8 +268,8 @@ void runLookUp(RegistrationProblem& problem, const LookUpOptions& options,
     Eigen::Vector3d final_position = c.position;
     if (n < options.min_blobs) {
       final_position = initial[k];
-      camera.warnings.push_back("look_up: only " + std::to_string(n) +
-                                " blobs associated; position of look_down kept");
+      camera.notes.push_back("look_up: only " + std::to_string(n) +
+                             " blobs associated; position of look_down kept");
     } else if ((final_position - initial[k]).norm() > options.max_shift_m) {
       camera.warnings.push_back("look_up: refinement moved the camera " +
                                 formatFixed((final_position - initial[k]).norm(), 3) +

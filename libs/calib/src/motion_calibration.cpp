@@ -609,11 +609,15 @@ void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationO
       for (int c = 0; c < 6; ++c) {
         if (std::abs(v[c]) > 0.3) determined[c] = false;
       }
+      // Beyond a metre (or 90 degrees) the motion says nothing at all: a
+      // figure like 176911 m would only distract.
+      const bool rotation = d.kind == Direction::kRotation;
+      const double sigma = rotation ? d.sigma / kDeg : d.sigma;
       message << " mostly " << componentName(dominant) << " (sigma from the motion alone "
-              << (std::isfinite(d.sigma)
-                      ? formatFixed(d.kind == Direction::kRotation ? d.sigma / kDeg : d.sigma, 3)
-                      : std::string("infinite"))
-              << (d.kind == Direction::kRotation ? " deg)" : " m)");
+              << (!std::isfinite(sigma)         ? std::string("infinite")
+                  : sigma > (rotation ? 90 : 1) ? std::string(rotation ? "over 90" : "over 1")
+                                                : formatFixed(sigma, 3))
+              << (rotation ? " deg)" : " m)");
       message << ";";
       const bool t = d.kind == Direction::kTranslation;
       if (t && options.prior_translation_m) {

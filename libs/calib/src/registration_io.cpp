@@ -51,6 +51,12 @@ const CameraRegistration* Registration::findCamera(const std::string& label) con
   return nullptr;
 }
 
+std::size_t Registration::warningCount() const {
+  std::size_t n = warnings.size();
+  for (const CameraRegistration& c : cameras) n += c.warnings.size();
+  return n;
+}
+
 int Registration::registeredCount() const {
   int n = 0;
   for (const CameraRegistration& camera : cameras) {
@@ -189,10 +195,11 @@ struct Reader : YamlReader {
 };
 
 CameraRegistration readCamera(const Reader& r, const YAML::Node& node, const std::string& field) {
-  r.rejectUnknownKeys(node,
-                      {"label", "status", "reason", "world_from_camera", "stages", "covariance",
-                       "detections", "residuals", "reprojection", "clock_offset", "warnings"},
-                      field);
+  r.rejectUnknownKeys(
+      node,
+      {"label", "status", "reason", "world_from_camera", "stages", "covariance", "detections",
+       "residuals", "reprojection", "clock_offset", "warnings", "notes"},
+      field);
   CameraRegistration camera;
   camera.label = r.text(r.require(node, "label", field + ".label"), field + ".label");
   const std::string status =
@@ -249,6 +256,7 @@ CameraRegistration readCamera(const Reader& r, const YAML::Node& node, const std
     camera.clock_offset = offset;
   }
   if (node["warnings"]) camera.warnings = r.strings(node["warnings"], field + ".warnings");
+  if (node["notes"]) camera.notes = r.strings(node["notes"], field + ".notes");
   return camera;
 }
 
@@ -394,6 +402,10 @@ std::string registrationToYaml(const Registration& reg) {
     }
     out << YAML::Key << "warnings" << YAML::Value;
     emitStrings(out, c.warnings);
+    if (!c.notes.empty()) {
+      out << YAML::Key << "notes" << YAML::Value;
+      emitStrings(out, c.notes);
+    }
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;
@@ -423,6 +435,8 @@ std::string registrationToYaml(const Registration& reg) {
   out << YAML::EndMap;
   out << YAML::Key << "warnings" << YAML::Value;
   emitStrings(out, reg.warnings);
+  out << YAML::Key << "notes" << YAML::Value;
+  emitStrings(out, reg.notes);
 
   const RegistrationStatistics& s = reg.statistics;
   out << YAML::Key << "statistics" << YAML::Value << YAML::BeginMap;
@@ -493,7 +507,7 @@ Registration loadRegistration(const std::filesystem::path& dir) {
   r.rejectUnknownKeys(
       root,
       {"format", "dataset", "created", "versions", "pipeline", "trajectory", "fisheye_from_marker",
-       "cameras", "reprojection", "observability", "warnings", "statistics", "config"},
+       "cameras", "reprojection", "observability", "warnings", "notes", "statistics", "config"},
       "");
   const std::string format = r.text(r.require(root, "format", "format"), "format");
   if (format != kFormat) {
@@ -591,6 +605,7 @@ Registration loadRegistration(const std::filesystem::path& dir) {
     }
   }
   if (root["warnings"]) reg.warnings = r.strings(root["warnings"], "warnings");
+  if (root["notes"]) reg.notes = r.strings(root["notes"], "notes");
   if (const YAML::Node s = root["statistics"]; s) {
     r.rejectUnknownKeys(s,
                         {"detections_total", "detections_associated", "dropped_outside_trajectory",

@@ -75,4 +75,21 @@ std::string excerpt(std::string_view text, std::size_t max_chars) {
          " characters)";
 }
 
+std::string wrapSentences(std::string_view text, std::string_view indent, std::size_t width) {
+  std::string out;
+  std::string line;
+  const auto endLine = [&] {
+    if (line.empty()) return;
+    out += (out.empty() ? "" : "\n") + std::string(indent) + line;
+    line.clear();
+  };
+  for (const std::string& word : splitWhitespace(text)) {
+    if (!line.empty() && indent.size() + line.size() + 1 + word.size() > width) endLine();
+    line += (line.empty() ? "" : " ") + word;
+    if (word.back() == '.') endLine();
+  }
+  endLine();
+  return out;
+}
+
 }  // namespace lookboth

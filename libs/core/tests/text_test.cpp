@@ -39,5 +39,13 @@ TEST(Text, ParsesIntegersAndSplits) {
   EXPECT_EQ(tokens[1], "bb");
 }
 
+TEST(Text, WrapSentencesPutsEachSentenceOnItsLineWithinTheWidth) {
+  EXPECT_EQ(wrapSentences("One. Two  words. Three", "  "), "  One.\n  Two words.\n  Three");
+  EXPECT_EQ(wrapSentences(""), "");
+  // Wrapped at spaces to the width, indent included; a longer word stays whole.
+  EXPECT_EQ(wrapSentences("aaa bbb ccc ddd", "> ", 9), "> aaa bbb\n> ccc ddd");
+  EXPECT_EQ(wrapSentences("abcdefghijkl x", "", 5), "abcdefghijkl\nx");
+}
+
 }  // namespace
 }  // namespace lookboth

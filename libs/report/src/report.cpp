@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <sstream>
 
 #include "lookboth/calib/registration.h"
@@ -21,8 +22,8 @@ namespace fs = std::filesystem;
 
 const char* verdictName(Verdict verdict) {
   switch (verdict) {
-    case Verdict::kTrustworthy:
-      return "trustworthy";
+    case Verdict::kOk:
+      return "ok";
     case Verdict::kNeedsChecking:
       return "needs checking";
     case Verdict::kFailed:
@@ -92,6 +93,22 @@ std::string escape(const std::string& text) {
   return out;
 }
 
+/// A titled list of the registration's messages and its cameras', each
+/// camera's prefixed by its label; nothing when there are none.
+void writeMessages(std::ostream& out, const std::string& title, const std::string& what,
+                   const std::vector<std::string>& global,
+                   const std::function<std::vector<std::string>(const CameraRegistration&)>& of,
+                   const std::vector<CameraRegistration>& cameras) {
+  std::vector<std::string> items = global;
+  for (const CameraRegistration& c : cameras) {
+    for (const std::string& m : of(c)) items.push_back(c.label + ": " + m);
+  }
+  if (items.empty()) return;
+  out << "<h2>" << escape(title) << "</h2>\n<p class=note>" << escape(what) << "</p>\n<ul>";
+  for (const std::string& item : items) out << "<li>" << escape(item) << "</li>";
+  out << "</ul>\n";
+}
+
 std::string fixed(double value, int decimals) { return formatFixed(value, decimals); }
 
 /// 1-sigma along the worst direction of a 3x3 block of a covariance.
@@ -105,7 +122,7 @@ body { font-family: "DejaVu Sans", Arial, sans-serif; margin: 24px; color: #222;
 h1 { font-size: 24px; margin-bottom: 4px; }
 h2 { font-size: 19px; margin-top: 28px; border-bottom: 1px solid #ccc; padding-bottom: 3px; }
 .verdict { padding: 14px 18px; border-radius: 6px; font-size: 20px; font-weight: bold; color: #fff; }
-.trustworthy { background: #1e8f3a; } .needs-checking { background: #d9822b; } .failed { background: #c0392b; }
+.ok { background: #1e8f3a; } .needs-checking { background: #d9822b; } .failed { background: #c0392b; }
 .reasons { margin: 8px 0 0 0; font-size: 14px; font-weight: normal; }
 table { border-collapse: collapse; font-size: 13px; margin: 8px 0; }
 th, td { border: 1px solid #bbb; padding: 3px 7px; text-align: right; }
@@ -225,12 +242,13 @@ ReportSummary writeReport(const fs::path& dataset, const fs::path& registration_
                       fixed(ground_truth->rms.rotation_deg_total, 2) + " deg exceeds " +
                       fixed(options.max_rotation_error_deg, 2) + " deg");
   }
-  if (!registration.warnings.empty()) {
-    reasons.push_back(std::to_string(registration.warnings.size()) +
-                      " warning(s) from the registration");
+  // Notes (a prior held what a flat floor cannot determine, detections set
+  // aside at the ends) are expected and leave the verdict alone.
+  if (const std::size_t warnings = registration.warningCount(); warnings > 0) {
+    reasons.push_back(std::to_string(warnings) + " warning(s) to act on (see Warnings)");
   }
   summary.verdict = registered == 0   ? Verdict::kFailed
-                    : reasons.empty() ? Verdict::kTrustworthy
+                    : reasons.empty() ? Verdict::kOk
                                       : Verdict::kNeedsChecking;
 
   // The pictures, in a temporary folder beside the output, embedded, then removed.
@@ -292,7 +310,7 @@ ReportSummary writeReport(const fs::path& dataset, const fs::path& registration_
   }
   out << "</td></tr></table>\n";
 
-  const std::string verdict_class = summary.verdict == Verdict::kTrustworthy     ? "trustworthy"
+  const std::string verdict_class = summary.verdict == Verdict::kOk              ? "ok"
                                     : summary.verdict == Verdict::kNeedsChecking ? "needs-checking"
                                                                                  : "failed";
   out << "<div class=\"verdict " << verdict_class
@@ -415,18 +433,26 @@ ReportSummary writeReport(const fs::path& dataset, const fs::path& registration_
   }
   out << "</p>\n";
   if (!registration.observability.message.empty()) {
-    out << "<p>" << escape(registration.observability.message) << "</p>\n";
+    // One sentence per line: the statement is long.
+    std::string text = escape(wrapSentences(registration.observability.message, "", 100000));
+    for (std::size_t at = text.find('\n'); at != std::string::npos; at = text.find('\n', at))
+      text.replace(at, 1, "<br>");
+    out << "<p>" << text << "</p>\n";
   }
   if (registration.observability.aligned_position_rmse_m) {
     out << "<p>Camera positions: the covariance predicts an RMS error of "
         << fixed(*registration.observability.aligned_position_rmse_m * 1000, 2)
         << " mm after a rigid alignment to any reference (a survey, another registration).</p>\n";
   }
-  if (!registration.warnings.empty()) {
-    out << "<h2>Warnings</h2>\n<ul>";
-    for (const std::string& w : registration.warnings) out << "<li>" << escape(w) << "</li>";
-    out << "</ul>\n";
-  }
+  writeMessages(
+      out, "Warnings", "What to act on, and how.", registration.warnings,
+      [](const CameraRegistration& c) { return c.warnings; }, registration.cameras);
+  writeMessages(
+      out, "Notes",
+      "Nothing to act on: what priors held because the data cannot determine it, "
+      "detections set aside, the solver's choices.",
+      registration.notes, [](const CameraRegistration& c) { return c.notes; },
+      registration.cameras);
 
   // Pictures.
   out << "<h2>Pictures</h2>\n";

@@ -29,6 +29,10 @@ struct FullPipelineOptions {
   std::filesystem::path dataset;
   std::filesystem::path out;  ///< The registration directory.
   bool overwrite = false;     ///< Replace an existing `out`.
+  /// Which trajectory to register with. With choose_trajectory set, mode and
+  /// trajectory_label are chosen from the dataset (chooseTrajectory) and a
+  /// step line says which; else they are used as given.
+  bool choose_trajectory = false;
   TrajectoryMode mode = TrajectoryMode::kVisual;
   std::string trajectory_label;           ///< "" = "vo" (visual) or "odometry" (metric).
   std::filesystem::path trajectory_file;  ///< A TUM file instead of a dataset trajectory.
@@ -48,11 +52,28 @@ struct DatasetContents {
   std::int64_t camera_frames = 0;  ///< Environment cameras' frames.
   std::int64_t markers = 0;
   std::int64_t blob_records = 0;
-  std::vector<std::string> trajectories;  ///< Labels in the manifest.
+  std::vector<TrajectoryInfo> trajectories;  ///< As the manifest describes them.
   bool hasTrajectory(const std::string& label) const;
 };
 DatasetContents inspectDataset(const std::filesystem::path& dataset,
                                const ProgressReporter& progress);
+
+/// The trajectory a registration uses when the user names none, and why.
+struct TrajectoryChoice {
+  TrajectoryMode mode = TrajectoryMode::kVisual;
+  std::string label;   ///< The dataset trajectory ("vo" also when odometry must make it).
+  std::string reason;  ///< One line for the user: what was chosen and how to choose another.
+};
+/// The dataset's own description decides, in this order (ground truth never):
+///   1. its visual odometry "vo" (visual mode);
+///   2. its only trajectory marked not metric (visual mode: the scale is
+///      estimated), e.g. the user's own monocular SLAM;
+///   3. "vo" made by `lookboth odometry` when it has fisheye frames;
+///   4. its metric trajectory "odometry", else its only metric one (metric mode).
+/// Throws lookboth::Error listing the trajectories when none of these applies
+/// or the choice is ambiguous (several unscaled ones).
+TrajectoryChoice chooseTrajectory(const std::filesystem::path& dataset,
+                                  const DatasetContents& contents);
 
 /// What one step did: whether it ran, and a line saying what it did or why
 /// it was skipped ("detect: 120 marker detections, ...").

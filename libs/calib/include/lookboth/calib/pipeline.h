@@ -132,7 +132,9 @@ void writeRegistrationOutput(const RegistrationRun& run, const std::filesystem::
 /// the trajectory, detection rays.
 void writeRegistrationScene(const RegistrationRun& run, const std::filesystem::path& file);
 
-/// A human-readable summary (for stdout).
-std::string registrationSummary(const Registration& registration);
+/// A human-readable summary (for stdout): the result, one table row per
+/// camera, then the warnings (what to act on). `verbose` adds the
+/// observability statement and the notes.
+std::string registrationSummary(const Registration& registration, bool verbose = false);
 
 }  // namespace lookboth

@@ -83,7 +83,8 @@ struct CameraRegistration {
   std::optional<ResidualStats> residuals;           ///< Absent when unregistered.
   std::optional<ReprojectionStats> reprojection;    ///< Absent when stage 4 did not run for it.
   std::optional<ClockOffsetEstimate> clock_offset;  ///< Absent unless `joint` ran.
-  std::vector<std::string> warnings;
+  std::vector<std::string> warnings;                ///< What the technician should act on, and how.
+  std::vector<std::string> notes;  ///< Worth knowing, nothing to do (outliers set aside...).
 };
 
 enum class TrajectoryMode {
@@ -152,7 +153,13 @@ struct Registration {
   std::vector<CameraRegistration> cameras;
   std::optional<ReprojectionStats> reprojection;  ///< Totals over all cameras (stage 4).
   Observability observability;
+  /// What the technician should act on, each saying how; they make the
+  /// report's verdict "needs checking".
   std::vector<std::string> warnings;
+  /// Worth knowing, nothing to act on: what a prior held because the data
+  /// cannot determine it (expected on a flat floor), detections set aside
+  /// at the ends of the trajectory, the solver's choices.
+  std::vector<std::string> notes;
   RegistrationStatistics statistics;
   std::string config_yaml;  ///< The configuration used (YAML text of a map).
 
@@ -162,6 +169,8 @@ struct Registration {
   const CameraRegistration* findCamera(const std::string& label) const;
   /// Cameras with status registered or suspect.
   int registeredCount() const;
+  /// Its warnings and its cameras'.
+  std::size_t warningCount() const;
 };
 
 /// Writes cameras.csv, registration.yaml, trajectory.tum and

@@ -193,8 +193,10 @@ struct JointOptions {
   /// from associate's configured offset, with a weak prior around it [s].
   bool estimate_clock_offsets = true;
   double clock_prior_sigma_s = 1.0;
-  /// An offset whose sigma exceeds this is reported as not determined [ms].
-  double max_clock_sigma_ms = 2.0;
+  /// An offset whose sigma exceeds this is a warning [ms]: a third of a
+  /// 30 Hz frame period, beyond which the detections' times are uncertain
+  /// by more than the camera's own sampling.
+  double max_clock_sigma_ms = 10.0;
   // --- marker detections ---
   /// Use the four corners (reprojected through the camera's model) when the
   /// detection has them, a corner sigma and the camera a calibration; else the pose.

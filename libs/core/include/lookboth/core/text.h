@@ -30,4 +30,10 @@ std::string formatFixed(double value, int decimals);
 /// value echoed from a bad file may be a whole 200 MB line).
 std::string excerpt(std::string_view text, std::size_t max_chars = 60);
 
+/// `text` for a terminal or a log: each sentence (ending in ". ") starts a
+/// line, lines are wrapped at spaces to at most `width` characters where the
+/// words allow, and each line begins with `indent`. No trailing newline.
+std::string wrapSentences(std::string_view text, std::string_view indent = "",
+                          std::size_t width = 100);
+
 }  // namespace lookboth

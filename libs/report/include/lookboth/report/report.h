@@ -34,13 +34,13 @@ struct ReportOptions {
   std::string check() const;
 };
 
-enum class Verdict { kTrustworthy, kNeedsChecking, kFailed };
-/// "trustworthy", "needs checking", "failed".
+enum class Verdict { kOk, kNeedsChecking, kFailed };
+/// "ok", "needs checking", "failed".
 const char* verdictName(Verdict verdict);
 
 struct ReportSummary {
   Verdict verdict = Verdict::kFailed;
-  std::vector<std::string> reasons;  ///< Why not trustworthy (empty when it is).
+  std::vector<std::string> reasons;  ///< Why not ok (empty when it is).
   int pictures = 0;
   std::uintmax_t bytes = 0;  ///< Size of the HTML file.
 };
