@@ -1,6 +1,5 @@
 #include "lookboth/obs/CObservationBlobs.h"
 
-#include <mrpt/core/initializer.h>
 #include <mrpt/rtti/CObject.h>
 #include <mrpt/serialization/CArchive.h>
 
@@ -79,6 +78,18 @@ void registerLookbothObservations() {
   mrpt::rtti::registerClass(CLASS_ID(CObservationMarkerCorners));
 }
 
-MRPT_INITIALIZER(lookboth_register_observations) { registerLookbothObservations(); }
+namespace {
+
+// Registered when the library loads, by a static object defined after
+// IMPLEMENTS_SERIALIZABLE: its runtimeClassId holds a std::function, so it is
+// built by a dynamic initialiser, and C++ runs this file's initialisers in
+// order. MRPT_INITIALIZER is a constructor function instead, which clang runs
+// before them: it registered a class id not built yet (a null name), and no
+// rawlog with this class could be read.
+const struct RegisterBlobs {
+  RegisterBlobs() { mrpt::rtti::registerClass(CLASS_ID(CObservationBlobs)); }
+} register_blobs;
+
+}  // namespace
 
 }  // namespace lookboth

@@ -9,6 +9,16 @@ namespace lookboth {
 
 IMPLEMENTS_SERIALIZABLE(CObservationMarkerCorners, mrpt::obs::CObservation, lookboth)
 
+namespace {
+
+// Registered when the library loads, after the class id above is built (see
+// CObservationBlobs.cpp for why not MRPT_INITIALIZER).
+const struct RegisterMarkerCorners {
+  RegisterMarkerCorners() { mrpt::rtti::registerClass(CLASS_ID(CObservationMarkerCorners)); }
+} register_marker_corners;
+
+}  // namespace
+
 // Format version 0: timestamp, sensorLabel, sensorPose, marker id, 4 x (u, v), corner sigma.
 uint8_t CObservationMarkerCorners::serializeGetVersion() const { return 0; }
 
