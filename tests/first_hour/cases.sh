@@ -81,6 +81,8 @@ guide)
   L=$L bash -e walk.sh >out.log 2>&1 || { cat out.log; fail "the walk-through failed"; }
   cat out.log
   expect "^trajectory: visual odometry on its fisheye frames" out.log
+  expect "^detect: [0-9]+ marker detections, [0-9]+ fisheye frames with blobs added to site" out.log
+  expect "^odometry: [0-9]+ poses added as trajectory 'vo' to site" out.log
   expect "registered 6 of 6 cameras" out.log
   expect "^warnings: none" out.log
   expect "Verdict: ok" site_report.html
