@@ -54,6 +54,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
+/// The log pane wraps lines to its width itself: one sentence per line.
+constexpr std::size_t kNoWidth = 100000;
+
 enum MenuId {
   kIdSimulateFirst = wxID_HIGHEST + 100,  // one item per built-in scenario
   kIdSimulateLast = kIdSimulateFirst + 50,
@@ -413,12 +416,16 @@ wxWindow* MainFrame::buildSetupPanel(wxWindow* parent) {
   sizer->Add(marker_box, 0, wxLEFT | wxRIGHT | wxEXPAND, 6);
 
   auto* traj_box = new wxStaticBoxSizer(wxVERTICAL, panel, "Trajectory");
-  const wxString modes[] = {"visual (fisheye odometry)", "metric (odometry you bring)"};
+  // Short enough for the settings panel; the tooltip says more.
+  const wxString modes[] = {"up to scale (visual)", "metric (scale 1)"};
   trajectory_mode_ = new wxRadioBox(traj_box->GetStaticBox(), wxID_ANY, "Source", wxDefaultPosition,
                                     wxDefaultSize, 2, modes, 1);
+  trajectory_mode_->SetToolTip(
+      "Up to scale: visual odometry or a monocular SLAM trajectory, whose scale the "
+      "registration estimates. Metric: wheels + IMU, LiDAR or motion capture, scale 1.");
   traj_box->Add(trajectory_mode_, 0, wxALL | wxEXPAND, 4);
   auto* label_row = new wxBoxSizer(wxHORIZONTAL);
-  label_row->Add(new wxStaticText(traj_box->GetStaticBox(), wxID_ANY, "Metric trajectory"), 0,
+  label_row->Add(new wxStaticText(traj_box->GetStaticBox(), wxID_ANY, "Trajectory"), 0,
                  wxALIGN_CENTER_VERTICAL | wxRIGHT, 6);
   trajectory_label_ = new wxChoice(traj_box->GetStaticBox(), wxID_ANY);
   label_row->Add(trajectory_label_, 1, wxEXPAND);
@@ -620,13 +627,18 @@ void MainFrame::validateSettings() {
     ctrl->Refresh();
   }
   const bool metric = trajectory_mode_->GetSelection() == 1;
-  if (metric && trajectory_label_->GetCount() == 0)
-    trajectory_problems.push_back("The dataset has no metric trajectory: choose visual.");
+  const std::string label = trajectory_label_->GetStringSelection().ToStdString();
+  if (trajectory_label_->GetCount() == 0)
+    trajectory_problems.push_back("The dataset has no trajectory and no fisheye frames.");
   if (index_) {
     const Manifest& m = index_->manifest();
-    if (!metric && index_->fisheyeFrames().empty() && !index_->trajectory("vo"))
+    const TrajectoryInfo* info = m.findTrajectory(label);
+    if (metric && info && !info->metric)
+      trajectory_problems.push_back("'" + label + "' is known up to scale: choose visual.");
+    if (!metric && label == "vo" && index_->fisheyeFrames().empty() && !index_->trajectory("vo"))
       trajectory_problems.push_back(
-          "Visual odometry needs fisheye frames; this dataset has none: choose metric.");
+          "Visual odometry needs fisheye frames; this dataset has none: choose another "
+          "trajectory.");
     if (marker_problems.empty() &&
         (marker.dictionary != m.marker.dictionary || marker.id != m.marker.id ||
          std::abs(marker.size_m - m.marker.size_m) > 1e-9))
@@ -891,6 +903,38 @@ bool MainFrame::writeSettingsFile(fs::path* file) {
   return true;
 }
 
+void MainFrame::selectTrajectory() {
+  const Manifest& m = index_->manifest();
+  DatasetContents contents;
+  contents.trajectories = m.trajectories;
+  contents.fisheye_frames = static_cast<std::int64_t>(index_->fisheyeFrames().size());
+  // The command line's choice (chooseTrajectory), unless the startup names a mode.
+  TrajectoryChoice choice;
+  try {
+    choice = chooseTrajectory(index_->path(), contents);
+    log("  trajectory: " + wxString::FromUTF8(choice.reason));
+  } catch (const Error& e) {
+    log("  trajectory: " + wxString::FromUTF8(e.what()));
+  }
+  // The dataset's trajectories (never its ground truth), and the visual
+  // odometry's when it is chosen before it exists.
+  trajectory_label_->Clear();
+  for (const auto& info : m.trajectories)
+    if (info.label != "ground_truth") trajectory_label_->Append(info.label);
+  if (!choice.label.empty() && !m.findTrajectory(choice.label))
+    trajectory_label_->Append(wxString::FromUTF8(choice.label));
+  if (actions_.trajectory == "visual") choice.mode = TrajectoryMode::kVisual;
+  if (actions_.trajectory == "metric") {
+    choice.mode = TrajectoryMode::kMetric;
+    const TrajectoryInfo* chosen = m.findTrajectory(choice.label);
+    if (!chosen || !chosen->metric) choice.label = "odometry";
+  }
+  if (!trajectory_label_->SetStringSelection(wxString::FromUTF8(choice.label)) &&
+      trajectory_label_->GetCount() > 0)
+    trajectory_label_->SetSelection(0);
+  trajectory_mode_->SetSelection(choice.mode == TrajectoryMode::kMetric ? 1 : 0);
+}
+
 FullPipelineOptions MainFrame::pipelineOptions() const {
   FullPipelineOptions options;
   options.dataset = index_->path();
@@ -899,8 +943,7 @@ FullPipelineOptions MainFrame::pipelineOptions() const {
   options.overwrite = true;
   options.mode =
       trajectory_mode_->GetSelection() == 1 ? TrajectoryMode::kMetric : TrajectoryMode::kVisual;
-  if (options.mode == TrajectoryMode::kMetric)
-    options.trajectory_label = trajectory_label_->GetStringSelection().ToStdString();
+  options.trajectory_label = trajectory_label_->GetStringSelection().ToStdString();
   return options;
 }
 
@@ -1050,9 +1093,10 @@ void MainFrame::registrationReady(std::shared_ptr<const studio::DatasetIndex> in
   for (const auto& c : registration_->cameras) {
     for (const auto& w : c.warnings) once("warning: " + c.label + ": " + w);
   }
-  // Short lines, one sentence each: the statement is long.
+  // One sentence per line: the statement is long.
   if (!registration_->observability.message.empty())
-    once("observability:\n" + wrapSentences(registration_->observability.message, "    "));
+    once("observability:\n" +
+         wrapSentences(registration_->observability.message, "    ", kNoWidth));
   datasetLoaded(std::move(index));
 }
 
@@ -1092,15 +1136,7 @@ void MainFrame::datasetLoaded(std::shared_ptr<const studio::DatasetIndex> index)
     dictionary_->SetStringSelection(m.marker.dictionary);
     marker_id_->SetValue(m.marker.id);
     marker_size_->ChangeValue(formatDouble(m.marker.size_m));
-    trajectory_label_->Clear();
-    for (const auto& info : m.trajectories)
-      if (info.metric && info.label != "ground_truth") trajectory_label_->Append(info.label);
-    if (trajectory_label_->GetCount() > 0) trajectory_label_->SetSelection(0);
-    // Visual odometry needs fisheye frames; a detections-only dataset needs a metric trajectory.
-    int mode = index_->fisheyeFrames().empty() ? 1 : 0;
-    if (actions_.trajectory == "visual") mode = 0;
-    if (actions_.trajectory == "metric") mode = 1;
-    trajectory_mode_->SetSelection(mode);
+    selectTrajectory();
   }
   SetTitle(wxString::FromUTF8("lookboth studio - " + m.name));
   SetStatusText(wxString::FromUTF8(index_->path().string()), 0);

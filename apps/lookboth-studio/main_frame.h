@@ -92,6 +92,8 @@ class MainFrame : public wxFrame {
   void refreshSteps();
   int firstPendingStep() const;
   int stepIndex(const std::string& name) const;
+  /// Sets the trajectory controls as `lookboth register` would choose.
+  void selectTrajectory();
   FullPipelineOptions pipelineOptions() const;
   bool writeSettingsFile(std::filesystem::path* file);
   void exportReport(const std::string& path, Then then);
