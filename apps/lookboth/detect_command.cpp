@@ -82,7 +82,8 @@ int runDetect(const DetectArgs& args) {
   options.threads = args.threads;
   options.markers = !args.no_markers;
   options.blobs = !args.no_blobs;
-  options.config = args.config.empty() ? defaultDetectConfig() : loadDetectConfig(args.config);
+  options.config = detectConfigFor(
+      args.config.empty() ? std::nullopt : std::optional<std::filesystem::path>(args.config));
   options.on_issue = [](const DatasetIssue& issue) {
     std::cerr << "lookboth: warning: " << issue.where << ": " << issue.message << "\n";
   };

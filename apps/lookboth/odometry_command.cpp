@@ -40,11 +40,8 @@ void printAte(const char* what, const std::optional<vo::AteResult>& ate) {
 int runOdometryCommand(const OdometryArgs& args) {
   vo::OdometryRunOptions options;
   options.dataset = args.dataset;
-  const std::filesystem::path config = args.config.empty()
-                                           ? shareDirectory() / "config" / "default.yaml"
-                                           : std::filesystem::path(args.config);
-  if (!args.config.empty() || std::filesystem::exists(config))
-    options.odometry = vo::loadOdometryOptions(config);
+  options.odometry = vo::odometryOptionsFor(
+      args.config.empty() ? std::nullopt : std::optional<std::filesystem::path>(args.config));
   options.odometry.threads = args.threads;
   if (args.seed >= 0) options.odometry.seed = static_cast<std::uint32_t>(args.seed);
   if (args.no_loop_closure) options.odometry.loop_closure = false;

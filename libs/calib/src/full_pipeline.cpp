@@ -5,7 +5,6 @@
 #include <algorithm>
 
 #include "lookboth/core/error.h"
-#include "lookboth/core/paths.h"
 #include "lookboth/dataset/dataset_io.h"
 #include "lookboth/detect/detect_dataset.h"
 #include "lookboth/vo/run.h"
@@ -121,8 +120,6 @@ DatasetContents inspectDataset(const std::filesystem::path& dataset,
 
 namespace {
 
-std::filesystem::path defaultConfigFile() { return shareDirectory() / "config" / "default.yaml"; }
-
 /// A hidden dataset beside the registration output, in the input's layout,
 /// removed (with its manifest and images) when the run ends however it ends.
 struct ScratchDataset {
@@ -167,8 +164,7 @@ StepOutcome runDetectStep(const FullPipelineOptions& options, const DatasetConte
     detect.threads = options.threads;
     detect.markers = need_markers;
     detect.blobs = need_blobs;
-    detect.config =
-        options.config_file ? loadDetectConfig(*options.config_file) : defaultDetectConfig();
+    detect.config = detectConfigFor(options.config_file);
     const DetectSummary summary = detectDataset(detect, progress);
     std::int64_t markers = 0;
     std::int64_t blobs = 0;
@@ -210,9 +206,7 @@ StepOutcome runOdometryStep(const FullPipelineOptions& options, const DatasetCon
                   "': `lookboth odometry` writes '" + std::string(vo::kVoTrajectoryLabel) + "'");
     vo::OdometryRunOptions odometry;
     odometry.dataset = options.dataset;
-    odometry.odometry = vo::loadOdometryOptions(defaultConfigFile());
-    if (options.config_file)
-      odometry.odometry = vo::loadOdometryOptions(*options.config_file, odometry.odometry);
+    odometry.odometry = vo::odometryOptionsFor(options.config_file);
     odometry.write_dataset = true;  // adds the trajectory to the dataset (augmentDataset)
     odometry.out = out;
     odometry.on_issue = options.on_issue;

@@ -82,7 +82,7 @@ void readBlobOptions(const YamlReader& r, const YAML::Node& node, BlobDetectorOp
 
 }  // namespace
 
-DetectConfig loadDetectConfig(const fs::path& yaml) {
+DetectConfig loadDetectConfig(const fs::path& yaml, const DetectConfig& base) {
   std::ifstream in(yaml);
   if (!in) throw Error({yaml.string(), 0, "", ""}, "cannot open the configuration file");
   std::stringstream text;
@@ -90,7 +90,7 @@ DetectConfig loadDetectConfig(const fs::path& yaml) {
   const YamlReader reader(yaml.string());
   const YAML::Node root = reader.parse(text.str());
   reader.checkConfigRoot(root, text.str());
-  DetectConfig config;
+  DetectConfig config = base;
   const YAML::Node detect = root["detect"];
   if (!detect || detect.IsNull()) return config;
   reader.rejectUnknownKeys(detect, {"markers", "blobs"}, "detect");
@@ -105,6 +105,11 @@ DetectConfig defaultDetectConfig() {
   const fs::path file = shareDirectory() / "config" / "default.yaml";
   if (!fs::exists(file)) return DetectConfig{};
   return loadDetectConfig(file);
+}
+
+DetectConfig detectConfigFor(const std::optional<fs::path>& user_file) {
+  const DetectConfig defaults = defaultDetectConfig();
+  return user_file ? loadDetectConfig(*user_file, defaults) : defaults;
 }
 
 std::string DetectOptions::check() const {

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <fstream>
 
 #include "lookboth/core/error.h"
@@ -237,6 +238,34 @@ TEST(DetectConfig, ReadsTheDetectSectionStrictly) {
   fs::remove(file);
   // The shipped default is valid.
   EXPECT_EQ(defaultDetectConfig().check(), "");
+}
+
+// The user's --config layers over share/lookboth/config/default.yaml as the
+// register section does: keys it leaves out keep default.yaml's value, not
+// the compiled one (here a share folder whose default.yaml differs from both).
+TEST(DetectConfig, TheUsersFileLayersOverDefaultYaml) {
+  const fs::path share = fs::temp_directory_path() / "lookboth_detect_layer_test";
+  fs::create_directories(share / "config");
+  fs::create_directories(share / "cameras");  // what marks a share folder
+  std::ofstream(share / "config" / "default.yaml")
+      << "detect:\n  markers: {max_speed_mps: 0.7, corner_sigma_px: 0.3}\n";
+  const fs::path user = share / "user.yaml";
+  std::ofstream(user) << "detect:\n  markers: {corner_sigma_px: 0.2}\n";
+  const char* before = std::getenv("LOOKBOTH_SHARE_DIR");
+  const std::string saved = before ? before : "";
+  ::setenv("LOOKBOTH_SHARE_DIR", share.c_str(), 1);
+  const DetectConfig plain = detectConfigFor(std::nullopt);
+  const DetectConfig layered = detectConfigFor(user);
+  if (before) {
+    ::setenv("LOOKBOTH_SHARE_DIR", saved.c_str(), 1);
+  } else {
+    ::unsetenv("LOOKBOTH_SHARE_DIR");
+  }
+  fs::remove_all(share);
+  EXPECT_DOUBLE_EQ(plain.markers.max_speed_mps, 0.7);
+  EXPECT_DOUBLE_EQ(plain.markers.corner_sigma_px, 0.3);
+  EXPECT_DOUBLE_EQ(layered.markers.max_speed_mps, 0.7);    // from default.yaml
+  EXPECT_DOUBLE_EQ(layered.markers.corner_sigma_px, 0.2);  // the user's
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "lookboth/core/error.h"
+#include "lookboth/core/paths.h"
 #include "lookboth/core/yaml_reader.h"
 
 namespace lookboth::vo {
@@ -159,6 +160,13 @@ OdometryOptions loadOdometryOptions(const std::filesystem::path& yaml,
   if (const std::string why = o.check(); !why.empty())
     throw Error(yaml.string() + ": 'odometry." + why.substr(1));
   return o;
+}
+
+OdometryOptions odometryOptionsFor(const std::optional<std::filesystem::path>& user_file) {
+  OdometryOptions options;
+  const std::filesystem::path defaults = shareDirectory() / "config" / "default.yaml";
+  if (std::filesystem::exists(defaults)) options = loadOdometryOptions(defaults, options);
+  return user_file ? loadOdometryOptions(*user_file, options) : options;
 }
 
 }  // namespace lookboth::vo

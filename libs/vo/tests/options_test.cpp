@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <fstream>
 
 #include "lookboth/core/error.h"
@@ -43,6 +44,32 @@ TEST(OdometryOptionsTest, ShippedDefaultConfigReadsAsTheDefaults) {
   EXPECT_EQ(loaded.global_max_observations, defaults.global_max_observations);
   EXPECT_EQ(loaded.global_min_observations_per_keyframe,
             defaults.global_min_observations_per_keyframe);
+}
+
+// The user's --config layers over default.yaml (a share folder whose
+// default.yaml differs from the compiled defaults).
+TEST(OdometryOptionsTest, TheUsersFileLayersOverDefaultYaml) {
+  const auto share = std::filesystem::temp_directory_path() / "lookboth_vo_layer_test";
+  std::filesystem::create_directories(share / "config");
+  std::filesystem::create_directories(share / "cameras");  // what marks a share folder
+  std::ofstream(share / "config" / "default.yaml") << "odometry: {max_features: 333, seed: 5}\n";
+  const auto user = writeTemp("lookboth_vo_layer_user.yaml", "odometry: {seed: 9}\n");
+  const char* before = std::getenv("LOOKBOTH_SHARE_DIR");
+  const std::string saved = before ? before : "";
+  ::setenv("LOOKBOTH_SHARE_DIR", share.c_str(), 1);
+  const OdometryOptions plain = odometryOptionsFor(std::nullopt);
+  const OdometryOptions layered = odometryOptionsFor(user);
+  if (before) {
+    ::setenv("LOOKBOTH_SHARE_DIR", saved.c_str(), 1);
+  } else {
+    ::unsetenv("LOOKBOTH_SHARE_DIR");
+  }
+  std::filesystem::remove_all(share);
+  std::filesystem::remove(user);
+  EXPECT_EQ(plain.max_features, 333);
+  EXPECT_EQ(plain.seed, 5u);
+  EXPECT_EQ(layered.max_features, 333);  // from default.yaml
+  EXPECT_EQ(layered.seed, 9u);           // the user's
 }
 
 TEST(OdometryOptionsTest, ReadsValuesAndRejectsUnknownKeys) {

@@ -37,7 +37,7 @@ struct MotionCalibrationOptions {
   /// Expected noise of one relative motion (translation [m], rotation [deg]);
   /// residuals are divided by them, so the Huber threshold is in sigmas.
   double sigma_translation_m = 0.01;
-  double sigma_rotation_deg = 1.0;
+  double sigma_rotation_deg = 0.5;
   double huber = 2.0;  ///< Huber threshold [sigmas].
   /// Pairs that rotate less than this do not constrain the rotation axes in
   /// the linear initialisation [deg].

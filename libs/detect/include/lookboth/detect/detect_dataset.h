@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -29,12 +30,16 @@ struct DetectConfig {
   std::string check() const;
 };
 
-/// Reads the `detect:` section (`markers:`, `blobs:`) of a YAML configuration;
-/// the other sections (`register:`, `odometry:`) are left to their owners; an
-/// unknown section or key is an error naming the file, line and field.
-DetectConfig loadDetectConfig(const std::filesystem::path& yaml);
-/// share/lookboth/config/default.yaml's section.
+/// Reads the `detect:` section (`markers:`, `blobs:`) of a YAML configuration
+/// over `base` (keys absent keep their value); the other sections
+/// (`register:`, `odometry:`) are left to their owners; an unknown section or
+/// key is an error naming the file, line and field.
+DetectConfig loadDetectConfig(const std::filesystem::path& yaml, const DetectConfig& base = {});
+/// share/lookboth/config/default.yaml's section over the compiled defaults.
 DetectConfig defaultDetectConfig();
+/// The configuration a command uses: default.yaml, then the user's file
+/// (when given) over it, as `register:` is layered.
+DetectConfig detectConfigFor(const std::optional<std::filesystem::path>& user_file);
 
 struct DetectOptions {
   std::filesystem::path dataset;  ///< Input dataset (.rawlog or folder).

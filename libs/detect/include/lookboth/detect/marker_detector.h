@@ -64,7 +64,7 @@ struct MarkerDetectorOptions {
   /// camera within `track_window_s` agrees with (positions within
   /// max_speed_mps * dt + 5 cm) is a false positive (e.g. a look-alike
   /// marker elsewhere); 0 = keep everything.
-  double max_speed_mps = 2.0;   ///< [m/s]
+  double max_speed_mps = 1.5;   ///< [m/s]
   double track_window_s = 1.0;  ///< [s]
   std::string check() const;
 };

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 
 namespace lookboth::vo {
@@ -93,5 +94,8 @@ struct OdometryOptions {
 /// A file without the section returns `defaults`.
 OdometryOptions loadOdometryOptions(const std::filesystem::path& yaml,
                                     const OdometryOptions& defaults = {});
+/// The options a command uses: share/lookboth/config/default.yaml over the
+/// compiled defaults, then the user's file (when given) over it.
+OdometryOptions odometryOptionsFor(const std::optional<std::filesystem::path>& user_file);
 
 }  // namespace lookboth::vo
