@@ -25,6 +25,7 @@ struct DetectArgs {
   bool no_markers = false;
   bool no_blobs = false;
   bool evaluate = false;
+  bool verbose = false;
   bool dry_run = false;
 };
 
@@ -121,7 +122,18 @@ int runDetect(const DetectArgs& args) {
       }
       if (c.rejected) std::cout << ", " << c.rejected << " rejected (inconsistent with the track)";
       if (c.skipped) std::cout << ", " << c.skipped << " skipped (undecodable)";
+      const MarkerDetectorStats& m = c.marker_candidates;
+      std::int64_t dropped = 0;
+      for (const auto& [why, n] : m.rejected) dropped += n;
+      if (m.fallbacks) std::cout << ", " << m.fallbacks << " with OpenCV's corners";
+      if (dropped) std::cout << ", " << dropped << " candidates dropped";
       std::cout << "\n";
+      if (args.verbose) {
+        for (const auto& [why, n] : m.fallback_reasons)
+          std::cout << "    " << n << " with OpenCV's corners (cornerSubPix): " << why << "\n";
+        for (const auto& [why, n] : m.rejected)
+          std::cout << "    " << n << " candidates dropped: " << why << "\n";
+      }
     }
     std::cout << (args.dry_run ? "detected (not written): " : "wrote ")
               << (args.dry_run ? std::string() : summary.written.output.string() + ": ") << markers
@@ -157,6 +169,9 @@ void registerDetectCommand(CLI::App& app, const std::function<void(CommandBody)>
                   "share/lookboth/config/default.yaml");
   cmd->add_flag("--no-markers", args->no_markers, "Skip the environment cameras");
   cmd->add_flag("--no-blobs", args->no_blobs, "Skip the fisheye");
+  cmd->add_flag("--verbose", args->verbose,
+                "Per camera, why the edge fit fell back to OpenCV's corners and why candidates "
+                "were dropped, with counts");
   cmd->add_flag("--evaluate", args->evaluate,
                 "Score the detections against the dataset's ground truth (simulated datasets)");
   cmd->add_flag("--dry-run", args->dry_run, "Detect (and evaluate) without writing anything");

@@ -30,8 +30,8 @@ namespace {
 void readMarkerOptions(const YamlReader& r, const YAML::Node& node, MarkerDetectorOptions& o) {
   r.rejectUnknownKeys(node,
                       {"detect_scale", "track_roi", "roi_margin", "refine_edges", "corner_sigma_px",
-                       "min_corner_sigma_px", "min_side_px", "max_reprojection_px",
-                       "ambiguity_ratio", "max_speed_mps", "track_window_s"},
+                       "min_corner_sigma_px", "fallback_corner_sigma_px", "min_side_px",
+                       "max_reprojection_px", "ambiguity_ratio", "max_speed_mps", "track_window_s"},
                       "detect.markers");
   const std::string f = "detect.markers.";
   if (node["detect_scale"]) o.detect_scale = r.int32(node["detect_scale"], f + "detect_scale");
@@ -42,6 +42,9 @@ void readMarkerOptions(const YamlReader& r, const YAML::Node& node, MarkerDetect
     o.corner_sigma_px = r.number(node["corner_sigma_px"], f + "corner_sigma_px");
   if (node["min_corner_sigma_px"])
     o.min_corner_sigma_px = r.number(node["min_corner_sigma_px"], f + "min_corner_sigma_px");
+  if (node["fallback_corner_sigma_px"])
+    o.fallback_corner_sigma_px =
+        r.number(node["fallback_corner_sigma_px"], f + "fallback_corner_sigma_px");
   if (node["min_side_px"]) o.min_side_px = r.number(node["min_side_px"], f + "min_side_px");
   if (node["max_reprojection_px"])
     o.max_reprojection_px = r.number(node["max_reprojection_px"], f + "max_reprojection_px");
@@ -142,8 +145,19 @@ struct Job {
 struct JobResult {
   std::vector<Record> records;
   std::int64_t skipped = 0, blobs = 0, ambiguous = 0, unresolved = 0, rejected = 0;
+  MarkerDetectorStats candidates;
   std::vector<DatasetIssue> issues;
 };
+
+/// Adds `more`'s counts to `total`.
+void addStats(MarkerDetectorStats& total, const MarkerDetectorStats& more) {
+  total.candidates += more.candidates;
+  total.refined += more.refined;
+  total.fallbacks += more.fallbacks;
+  total.accepted += more.accepted;
+  for (const auto& [why, n] : more.fallback_reasons) total.fallback_reasons[why] += n;
+  for (const auto& [why, n] : more.rejected) total.rejected[why] += n;
+}
 
 cv::Mat decode(const FrameRef& frame) {
   if (frame.encoded) {
@@ -238,6 +252,7 @@ JobResult runJob(const CameraWork& work, const Job& job, const DetectConfig& con
     std::vector<MarkerDetection*> track;
     for (auto& [t, d] : detections) track.push_back(&d);
     result.unresolved = resolveAmbiguity(track);
+    result.candidates = marker_detector->stats();
     for (const auto& [t, d] : detections) {
       result.ambiguous += d.ambiguous ? 1 : 0;
       result.records.push_back(toMarkerObservation(d, t, label));
@@ -385,6 +400,7 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
     s.ambiguous += r.ambiguous;
     s.unresolved += r.unresolved;
     s.rejected += r.rejected;
+    addStats(s.marker_candidates, r.candidates);
     s.detections += static_cast<std::int64_t>(r.records.size());
     for (DatasetIssue& issue : r.issues) {
       if (options.on_issue) options.on_issue(issue);

@@ -98,6 +98,7 @@ std::string MarkerDetectorOptions::check() const {
   if (!(roi_margin > 0)) return "'roi_margin': must be positive";
   if (!(corner_sigma_px > 0)) return "'corner_sigma_px': must be positive";
   if (!(min_corner_sigma_px > 0)) return "'min_corner_sigma_px': must be positive";
+  if (!(fallback_corner_sigma_px > 0)) return "'fallback_corner_sigma_px': must be positive";
   if (!(min_side_px >= 4)) return "'min_side_px': must be at least 4";
   if (!(max_reprojection_px > 0)) return "'max_reprojection_px': must be positive";
   if (!(ambiguity_ratio >= 1)) return "'ambiguity_ratio': must be at least 1";
@@ -136,8 +137,12 @@ MarkerDetector::MarkerDetector(MarkerDetector&&) noexcept = default;
 void MarkerDetector::resetTrack() { impl_->last_box.reset(); }
 
 std::optional<std::array<Eigen::Vector2d, 4>> MarkerDetector::refineCorners(
-    const cv::Mat& grey, const std::array<Eigen::Vector2d, 4>& initial,
-    double* corner_sigma_px) const {
+    const cv::Mat& grey, const std::array<Eigen::Vector2d, 4>& initial, double* corner_sigma_px,
+    std::string* why_not) const {
+  const auto fail = [why_not](const char* why) -> std::optional<std::array<Eigen::Vector2d, 4>> {
+    if (why_not) *why_not = why;
+    return std::nullopt;
+  };
   double variance_sum = 0;  // of the corners' positions along each edge's normal [px^2]
   const Camera& camera = impl_->camera;
   std::array<Eigen::Vector2d, 4> corners = initial;
@@ -146,7 +151,7 @@ std::optional<std::array<Eigen::Vector2d, 4>> MarkerDetector::refineCorners(
     std::array<Eigen::Vector3d, 4> corner_bearings;
     for (size_t k = 0; k < 4; ++k) {
       const auto b = camera.unproject(corners[k]);
-      if (!b) return std::nullopt;
+      if (!b) return fail("a corner outside the camera model's field of view");
       corner_bearings[k] = *b;
     }
     const Eigen::Vector2d centre = 0.25 * (corners[0] + corners[1] + corners[2] + corners[3]);
@@ -197,9 +202,9 @@ std::optional<std::array<Eigen::Vector2d, 4>> MarkerDetector::refineCorners(
                                 profile.values[profile.values.size() - 2]));
         profiles.push_back(std::move(profile));
       }
-      if (profiles.size() < 3) return std::nullopt;
+      if (profiles.size() < 3) return fail("an edge at the frame's border");
       const double black = median(blacks), white = median(whites);
-      if (white - black < 20) return std::nullopt;  // no edge there
+      if (white - black < 20) return fail("an edge of low contrast (under 20 grey levels)");
       std::vector<Eigen::Vector3d> edge_bearings;
       for (const Profile& profile : profiles) {
         // Area of the "black fraction" across the window = distance of the
@@ -214,7 +219,7 @@ std::optional<std::array<Eigen::Vector2d, 4>> MarkerDetector::refineCorners(
         if (b) edge_bearings.push_back(*b);
       }
       auto plane = fitPlane(edge_bearings);
-      if (!plane) return std::nullopt;
+      if (!plane) return fail("an edge not found within its border cell (no quiet zone?)");
       // One pass of outlier rejection (e.g. a sample that met a bit cell).
       std::vector<double> distances;
       for (const Eigen::Vector3d& b : edge_bearings) distances.push_back(std::abs(plane->dot(b)));
@@ -240,11 +245,12 @@ std::optional<std::array<Eigen::Vector2d, 4>> MarkerDetector::refineCorners(
     for (size_t k = 0; k < 4; ++k) {
       // Corner k joins edge k-1 (corner k-1 -> k) and edge k (corner k -> k+1).
       Eigen::Vector3d direction = planes[(k + 3) % 4].cross(planes[k]);
-      if (direction.norm() < 1e-12) return std::nullopt;
+      if (direction.norm() < 1e-12) return fail("two parallel edges");
       direction.normalize();
       if (direction.dot(corner_bearings[k]) < 0) direction = -direction;
       const auto p = camera.project(direction);
-      if (!p || (*p - initial[k]).norm() > 4.0) return std::nullopt;
+      if (!p || (*p - initial[k]).norm() > 4.0)
+        return fail("the edge fit moves a corner by more than 4 px from OpenCV's");
       corners[k] = *p;
     }
   }
@@ -387,19 +393,17 @@ std::vector<MarkerDetection> MarkerDetector::detect(const cv::Mat& grey) {
   std::vector<MarkerDetection> detections;
   impl_->last_box.reset();
   for (const auto& candidate : candidates) {
-    std::array<Eigen::Vector2d, 4> corners = candidate;
+    ++stats_.candidates;
     double sigma = options_.corner_sigma_px;
-    if (options_.refine_edges) {
-      const auto refined = refineCorners(grey, candidate, &sigma);
-      if (!refined) continue;
-      corners = *refined;
-      sigma = std::hypot(sigma, options_.min_corner_sigma_px);
-    }
+    const std::array<Eigen::Vector2d, 4> corners = cornersOf(grey, candidate, &sigma);
     double shortest = 1e300;
     for (size_t k = 0; k < 4; ++k) {
       shortest = std::min(shortest, (corners[(k + 1) % 4] - corners[k]).norm());
     }
-    if (shortest < options_.min_side_px) continue;
+    if (shortest < options_.min_side_px) {
+      ++stats_.rejected["a side shorter than min_side_px"];
+      continue;
+    }
     // Convex and consistently oriented.
     int sign = 0;
     bool convex = true;
@@ -411,7 +415,10 @@ std::vector<MarkerDetection> MarkerDetector::detect(const cv::Mat& grey) {
       convex = convex && std::abs(cross) > 1e-6 && (sign == 0 || s == sign);
       sign = s;
     }
-    if (!convex) continue;
+    if (!convex) {
+      ++stats_.rejected["not a convex quadrilateral"];
+      continue;
+    }
     MarkerDetection detection;
     detection.marker_id = impl_->marker.id;
     detection.corners_px = corners;
@@ -419,6 +426,9 @@ std::vector<MarkerDetection> MarkerDetector::detect(const cv::Mat& grey) {
     detection.hypotheses = solvePose(corners, sigma);
     if (detection.hypotheses.empty() ||
         detection.hypotheses.front().reprojection_rms_px > options_.max_reprojection_px) {
+      ++stats_.rejected[detection.hypotheses.empty()
+                            ? "no pose (degenerate corners)"
+                            : "pose reprojection error above max_reprojection_px"];
       continue;
     }
     detection.ambiguous =
@@ -431,8 +441,54 @@ std::vector<MarkerDetection> MarkerDetector::detect(const cv::Mat& grey) {
     const cv::Rect box = cv::boundingRect(points) & frame;
     impl_->last_box = impl_->last_box ? (*impl_->last_box | box) : box;
     detections.push_back(std::move(detection));
+    ++stats_.accepted;
   }
   return detections;
+}
+
+std::array<Eigen::Vector2d, 4> MarkerDetector::cornersOf(
+    const cv::Mat& grey, const std::array<Eigen::Vector2d, 4>& candidate, double* corner_sigma_px) {
+  if (!options_.refine_edges) {
+    *corner_sigma_px = options_.corner_sigma_px;
+    return candidate;
+  }
+  std::string why;
+  double sigma = 0;
+  if (const auto refined = refineCorners(grey, candidate, &sigma, &why)) {
+    ++stats_.refined;
+    *corner_sigma_px = std::hypot(sigma, options_.min_corner_sigma_px);
+    return *refined;
+  }
+  ++stats_.fallbacks;
+  ++stats_.fallback_reasons[why];
+  return subPixelCorners(grey, candidate, corner_sigma_px);
+}
+
+std::array<Eigen::Vector2d, 4> MarkerDetector::subPixelCorners(
+    const cv::Mat& grey, const std::array<Eigen::Vector2d, 4>& corners_px,
+    double* corner_sigma_px) const {
+  std::vector<cv::Point2f> points;
+  double shortest = 1e300;
+  for (size_t k = 0; k < 4; ++k) {
+    points.emplace_back(static_cast<float>(corners_px[k].x()),
+                        static_cast<float>(corners_px[k].y()));
+    shortest = std::min(shortest, (corners_px[(k + 1) % 4] - corners_px[k]).norm());
+  }
+  // A window within a cell of the marker (its border is one cell wide), so
+  // that the search sees one corner only.
+  const int half = std::clamp(static_cast<int>(shortest / (impl_->cells * 2.0)), 2, 8);
+  cv::cornerSubPix(grey, points, cv::Size(half, half), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 40, 0.01));
+  std::array<Eigen::Vector2d, 4> corners;
+  double squares = 0;
+  for (size_t k = 0; k < 4; ++k) {
+    corners[k] = Eigen::Vector2d(points[k].x, points[k].y);
+    squares += (corners[k] - corners_px[k]).squaredNorm();
+  }
+  // Per coordinate: the disagreement with OpenCV's own corners, at least the
+  // configured floor.
+  *corner_sigma_px = std::max(options_.fallback_corner_sigma_px, std::sqrt(squares / 8.0));
+  return corners;
 }
 
 int resolveAmbiguity(std::vector<MarkerDetection*>& track, double agreement_deg) {

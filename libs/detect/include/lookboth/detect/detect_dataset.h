@@ -66,6 +66,9 @@ struct CameraDetectSummary {
   std::int64_t ambiguous = 0;   ///< Markers ambiguous from their frame alone.
   std::int64_t unresolved = 0;  ///< ... and not resolved by the track (best-fitting pose kept).
   std::int64_t rejected = 0;    ///< Markers inconsistent with the camera's track (false positives).
+  /// The marker's candidates in its frames: edge fits, fallbacks to OpenCV's
+  /// corners and rejections, each with its reason.
+  MarkerDetectorStats marker_candidates;
 };
 
 struct DetectSummary {

@@ -23,6 +23,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <map>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <optional>
@@ -55,8 +56,13 @@ struct MarkerDetectorOptions {
   /// (blur asymmetry, aliasing, calibration error).
   double corner_sigma_px = 0.1;
   double min_corner_sigma_px = 0.03;  ///< [px]
-  double min_side_px = 10;            ///< Shortest side of an accepted marker [px].
-  double max_reprojection_px = 1.5;   ///< RMS corner reprojection error of an accepted pose [px].
+  /// When the edge fit fails on a candidate OpenCV found (low contrast, no
+  /// quiet zone, a corner the fit moves by pixels), its corners are OpenCV's
+  /// refined by cv::cornerSubPix, with this noise (or their disagreement with
+  /// OpenCV's, if larger) [px]: a marker OpenCV finds is never lost.
+  double fallback_corner_sigma_px = 0.5;
+  double min_side_px = 10;           ///< Shortest side of an accepted marker [px].
+  double max_reprojection_px = 1.5;  ///< RMS corner reprojection error of an accepted pose [px].
   /// Hypotheses whose reprojection errors differ by less than this ratio are
   /// "ambiguous" (both plausible from this frame alone).
   double ambiguity_ratio = 2.0;
@@ -100,6 +106,18 @@ struct MarkerDetection {
   const MarkerPoseHypothesis& pose() const { return hypotheses.at(static_cast<size_t>(chosen)); }
 };
 
+/// What became of the candidates of the marker's id that OpenCV found, over
+/// a detector's frames: the edge fit, the fallback to OpenCV's corners, and
+/// the reason of each rejection (with a count).
+struct MarkerDetectorStats {
+  std::int64_t candidates = 0;  ///< Squares of the marker's id found by OpenCV.
+  std::int64_t refined = 0;     ///< Corners from the edge fit.
+  std::int64_t fallbacks = 0;   ///< Corners from cv::cornerSubPix: the edge fit failed.
+  std::map<std::string, std::int64_t> fallback_reasons;  ///< Why the edge fit failed.
+  std::map<std::string, std::int64_t> rejected;          ///< Why a candidate was dropped.
+  std::int64_t accepted = 0;                             ///< Detections returned.
+};
+
 /// Detects the manifest's marker in one camera's frames. Not thread-safe:
 /// one detector per camera (it remembers where the marker was last seen).
 class MarkerDetector {
@@ -123,7 +141,7 @@ class MarkerDetector {
   /// (per axis: sigma_edge * sqrt(1/N + (extrapolation)^2 / sum of squares)).
   std::optional<std::array<Eigen::Vector2d, 4>> refineCorners(
       const cv::Mat& grey, const std::array<Eigen::Vector2d, 4>& corners_px,
-      double* corner_sigma_px = nullptr) const;
+      double* corner_sigma_px = nullptr, std::string* why_not = nullptr) const;
   /// Step 3 alone: both pose hypotheses from 4 corners (ArUco order), best
   /// first; empty when degenerate. The information assumes corner noise
   /// `corner_sigma_px` (<= 0: the options' corner_sigma_px).
@@ -131,8 +149,20 @@ class MarkerDetector {
                                               double corner_sigma_px = 0) const;
 
   const MarkerDetectorOptions& options() const { return options_; }
+  /// Counts over every frame detect() saw.
+  const MarkerDetectorStats& stats() const { return stats_; }
 
  private:
+  /// OpenCV's corners refined by cv::cornerSubPix at full resolution, and
+  /// their noise (see fallback_corner_sigma_px).
+  std::array<Eigen::Vector2d, 4> subPixelCorners(const cv::Mat& grey,
+                                                 const std::array<Eigen::Vector2d, 4>& corners_px,
+                                                 double* corner_sigma_px) const;
+  /// The candidate's corners and noise, by the edge fit or the fallback.
+  std::array<Eigen::Vector2d, 4> cornersOf(const cv::Mat& grey,
+                                           const std::array<Eigen::Vector2d, 4>& candidate,
+                                           double* corner_sigma_px);
+  MarkerDetectorStats stats_;
   struct Impl;
   std::unique_ptr<Impl> impl_;
   MarkerDetectorOptions options_;
