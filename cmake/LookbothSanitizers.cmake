@@ -67,4 +67,16 @@ function(lookboth_add_fuzzer name)
   # The fuzz targets are warning-free with gcc's and clang's warnings alike,
   # whatever LOOKBOTH_WERROR says for the rest of this tree.
   target_compile_options(${target} PRIVATE -Werror)
+  # Inputs a run of this target once found (crash, undefined behaviour,
+  # hang), kept under fuzz/regressions/<name>/ after their fix: replayed as
+  # a unit test, so that the sanitizer build keeps checking them.
+  file(GLOB regressions ${CMAKE_CURRENT_SOURCE_DIR}/regressions/${name}/*)
+  if(regressions)
+    add_test(NAME fuzz/${name}_regressions COMMAND ${target} -rss_limit_mb=2048 -timeout=10
+      ${regressions})
+    # Undefined behaviour stops the replay whatever the caller's
+    # environment says (UBSan otherwise reports and goes on).
+    set_tests_properties(fuzz/${name}_regressions PROPERTIES LABELS unit TIMEOUT 120
+      ENVIRONMENT "UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1")
+  endif()
 endfunction()

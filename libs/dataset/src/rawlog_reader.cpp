@@ -526,8 +526,11 @@ class RawlogReader : public DatasetReader {
       ImageFrame frame;
       frame.t = timeOf(*image);
       frame.sensor = image->sensorLabel;
-      if (image->image.isExternallyStored()) {
-        frame.image_file = images_dir_ / image->image.getExternalStorageFile();
+      // Stored as a file when it names one: isExternallyStored() would read
+      // a flag that a corrupt rawlog sets to a byte no bool can hold
+      // (undefined behaviour, found by fuzzing).
+      if (const std::string external = image->image.getExternalStorageFile(); !external.empty()) {
+        frame.image_file = images_dir_ / external;
         if (options_.check_images && !fs::exists(frame.image_file)) {
           reportIssue(where(), "image '" + frame.image_file.string() + "' of '" + frame.sensor +
                                    "' is missing; frame skipped");
