@@ -3,6 +3,7 @@
 # and sanitizers").
 #
 #   scripts/fuzz.sh <target> <seconds> [libFuzzer flags...]   one target
+#   scripts/fuzz.sh <t1,t2,...> <seconds> [libFuzzer flags...] those, in turn
 #   scripts/fuzz.sh all <seconds> [libFuzzer flags...]        each target in turn
 #   scripts/fuzz.sh list                                      the targets
 #
@@ -134,7 +135,7 @@ lookboth_fuzz_main() {
     return 0
   fi
   if [[ $# -lt 2 || ! $2 =~ ^[0-9]+$ ]]; then
-    echo "usage: scripts/fuzz.sh <target>|all <seconds> [libFuzzer flags...]; scripts/fuzz.sh list" >&2
+    echo "usage: scripts/fuzz.sh <target>[,<target>...]|all <seconds> [libFuzzer flags...]; scripts/fuzz.sh list" >&2
     return 2
   fi
   local which=$1 seconds=$2
@@ -147,11 +148,16 @@ lookboth_fuzz_main() {
   local targets=()
   if [[ $which == all ]]; then
     mapfile -t targets < <(lookboth_fuzz_targets)
-  elif lookboth_fuzz_targets | grep -qx "$which"; then
-    targets=("$which")
   else
-    echo "fuzz.sh: no fuzz target '$which' (have: $(lookboth_fuzz_targets | tr '\n' ' '))" >&2
-    return 2
+    IFS=, read -r -a targets <<<"$which"
+    local known
+    known=$(lookboth_fuzz_targets)
+    for target in "${targets[@]}"; do
+      if ! grep -qx "$target" <<<"$known"; then
+        echo "fuzz.sh: no fuzz target '$target' (have: $(tr '\n' ' ' <<<"$known"))" >&2
+        return 2
+      fi
+    done
   fi
   cmake --build "$LOOKBOTH_SANITIZE_BUILD_DIR" --parallel "$LOOKBOTH_JOBS" \
     --target lookboth-fuzz-seeds "${targets[@]/#/fuzz_}"
