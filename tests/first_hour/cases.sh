@@ -3,19 +3,8 @@
 # first hour"): the default command does the right thing with the data a
 # user brings, and its output says what to act on and nothing else.
 #   cases.sh <lookboth binary> <case> <work dir>
-set -euo pipefail
-L=$1
-CASE=$2
-WORK=$3
-SHARE=${LOOKBOTH_SHARE_DIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/../../share/lookboth" && pwd)}
-rm -rf "$WORK"
-mkdir -p "$WORK"
-cd "$WORK"
-
-fail() {
-  echo "FAIL: $*" >&2
-  exit 1
-}
+# shellcheck source=../e2e_cases.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../e2e_cases.sh" "$@"
 # expect <regex> <file>: the file has a line matching it.
 expect() { grep -Eq -- "$1" "$2" || fail "no '$1' in $2"; }
 # Position RMSE [mm] of `lookboth evaluate` against the dataset's ground truth.

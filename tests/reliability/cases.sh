@@ -4,19 +4,8 @@
 # message. Each case runs in a fresh folder and exits non-zero on the first
 # broken promise (77 = skipped: the machine cannot stage the case).
 #   cases.sh <lookboth binary> <case> <work dir>
-set -euo pipefail
-L=$1
-CASE=$2
-WORK=$3
-SHARE=${LOOKBOTH_SHARE_DIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/../../share/lookboth" && pwd)}
-rm -rf "$WORK"
-mkdir -p "$WORK"
-cd "$WORK"
-
-fail() {
-  echo "FAIL: $*" >&2
-  exit 1
-}
+# shellcheck source=../e2e_cases.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../e2e_cases.sh" "$@"
 # expect_error <regex> <command...>: exit 1 and the message matches.
 expect_error() {
   local regex=$1

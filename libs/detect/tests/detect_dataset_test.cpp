@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "lookboth/core/error.h"
+#include "lookboth/core/scoped_environment.h"
 #include "lookboth/detect/evaluate.h"
 #include "lookboth/sim/simulate.h"
 
@@ -251,15 +252,11 @@ TEST(DetectConfig, TheUsersFileLayersOverDefaultYaml) {
       << "detect:\n  markers: {max_speed_mps: 0.7, corner_sigma_px: 0.3}\n";
   const fs::path user = share / "user.yaml";
   std::ofstream(user) << "detect:\n  markers: {corner_sigma_px: 0.2}\n";
-  const char* before = std::getenv("LOOKBOTH_SHARE_DIR");
-  const std::string saved = before ? before : "";
-  ::setenv("LOOKBOTH_SHARE_DIR", share.c_str(), 1);
-  const DetectConfig plain = detectConfigFor(std::nullopt);
-  const DetectConfig layered = detectConfigFor(user);
-  if (before) {
-    ::setenv("LOOKBOTH_SHARE_DIR", saved.c_str(), 1);
-  } else {
-    ::unsetenv("LOOKBOTH_SHARE_DIR");
+  DetectConfig plain, layered;
+  {
+    const ScopedEnvironment share_dir("LOOKBOTH_SHARE_DIR", share.string());
+    plain = detectConfigFor(std::nullopt);
+    layered = detectConfigFor(user);
   }
   fs::remove_all(share);
   EXPECT_DOUBLE_EQ(plain.markers.max_speed_mps, 0.7);

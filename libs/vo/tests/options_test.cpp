@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "lookboth/core/error.h"
+#include "lookboth/core/scoped_environment.h"
 
 namespace lookboth::vo {
 namespace {
@@ -54,15 +55,11 @@ TEST(OdometryOptionsTest, TheUsersFileLayersOverDefaultYaml) {
   std::filesystem::create_directories(share / "cameras");  // what marks a share folder
   std::ofstream(share / "config" / "default.yaml") << "odometry: {max_features: 333, seed: 5}\n";
   const auto user = writeTemp("lookboth_vo_layer_user.yaml", "odometry: {seed: 9}\n");
-  const char* before = std::getenv("LOOKBOTH_SHARE_DIR");
-  const std::string saved = before ? before : "";
-  ::setenv("LOOKBOTH_SHARE_DIR", share.c_str(), 1);
-  const OdometryOptions plain = odometryOptionsFor(std::nullopt);
-  const OdometryOptions layered = odometryOptionsFor(user);
-  if (before) {
-    ::setenv("LOOKBOTH_SHARE_DIR", saved.c_str(), 1);
-  } else {
-    ::unsetenv("LOOKBOTH_SHARE_DIR");
+  OdometryOptions plain, layered;
+  {
+    const ScopedEnvironment share_dir("LOOKBOTH_SHARE_DIR", share.string());
+    plain = odometryOptionsFor(std::nullopt);
+    layered = odometryOptionsFor(user);
   }
   std::filesystem::remove_all(share);
   std::filesystem::remove(user);
