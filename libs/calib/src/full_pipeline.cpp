@@ -77,14 +77,14 @@ TrajectoryChoice chooseTrajectory(const std::filesystem::path& dataset,
         TrajectoryMode::kMetric, label,
         "its metric trajectory '" + label + "' (no visual odometry, no fisheye frames)" + other};
   }
-  throw Error(dataset.string() + ": no trajectory to register with (the dataset's trajectories: " +
-              describeTrajectories(contents) +
-              (metric.empty()
-                   ? std::string(")")
-                   : "): choose one with --trajectory metric --trajectory-label <label>") +
-              (metric.empty() ? "; add one (`lookboth convert --from trajectory.tum ...`) or "
-                                "give --trajectory-file"
-                              : ""));
+  const std::string none = dataset.string() +
+                           ": no trajectory to register with (the dataset's trajectories: " +
+                           describeTrajectories(contents) + ")";
+  if (!metric.empty())
+    throw Error(none + ": choose one with --trajectory metric --trajectory-label <label>");
+  throw Error(none +
+              "; add one (`lookboth convert --from <dataset> --to <new dataset> --trajectory "
+              "x.tum=label:metric`) or give --trajectory-file");
 }
 
 DatasetContents inspectDataset(const std::filesystem::path& dataset,

@@ -285,6 +285,45 @@ TEST_F(PipelineTest, VisualWithoutVoSaysToRunOdometry) {
   }
 }
 
+// The trajectory register uses when the user names none: the dataset's
+// visual odometry, its only unscaled trajectory, odometry on its fisheye
+// frames, its metric one; never the ground truth; errors list what is there.
+TEST(ChooseTrajectory, FollowsTheDatasetsOwnDescription) {
+  const auto contents = [](std::vector<TrajectoryInfo> trajectories, std::int64_t fisheye) {
+    DatasetContents c;
+    c.trajectories = std::move(trajectories);
+    c.fisheye_frames = fisheye;
+    return c;
+  };
+  const TrajectoryInfo vo{"vo", false, ""}, slam{"slam", false, ""}, wheels{"odometry", true, ""},
+      lidar{"lidar", true, ""}, truth{"ground_truth", true, ""};
+  const auto choose = [](const DatasetContents& c) { return chooseTrajectory("ds", c); };
+  EXPECT_EQ(choose(contents({wheels, vo, truth}, 10)).label, "vo");
+  const TrajectoryChoice own = choose(contents({wheels, slam, truth}, 10));
+  EXPECT_EQ(own.label, "slam");
+  EXPECT_EQ(own.mode, TrajectoryMode::kVisual);
+  EXPECT_EQ(choose(contents({wheels, truth}, 10)).label, "vo");  // odometry will make it
+  const TrajectoryChoice metric = choose(contents({truth, wheels}, 0));
+  EXPECT_EQ(metric.label, "odometry");
+  EXPECT_EQ(metric.mode, TrajectoryMode::kMetric);
+  EXPECT_EQ(choose(contents({truth, lidar}, 0)).label, "lidar");
+  const auto message = [&](const DatasetContents& c) {
+    try {
+      choose(c);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(choose(contents({slam, vo}, 0)).label, "vo");  // its own visual odometry first
+  const std::string several = message(contents({slam, {"slam2", false, ""}}, 0));
+  EXPECT_NE(several.find("several trajectories up to scale"), std::string::npos) << several;
+  EXPECT_NE(several.find("slam2 (up to scale)"), std::string::npos) << several;
+  EXPECT_NE(message(contents({truth}, 0)).find("--trajectory-file"), std::string::npos);
+  EXPECT_NE(message(contents({lidar, {"wheels", true, ""}}, 0)).find("--trajectory metric"),
+            std::string::npos);
+}
+
 TEST_F(PipelineTest, WritesTheOutputDirectoryAtomically) {
   const RegistrationRun run = registerDataset("small", TrajectoryMode::kMetric, "odometry");
   const fs::path out = *dir_ / "out";
