@@ -1089,10 +1089,7 @@ void MainFrame::registrationReady(std::shared_ptr<const studio::DatasetIndex> in
   auto once = [this](const std::string& line) {
     if (logged_.insert(line).second) log("  " + wxString::FromUTF8(line));
   };
-  for (const auto& w : registration_->warnings) once("warning: " + w);
-  for (const auto& c : registration_->cameras) {
-    for (const auto& w : c.warnings) once("warning: " + c.label + ": " + w);
-  }
+  for (const auto& w : registration_->labelledWarnings()) once("warning: " + w);
   // One sentence per line: the statement is long.
   if (!registration_->observability.message.empty())
     once("observability:\n" +

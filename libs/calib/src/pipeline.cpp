@@ -429,26 +429,19 @@ std::string registrationSummary(const Registration& r, bool verbose) {
         << formatFixed(r.reprojection->rms_px_after, 2) << " px after "
         << r.reprojection->after_stage << "\n";
   }
-  std::size_t notes = r.notes.size();
-  for (const CameraRegistration& c : r.cameras) notes += c.notes.size();
+  const std::vector<std::string> notes = r.labelledNotes();
   if (verbose) {
     out << "observability:\n" << wrapSentences(r.observability.message, "  ") << "\n";
-    if (notes > 0) out << "notes:\n";
-    for (const std::string& n : r.notes) out << bullet(n) << "\n";
-    for (const CameraRegistration& c : r.cameras) {
-      for (const std::string& n : c.notes) out << bullet(c.label + ": " + n) << "\n";
-    }
+    if (!notes.empty()) out << "notes:\n";
+    for (const std::string& n : notes) out << bullet(n) << "\n";
   }
-  const std::size_t warnings = r.warningCount();
-  out << "warnings: " << (warnings == 0 ? std::string("none") : std::to_string(warnings));
-  if (!verbose && notes > 0) {
-    out << "; notes: " << notes << " (nothing to act on; --verbose, or registration.yaml)";
+  const std::vector<std::string> warnings = r.labelledWarnings();
+  out << "warnings: " << (warnings.empty() ? std::string("none") : std::to_string(warnings.size()));
+  if (!verbose && !notes.empty()) {
+    out << "; notes: " << notes.size() << " (nothing to act on; --verbose, or registration.yaml)";
   }
   out << "\n";
-  for (const std::string& w : r.warnings) out << bullet("warning: " + w) << "\n";
-  for (const CameraRegistration& c : r.cameras) {
-    for (const std::string& w : c.warnings) out << bullet("warning: " + c.label + ": " + w) << "\n";
-  }
+  for (const std::string& w : warnings) out << bullet("warning: " + w) << "\n";
   out << "time:";
   for (const auto& [stage, seconds] : r.statistics.seconds_per_stage) {
     out << " " << stage << " " << formatFixed(seconds, 2) << " s";

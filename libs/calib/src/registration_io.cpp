@@ -51,10 +51,26 @@ const CameraRegistration* Registration::findCamera(const std::string& label) con
   return nullptr;
 }
 
-std::size_t Registration::warningCount() const {
-  std::size_t n = warnings.size();
-  for (const CameraRegistration& c : cameras) n += c.warnings.size();
-  return n;
+namespace {
+
+std::vector<std::string> labelled(const std::vector<std::string>& global,
+                                  const std::vector<CameraRegistration>& cameras,
+                                  std::vector<std::string> CameraRegistration::*messages) {
+  std::vector<std::string> all = global;
+  for (const CameraRegistration& c : cameras) {
+    for (const std::string& m : c.*messages) all.push_back(c.label + ": " + m);
+  }
+  return all;
+}
+
+}  // namespace
+
+std::vector<std::string> Registration::labelledWarnings() const {
+  return labelled(warnings, cameras, &CameraRegistration::warnings);
+}
+
+std::vector<std::string> Registration::labelledNotes() const {
+  return labelled(notes, cameras, &CameraRegistration::notes);
 }
 
 int Registration::registeredCount() const {

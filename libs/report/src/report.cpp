@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
-#include <functional>
 #include <sstream>
 
 #include "lookboth/calib/registration.h"
@@ -93,16 +92,9 @@ std::string escape(const std::string& text) {
   return out;
 }
 
-/// A titled list of the registration's messages and its cameras', each
-/// camera's prefixed by its label; nothing when there are none.
+/// A titled list of messages; nothing when there are none.
 void writeMessages(std::ostream& out, const std::string& title, const std::string& what,
-                   const std::vector<std::string>& global,
-                   const std::function<std::vector<std::string>(const CameraRegistration&)>& of,
-                   const std::vector<CameraRegistration>& cameras) {
-  std::vector<std::string> items = global;
-  for (const CameraRegistration& c : cameras) {
-    for (const std::string& m : of(c)) items.push_back(c.label + ": " + m);
-  }
+                   const std::vector<std::string>& items) {
   if (items.empty()) return;
   out << "<h2>" << escape(title) << "</h2>\n<p class=note>" << escape(what) << "</p>\n<ul>";
   for (const std::string& item : items) out << "<li>" << escape(item) << "</li>";
@@ -244,7 +236,7 @@ ReportSummary writeReport(const fs::path& dataset, const fs::path& registration_
   }
   // Notes (a prior held what a flat floor cannot determine, detections set
   // aside at the ends) are expected and leave the verdict alone.
-  if (const std::size_t warnings = registration.warningCount(); warnings > 0) {
+  if (const std::size_t warnings = registration.labelledWarnings().size(); warnings > 0) {
     reasons.push_back(std::to_string(warnings) + " warning(s) to act on (see Warnings)");
   }
   summary.verdict = registered == 0   ? Verdict::kFailed
@@ -444,15 +436,11 @@ ReportSummary writeReport(const fs::path& dataset, const fs::path& registration_
         << fixed(*registration.observability.aligned_position_rmse_m * 1000, 2)
         << " mm after a rigid alignment to any reference (a survey, another registration).</p>\n";
   }
-  writeMessages(
-      out, "Warnings", "What to act on, and how.", registration.warnings,
-      [](const CameraRegistration& c) { return c.warnings; }, registration.cameras);
-  writeMessages(
-      out, "Notes",
-      "Nothing to act on: what priors held because the data cannot determine it, "
-      "detections set aside, the solver's choices.",
-      registration.notes, [](const CameraRegistration& c) { return c.notes; },
-      registration.cameras);
+  writeMessages(out, "Warnings", "What to act on, and how.", registration.labelledWarnings());
+  writeMessages(out, "Notes",
+                "Nothing to act on: what priors held because the data cannot determine it, "
+                "detections set aside, the solver's choices.",
+                registration.labelledNotes());
 
   // Pictures.
   out << "<h2>Pictures</h2>\n";

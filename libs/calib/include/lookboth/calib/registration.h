@@ -169,8 +169,10 @@ struct Registration {
   const CameraRegistration* findCamera(const std::string& label) const;
   /// Cameras with status registered or suspect.
   int registeredCount() const;
-  /// Its warnings and its cameras'.
-  std::size_t warningCount() const;
+  /// Its warnings, then each camera's prefixed by its label ("cam03: ...").
+  std::vector<std::string> labelledWarnings() const;
+  /// The same of its notes.
+  std::vector<std::string> labelledNotes() const;
 };
 
 /// Writes cameras.csv, registration.yaml, trajectory.tum and
