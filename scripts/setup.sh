@@ -8,6 +8,7 @@ PACKAGES=(
   libeigen3-dev libceres-dev libsuitesparse-dev libopengv-dev
   libmrpt-dev mrpt-apps
   libopencv-dev libopencv-contrib-dev
+  libjpeg-dev  # libjpeg's errors made exceptions (libs/dataset/src/jpeg_errors.cpp)
   opencv-doc  # real ArUco photographs for the detect tests
   libwxgtk3.2-dev
   libgtest-dev libgmock-dev libbenchmark-dev

@@ -78,6 +78,9 @@ bool YamlReader::boolean(const YAML::Node& node, const std::string& field) const
 }
 
 std::string YamlReader::key(const YAML::Node& key_node, const std::string& field) const {
+  // yaml-cpp gives an entry of a list an invalid key node, whose every
+  // question but IsDefined() throws: the caller iterated a list as a mapping.
+  if (!key_node.IsDefined()) throw Error(at(key_node, field), "expected a mapping, not a list");
   if (!key_node.IsScalar()) throw Error(at(key_node, field), "expected a text key");
   return key_node.Scalar();
 }

@@ -63,5 +63,17 @@ TEST(YamlReader, AKeyThatIsNotTextIsAnError) {
   }
 }
 
+// Found by the manifest fuzz target: a list where a mapping was expected
+// gives entries whose key yaml-cpp marks invalid; any question but
+// IsDefined() about it throws yaml-cpp's exception.
+TEST(YamlReader, AListIteratedAsAMappingIsAnError) {
+  const YamlReader r("m.yaml");
+  const YAML::Node root = r.parse("labels:\n  - cam03\n");
+  for (const auto& entry : root["labels"]) {
+    EXPECT_EQ(errorOf([&] { r.key(entry.first, "labels"); }),
+              "m.yaml: 'labels': expected a mapping, not a list");
+  }
+}
+
 }  // namespace
 }  // namespace lookboth

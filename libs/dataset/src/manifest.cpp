@@ -293,6 +293,9 @@ Manifest manifestFromYaml(const std::string& yaml, const std::string& source) {
           r.pose(gt["fisheye_from_marker"], "ground_truth.fisheye_from_marker");
     }
     if (const YAML::Node cams = gt["world_from_camera"]; cams) {
+      if (!cams.IsMap()) {
+        throw Error(r.at(cams, "ground_truth.world_from_camera"), "expected a mapping label: pose");
+      }
       for (const auto& entry : cams) {
         const std::string label = r.key(entry.first, "ground_truth.world_from_camera");
         manifest.ground_truth.world_from_camera[label] =
@@ -300,6 +303,9 @@ Manifest manifestFromYaml(const std::string& yaml, const std::string& source) {
       }
     }
     if (const YAML::Node offsets = gt["clock_offsets_ns"]; offsets) {
+      if (!offsets.IsMap()) {
+        throw Error(r.at(offsets, "ground_truth.clock_offsets_ns"), "expected a mapping label: ns");
+      }
       for (const auto& entry : offsets) {
         const std::string label = r.key(entry.first, "ground_truth.clock_offsets_ns");
         manifest.ground_truth.clock_offset[label] =

@@ -49,6 +49,7 @@
 #include <tuple>
 
 #include "internal.h"
+#include "jpeg_errors.h"
 #include "lookboth/core/error.h"
 #include "lookboth/geometry/pose_conversions.h"
 #include "lookboth/obs/CObservationMarkerCorners.h"
@@ -212,6 +213,9 @@ class RawlogReader : public DatasetReader {
         images_dir_(imagesDirectoryFor(rawlog)),
         archive_(stream_) {
     registerLookbothObservations();
+    // A corrupt embedded JPEG must throw, not exit (jpeg_errors.cpp); the
+    // test dataset/rawlog_io checks that it does.
+    static_cast<void>(jpegErrorsThrow());
     const fs::path manifest_path = manifestPathFor(rawlog);
     if (!fs::exists(manifest_path)) {
       throw Error({rawlog.string(), 0, "", ""},
@@ -308,6 +312,7 @@ class RawlogReader : public DatasetReader {
     std::size_t limit = allocationLimit(position);
     while (true) {
       archive_.startEntry();
+      takeJpegError();
       std::size_t refused = 0;
       try {
         const AllocationLimit bound(limit);
@@ -359,7 +364,8 @@ class RawlogReader : public DatasetReader {
       return;
     } catch (const std::exception& e) {
       at_end_ = true;
-      const std::string cause = mrptCause(e.what());
+      const std::string jpeg_error = takeJpegError();
+      const std::string cause = jpeg_error.empty() ? mrptCause(e.what()) : jpeg_error;
       if (archive_.unreadable()) {
         throw Error(whereReading(position) +
                     ": the compressed data cannot be decompressed (corrupt file)");

@@ -8,6 +8,7 @@
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <opencv2/core.hpp>
 
 #include <chrono>
 #include <cstdio>
@@ -326,6 +327,53 @@ TEST_F(RawlogIoTest, ReadErrorsCarryMrptsCauseAndTheEntry) {
   EXPECT_NE(message.find("unknown serialization version number: '99'"), std::string::npos)
       << message;
   EXPECT_EQ(message.find("===="), std::string::npos) << message;
+}
+
+// A colour image that another MRPT program embedded in its rawlog is a JPEG,
+// which MRPT decodes while reading the entry with libjpeg's default error
+// handler: that one would print and exit(1), ending the program without a
+// word about the file. jpeg_errors.cpp makes it an error of the entry.
+TEST_F(RawlogIoTest, ACorruptEmbeddedJpegIsAnErrorOfItsEntry) {
+  writeSample({}, rawlog_);
+  cv::Mat colour(48, 64, CV_8UC3);
+  cv::randu(colour, cv::Scalar::all(0), cv::Scalar::all(255));
+  {
+    // MRPT's own default is raw pixels; its programs may choose JPEG.
+    const bool raw = mrpt::img::CImage::DISABLE_JPEG_COMPRESSION();
+    mrpt::img::CImage::DISABLE_JPEG_COMPRESSION(false);
+    mrpt::io::CFileGZOutputStream file(rawlog_.string());
+    auto out = mrpt::serialization::archiveFrom(file);
+    for (int i = 0; i < 2; ++i) {
+      mrpt::obs::CObservationImage obs;
+      obs.sensorLabel = "cam00";
+      obs.timestamp = toMrptTime(1'000'000'000LL * (i + 1));
+      obs.image = mrpt::img::CImage(colour, mrpt::img::DEEP_COPY);
+      out << obs;
+    }
+    mrpt::img::CImage::DISABLE_JPEG_COMPRESSION(raw);
+  }
+  const size_t intact = readAll(rawlog_).size();
+  EXPECT_EQ(intact, 2u) << "both images read while intact";
+
+  // The second image's JPEG: its frame header (SOF0, FF C0) says 3 bits a
+  // sample, which libjpeg refuses.
+  std::string bytes = gunzip(rawlog_);
+  const size_t second = bytes.find("\xFF\xD8\xFF", bytes.find("\xFF\xD8\xFF") + 3);
+  ASSERT_NE(second, std::string::npos) << "MRPT embeds colour images as JPEG";
+  const size_t frame = bytes.find("\xFF\xC0", second);
+  ASSERT_NE(frame, std::string::npos);
+  bytes[frame + 4] = 3;
+  gzip(rawlog_, bytes);
+  std::string message = "(no error)";
+  try {
+    readAll(rawlog_);
+  } catch (const Error& e) {
+    message = e.what();
+  }
+  EXPECT_NE(message.find("sample.rawlog: entry 2"), std::string::npos) << message;
+  EXPECT_NE(message.find("corrupt JPEG image (libjpeg: Unsupported JPEG data precision 3)"),
+            std::string::npos)
+      << message;
 }
 
 // A string length of MRPT's serialization set to 0xFFFFFFFF: the reader
