@@ -9,10 +9,11 @@
 // hold (16 bytes of memory per byte left, plus 64 MiB) is refused, and the
 // entry is reported as corrupt. The refusal lives in this file's
 // replacement of the global operator new (a per-thread limit, unlimited
-// outside that read); builds with AddressSanitizer keep the sanitizer's own
-// operator new, without that bound. Errors name the file, the entry (1-based)
-// and its byte offset in the uncompressed stream, its class, and the cause
-// from MRPT's message (without its banner and call stack).
+// outside that read), and of MRPT's aligned_malloc, which MRPT's matrices
+// allocate through instead; builds with AddressSanitizer keep the
+// sanitizer's own operator new, without that bound (aligned_malloc keeps it). Errors name the file,
+// the entry (1-based) and its byte offset in the uncompressed stream, its class, and the cause from
+// MRPT's message (without its banner and call stack).
 //
 // Marker detections. The key of a marker observation is (camera, time,
 // marker id): two markers seen in one frame are two records. The same key
@@ -24,6 +25,7 @@
 // is kept. The folder reader decides the same way. Records are handed out
 // once an entry of another time has been read, so that a later detection
 // can still replace an earlier one of the same time.
+#include <mrpt/core/aligned_allocator.h>
 #include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/obs/CActionCollection.h>
 #include <mrpt/obs/CObservation6DFeatures.h>
@@ -36,6 +38,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <deque>
 #include <exception>
 #include <fstream>
@@ -640,3 +643,23 @@ void* operator new(std::size_t size) {
   }
 }
 #endif
+
+// MRPT's aligned containers (a CMatrixD's storage) allocate through
+// mrpt::aligned_malloc, not operator new. This definition, which the
+// dynamic linker binds in place of libmrpt-core's, applies the same bound;
+// otherwise it does what MRPT's does: aligned_alloc of the size rounded up
+// to a multiple of the alignment, freed by MRPT's aligned_free (free).
+void* mrpt::aligned_malloc(std::size_t size, std::size_t alignment) {
+  if (size > lookboth::internal::t_allocation_limit) {
+    lookboth::internal::t_refused_allocation = size;
+    throw std::bad_alloc();
+  }
+  if (alignment != 0 && size % alignment != 0) size = (size / alignment + 1) * alignment;
+  return std::aligned_alloc(alignment, size);
+}
+
+void* mrpt::aligned_calloc(std::size_t bytes, std::size_t alignment) {
+  void* p = mrpt::aligned_malloc(bytes, alignment);
+  if (p) std::memset(p, 0, bytes);
+  return p;
+}
