@@ -9,10 +9,11 @@
 // hold (16 bytes of memory per byte left, plus 64 MiB) is refused, and the
 // entry is reported as corrupt. The refusal lives in this file's
 // replacement of the global operator new (a per-thread limit, unlimited
-// outside that read), and of MRPT's aligned_malloc, which MRPT's matrices
-// allocate through instead; builds with AddressSanitizer keep the
-// sanitizer's own operator new, without that bound (aligned_malloc keeps it). Errors name the file,
-// the entry (1-based) and its byte offset in the uncompressed stream, its class, and the cause from
+// outside that read), of MRPT's aligned_malloc (MRPT's matrices) and in
+// OpenCV's default matrix allocator (an image's pixels). Builds with
+// AddressSanitizer keep the sanitizer's operator new, without the bound;
+// the other two keep it. Errors name the file, the entry (1-based) and its
+// byte offset in the uncompressed stream, its class, and the cause from
 // MRPT's message (without its banner and call stack).
 //
 // Marker detections. The key of a marker observation is (camera, time,
@@ -45,6 +46,7 @@
 #include <limits>
 #include <map>
 #include <new>
+#include <opencv2/core/mat.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <set>
@@ -82,6 +84,46 @@ class AllocationLimit {
  private:
   std::size_t previous_;
 };
+
+/// OpenCV's matrices (the pixels of an image MRPT deserialises) allocate
+/// through cv::Mat's default allocator, not operator new: this one refuses
+/// what the bound excludes, as operator new does, and leaves everything else
+/// to OpenCV's own allocator (which then also frees it).
+class BoundedMatAllocator final : public cv::MatAllocator {
+ public:
+  cv::UMatData* allocate(int dims, const int* sizes, int type, void* data, std::size_t* step,
+                         cv::AccessFlag flags, cv::UMatUsageFlags usage) const override {
+    if (!data) {
+      constexpr std::size_t kMax = std::numeric_limits<std::size_t>::max();
+      std::size_t bytes = CV_ELEM_SIZE(type);
+      for (int i = 0; i < dims; ++i) {
+        const auto n = static_cast<std::size_t>(std::max(sizes[i], 0));
+        bytes = n != 0 && bytes > kMax / n ? kMax : bytes * n;
+      }
+      if (bytes > t_allocation_limit) {
+        t_refused_allocation = bytes;
+        throw std::bad_alloc();
+      }
+    }
+    return cv::Mat::getStdAllocator()->allocate(dims, sizes, type, data, step, flags, usage);
+  }
+  bool allocate(cv::UMatData* data, cv::AccessFlag flags, cv::UMatUsageFlags usage) const override {
+    return cv::Mat::getStdAllocator()->allocate(data, flags, usage);
+  }
+  void deallocate(cv::UMatData* data) const override {
+    cv::Mat::getStdAllocator()->deallocate(data);
+  }
+};
+
+/// Makes BoundedMatAllocator OpenCV's default, once per process.
+void boundOpenCvAllocations() {
+  static BoundedMatAllocator allocator;
+  static const bool installed = [] {
+    cv::Mat::setDefaultAllocator(&allocator);
+    return true;
+  }();
+  static_cast<void>(installed);
+}
 
 /// Memory an entry may take beyond 16 bytes per byte left in the file:
 /// deserialized containers are larger than their serialized bytes (a
@@ -219,6 +261,7 @@ class RawlogReader : public DatasetReader {
     // A corrupt embedded JPEG must throw, not exit (jpeg_errors.cpp); the
     // test dataset/rawlog_io checks that it does.
     static_cast<void>(jpegErrorsThrow());
+    boundOpenCvAllocations();
     const fs::path manifest_path = manifestPathFor(rawlog);
     if (!fs::exists(manifest_path)) {
       throw Error({rawlog.string(), 0, "", ""},
