@@ -67,6 +67,16 @@ class Parser : public YamlReader {
     return out;
   }
 
+  /// A data file (a replay's TUM files): a relative path is beside the scenario.
+  fs::path dataFile(const YAML::Node& node, const std::string& field) const {
+    const fs::path given = text(node, field);
+    if (given.empty()) throw Error(at(node, field), "empty path");
+    const fs::path path = given.is_absolute() || base_dir_.empty() ? given : base_dir_ / given;
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec)) throw Error(at(node, field), "no file " + path.string());
+    return fs::absolute(path).lexically_normal();
+  }
+
   /// A calibration file: relative paths are looked up beside the scenario,
   /// then in share/lookboth/cameras.
   fs::path calibration(const YAML::Node& node, const std::string& field) const {
@@ -190,12 +200,15 @@ void readRobot(Parser& p, Section s, Scenario& scenario) {
   MotionSpec& m = r.motion;
   const bool has_loop = s.has("loop");
   const bool has_generated = s.has("generate_loop");
-  if (has_loop == has_generated) {
+  const bool has_replay = s.has("replay");
+  const int drives = int(has_loop) + int(has_generated) + int(has_replay);
+  if (drives != 1) {
     throw Error(
         ErrorContext{p.source(), scenario.lines.count("robot") ? scenario.lines["robot"] : 0,
                      "robot.loop", ""},
-        has_loop ? "give either 'loop' or 'generate_loop', not both"
-                 : "missing: give 'loop' (waypoints) or 'generate_loop'");
+        drives > 1 ? "give one of 'loop', 'generate_loop' and 'replay', not several"
+                   : "missing: give 'loop' (waypoints), 'generate_loop' or 'replay' (a recorded "
+                     "path)");
   }
   // Motion limits first: the generated loop uses the corner radius.
   s.number("corner_radius_m", m.corner_radius_m);
@@ -205,7 +218,17 @@ void readRobot(Parser& p, Section s, Scenario& scenario) {
   s.number("speed_smoothing_m", m.speed_smoothing_m);
   s.integer("laps", m.laps);
   s.number("wait_s", m.wait_s);
-  if (has_loop) {
+  if (has_replay) {
+    Section replay = s.sub("replay");
+    replay.require("path");
+    r.replay.path = p.dataFile(replay.get("path"), "robot.replay.path");
+    if (const YAML::Node odometry = replay.get("odometry"); odometry.IsDefined())
+      r.replay.odometry = p.dataFile(odometry, "robot.replay.odometry");
+    replay.boolean("metric", r.replay.metric);
+    replay.number("scale", r.replay.scale);
+    replay.number("rotate_deg", r.replay.rotate_deg);
+    replay.finish();
+  } else if (has_loop) {
     const YAML::Node loop = s.get("loop");
     if (!loop.IsSequence())
       throw Error(p.at(loop, "robot.loop"), "expected a list of [x, y] points");
@@ -390,7 +413,9 @@ std::optional<std::pair<std::string, std::string>> Scenario::problem() const {
       return std::make_pair(field.empty() ? std::string("world") : "world." + field, message);
     }
   }
-  if (auto p = prefixed("robot", robot.motion.check())) {
+  if (robot.replay.active()) {
+    if (auto p = prefixed("robot.replay", robot.replay.check())) return p;
+  } else if (auto p = prefixed("robot", robot.motion.check())) {
     // MotionSpec names its floor fields floor_*; the file nests them under robot.floor.
     if (p->first == "robot.floor_amplitude_m") p->first = "robot.floor.amplitude_m";
     if (p->first == "robot.floor_wavelength_m") p->first = "robot.floor.wavelength_m";
@@ -646,7 +671,7 @@ std::uint32_t itemSeed(std::uint32_t seed, std::string_view stream, std::int64_t
 // Camera placement
 
 std::vector<EnvCameraPlacement> placeEnvCameras(
-    const Scenario& scenario, const RobotMotion& motion,
+    const Scenario& scenario, const RobotPath& motion,
     const std::function<double(double, double)>& ceiling_height_at, std::uint32_t seed) {
   const EnvCamerasSpec& spec = scenario.cameras;
   std::mt19937 rng(streamSeed(seed, "cameras"));

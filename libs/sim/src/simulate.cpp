@@ -20,6 +20,7 @@
 #include "lookboth/sim/marker_corners.h"
 #include "lookboth/sim/motion.h"
 #include "lookboth/sim/render.h"
+#include "lookboth/sim/replay.h"
 #include "lookboth/sim/scenario.h"
 #include "lookboth/sim/world.h"
 
@@ -91,7 +92,8 @@ struct Setup {
   std::uint32_t seed = 0;
   std::optional<Camera> fisheye, env_camera;
   std::unique_ptr<World> world;
-  std::unique_ptr<RobotMotion> motion;
+  std::unique_ptr<RobotPath> motion;
+  std::vector<ReplayedPose> replayed_odometry;  ///< robot.replay.odometry, when given.
   std::vector<EnvCameraPlacement> placements;
   Rigid3d base_from_fisheye, fisheye_from_marker;
   TimeNs robot_offset = 0;             ///< Robot clock - true time [ns].
@@ -217,7 +219,14 @@ Setup buildSetup(const SimulateOptions& options) {
   WorldSpec world_spec = sc.world;
   world_spec.low_texture_region = sc.faults.low_texture_region;
   setup.world = std::make_unique<World>(world_spec, streamSeed(seed, "world"));
-  setup.motion = std::make_unique<RobotMotion>(sc.robot.motion, streamSeed(seed, "floor"));
+  if (sc.robot.replay.active()) {
+    auto replay =
+        std::make_unique<ReplayedMotion>(sc.robot.replay, sc.world.length_m, sc.world.width_m);
+    if (!sc.robot.replay.odometry.empty()) setup.replayed_odometry = replayedOdometry(*replay);
+    setup.motion = std::move(replay);
+  } else {
+    setup.motion = std::make_unique<RobotMotion>(sc.robot.motion, streamSeed(seed, "floor"));
+  }
   const World& world = *setup.world;
   setup.placements = placeEnvCameras(
       sc, *setup.motion, [&world](double x, double y) { return world.ceilingHeightAt(x, y); },
@@ -310,11 +319,20 @@ Manifest buildManifest(const Setup& setup, const SimulateOptions& options) {
   for (const EnvCameraPlacement& p : setup.placements)
     manifest.cameras.push_back({p.label, SensorRole::kEnvCamera, setup.env_camera});
   const OdometrySpec& o = sc.robot.odometry;
-  manifest.trajectories.push_back(
-      {"odometry", true,
-       "simulated wheel odometry of the fisheye (" + formatDouble(o.rate_hz) +
-           " Hz; distance scale error sigma " + formatDouble(o.scale_error_sigma) +
-           ", yaw-rate bias sigma " + formatDouble(o.yaw_bias_sigma_deg_per_s) + " deg/s)"});
+  const ReplaySpec& replay = sc.robot.replay;
+  if (!setup.replayed_odometry.empty()) {
+    manifest.trajectories.push_back(
+        {"odometry", replay.metric,
+         "the estimate " + replay.odometry.filename().string() + " replayed: its error against " +
+             replay.path.filename().string() + " carried onto the fisheye's path" +
+             (replay.metric ? "" : " (its scale unknown, as the estimate's)")});
+  } else {
+    manifest.trajectories.push_back(
+        {"odometry", true,
+         "simulated wheel odometry of the fisheye (" + formatDouble(o.rate_hz) +
+             " Hz; distance scale error sigma " + formatDouble(o.scale_error_sigma) +
+             ", yaw-rate bias sigma " + formatDouble(o.yaw_bias_sigma_deg_per_s) + " deg/s)"});
+  }
   manifest.trajectories.push_back(
       {"ground_truth", true, "simulator ground truth: world_from_fisheye at the fisheye's frames"});
   manifest.ground_truth.fisheye_from_marker = setup.fisheye_from_marker;
@@ -369,8 +387,21 @@ std::vector<Event> buildEvents(const Setup& setup, const SimulateOptions& option
     events.push_back(frame);
   }
 
+  // A replayed estimate, where it lies within the simulated time.
+  for (size_t j = 0; j < setup.replayed_odometry.size(); ++j) {
+    const ReplayedPose& pose = setup.replayed_odometry[j];
+    if (pose.t > duration) break;
+    Event e;
+    e.kind = EventKind::kOdometry;
+    e.t = pose.t;
+    e.index = static_cast<std::int64_t>(j);
+    e.stamp = setup.stamp(pose.t, setup.robot_offset);
+    e.pose = pose.world_from_base * setup.base_from_fisheye;
+    events.push_back(e);
+  }
+
   // Wheel odometry: dead reckoning on the true planar increments.
-  {
+  if (setup.replayed_odometry.empty()) {
     const OdometrySpec& o = sc.robot.odometry;
     std::mt19937 rng(streamSeed(seed, "odometry"));
     const double scale_error = o.scale_error_sigma * gaussian(rng);

@@ -44,7 +44,30 @@ std::vector<Eigen::Vector2d> generateCombLoop(double length_m, double width_m, d
 /// Length of a closed polygon [m].
 double polygonLength(const std::vector<Eigen::Vector2d>& loop);
 
-class RobotMotion {
+/// What the simulator needs of the robot's drive: the base frame over time
+/// and the path on the floor the cameras are placed along. A drive is a
+/// generated loop (RobotMotion) or a recorded path replayed (ReplayedMotion,
+/// replay.h).
+class RobotPath {
+ public:
+  virtual ~RobotPath() = default;
+  /// From the start to the end of the motion [s].
+  virtual double duration() const = 0;
+  /// The base frame (x forward, y left, z up) at time t [s since the start].
+  virtual Rigid3d worldFromBase(double t) const = 0;
+  /// Distance travelled at time t [m].
+  virtual double arcLengthAt(double t) const = 0;
+  /// Length of the path the cameras are placed along (one lap of a loop) [m].
+  virtual double loopLength() const = 0;
+  /// A point of that path at arc length s (taken modulo loopLength()) [m].
+  virtual Eigen::Vector2d loopPoint(double s) const = 0;
+  /// Its heading at s [rad], anticlockwise from +x.
+  virtual double loopHeading(double s) const = 0;
+  /// Shortest horizontal distance from p to that path [m].
+  virtual double distanceToLoop(const Eigen::Vector2d& p) const = 0;
+};
+
+class RobotMotion : public RobotPath {
  public:
   /// Builds the path and its speed profile; `seed` draws the floor's
   /// undulation. Throws lookboth::Error when the spec is invalid.
@@ -52,27 +75,27 @@ class RobotMotion {
 
   const MotionSpec& spec() const { return spec_; }
   /// Length of one lap of the rounded loop [m].
-  double loopLength() const { return loop_length_; }
+  double loopLength() const override { return loop_length_; }
   /// Length driven in all: laps * loopLength() [m].
   double pathLength() const { return loop_length_ * spec_.laps; }
   /// From the start to the end of the motion, waits included [s].
-  double duration() const;
+  double duration() const override;
 
   /// The base frame at time t [s since the start] (clamped to [0, duration]).
-  Rigid3d worldFromBase(double t) const;
+  Rigid3d worldFromBase(double t) const override;
   /// Distance travelled at time t [m].
-  double arcLengthAt(double t) const;
+  double arcLengthAt(double t) const override;
   /// Speed at time t [m/s].
   double speedAt(double t) const;
 
   /// A point of the rounded loop at arc length s (taken modulo the loop length) [m].
-  Eigen::Vector2d loopPoint(double s) const;
+  Eigen::Vector2d loopPoint(double s) const override;
   /// Heading of the loop at s [rad], anticlockwise from +x.
-  double loopHeading(double s) const;
+  double loopHeading(double s) const override;
   /// Signed curvature of the loop at s [1/m] (positive turning left).
   double loopCurvature(double s) const;
   /// Shortest horizontal distance from p to the rounded loop [m].
-  double distanceToLoop(const Eigen::Vector2d& p) const;
+  double distanceToLoop(const Eigen::Vector2d& p) const override;
 
   /// Height of the floor at (x, y) [m] and its gradient.
   double floorHeight(double x, double y) const;

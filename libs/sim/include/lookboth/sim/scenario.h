@@ -18,6 +18,7 @@
 #include "lookboth/geometry/rigid3.h"
 #include "lookboth/geometry/time.h"
 #include "lookboth/sim/motion.h"
+#include "lookboth/sim/replay.h"
 #include "lookboth/sim/world.h"
 
 namespace lookboth::sim {
@@ -50,7 +51,8 @@ struct OdometrySpec {
 };
 
 struct RobotSpec {
-  MotionSpec motion;
+  MotionSpec motion;  ///< The loop it drives, unless it replays a recorded path:
+  ReplaySpec replay;  ///< (replay.h).
   FisheyeSpec fisheye;
   MarkerMountSpec marker_mount;
   OdometrySpec odometry;
@@ -172,7 +174,7 @@ struct EnvCameraPlacement {
 /// Deterministic for a seed. Throws lookboth::Error when the unvisited camera
 /// has nowhere to go.
 std::vector<EnvCameraPlacement> placeEnvCameras(
-    const Scenario& scenario, const RobotMotion& motion,
+    const Scenario& scenario, const RobotPath& motion,
     const std::function<double(double, double)>& ceiling_height_at, std::uint32_t seed);
 
 }  // namespace lookboth::sim

@@ -1,0 +1,116 @@
+#!/usr/bin/env bash
+# Registration on replays of real drives (doc/benchmarks.md, "Real drift").
+#
+#   scripts/bench_replay.sh [data dir] [work dir]
+#
+# The data dir holds one folder per recording, each with groundtruth.tum (a
+# real ground truth) and estimate.tum (a real estimator's output for the same
+# drive), as scripts/derive_real_trajectories.py writes them; default
+# $LOOKBOTH_REAL_TRAJECTORIES, else ../shared/data/real_trajectories. For each
+# recording the script writes a replay scenario (robot.replay; the small
+# scenario's cameras and detection noise, the facility sized to the path, one
+# camera per 5 m of path), simulates it (detections only), registers it three
+# ways and evaluates each against the ground truth:
+#   floor   the true path as a metric trajectory;
+#   real    the replayed estimate (metric, or visual mode when its scale is unknown);
+#   paper   the same with config/paper.yaml (the paper's stages alone).
+# It prints one line per run: position and rotation RMSE, the registration's
+# predicted position RMSE and their ratio. Recordings whose name contains
+# "_mono" but come from a metric estimator are listed in METRIC below.
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
+
+data=${1:-${LOOKBOTH_REAL_TRAJECTORIES:-$LOOKBOTH_ROOT/../shared/data/real_trajectories}}
+work=${2:-$(mktemp -d "${TMPDIR:-/tmp}/lookboth-replay.XXXXXX")}
+lookboth=${LOOKBOTH_BIN:-$LOOKBOTH_ROOT/build/apps/lookboth/lookboth}
+if [[ ! -d $data ]]; then
+  echo "bench_replay.sh: no recordings in '$data' (see scripts/derive_real_trajectories.py)" >&2
+  exit 2
+fi
+mkdir -p "$work"
+
+# Per recording: the scale that makes it a robot-sized drive, and whether
+# its estimate is metric. A hand-held desk sequence (4 m across) is tripled,
+# the small EuRoC room (6 m) doubled; the machine hall is kept as it is.
+declare -A SCALE=([tum_fr2_desk_orbslam_mono]=3 [euroc_v203_vio_mono]=2)
+declare -A METRIC=([tum_fr2_desk_orbslam_mono]=false)
+
+# The extent of a TUM path's x and y after scaling [m] and its length [m].
+extent() {
+  python3 - "$1" "$2" <<'EOF'
+import math, sys
+path, scale = sys.argv[1], float(sys.argv[2])
+xs, ys, length, last = [], [], 0.0, None
+for line in open(path):
+    if line.startswith('#') or not line.strip():
+        continue
+    f = line.split()
+    p = (float(f[1]) * scale, float(f[2]) * scale)
+    xs.append(p[0]); ys.append(p[1])
+    if last: length += math.hypot(p[0] - last[0], p[1] - last[1])
+    last = p
+print(f"{max(xs) - min(xs):.2f} {max(ys) - min(ys):.2f} {length:.1f}")
+EOF
+}
+
+scenario() {
+  local name=$1 dir=$2 scale=$3 metric=$4
+  read -r ex ey length < <(extent "$dir/groundtruth.tum" "$scale")
+  local count
+  count=$(python3 -c "print(max(4, round($length / 5)))")
+  local world_x world_y
+  world_x=$(python3 -c "print(round($ex + 3, 1))")
+  world_y=$(python3 -c "print(round($ey + 3, 1))")
+  sed -e "/^name:/s/.*/name: replay_$name/" \
+    -e "/^description:/s|.*|description: replay of $name (scale $scale)|" \
+    -e "s/^  length_m: .*/  length_m: $world_x/" \
+    -e "s/^  width_m: .*/  width_m: $world_y/" \
+    -e "s|^  loop: .*|  replay: {path: $dir/groundtruth.tum, odometry: $dir/estimate.tum, scale: $scale, metric: $metric}|" \
+    -e "/^  corner_radius_m:/d" -e "/^  max_speed_mps:/d" -e "/^  max_acceleration_mps2:/d" \
+    -e "/^  max_lateral_acceleration_mps2:/d" -e "/^  laps:/d" -e "/^  wait_s:/d" \
+    -e "s/^  count: .*/  count: $count/" \
+    "$LOOKBOTH_ROOT/share/lookboth/scenarios/small.yaml"
+}
+
+evaluate() {
+  local label=$1 reg=$2 truth=$3
+  "$lookboth" evaluate "$reg" --ground-truth "$truth" --json "$reg/eval.json" >/dev/null
+  python3 - "$label" "$reg" <<'EOF'
+import json, sys, yaml
+label, reg = sys.argv[1], sys.argv[2]
+e = json.load(open(reg + '/eval.json'))['ground_truth']
+r = yaml.safe_load(open(reg + '/registration.yaml'))
+pos = e['rms']['position_m']
+rot = e['rms']['rotation_deg']
+pred = (r.get('observability') or {}).get('aligned_position_rmse_m')
+n = len(e['cameras'])
+ratio = f"{pos / pred:.2f}" if pred else "-"
+print(f"{label:40s} cameras {n:>3}  position {pos * 100:6.2f} cm  rotation {rot:5.3f} deg  "
+      f"predicted {pred * 100 if pred else float('nan'):5.2f} cm  measured/predicted {ratio}")
+EOF
+}
+
+for dir in "$data"/*/; do
+  dir=${dir%/}
+  name=$(basename "$dir")
+  [[ -f $dir/groundtruth.tum && -f $dir/estimate.tum ]] || continue
+  scale=${SCALE[$name]:-1}
+  metric=${METRIC[$name]:-true}
+  scenario "$name" "$dir" "$scale" "$metric" >"$work/$name.scenario.yaml"
+  "$lookboth" simulate --scenario "$work/$name.scenario.yaml" --detections-only \
+    --out "$work/$name.rawlog" --overwrite >"$work/$name.simulate.log"
+  "$lookboth" register "$work/$name.rawlog" --trajectory metric --trajectory-label ground_truth \
+    --out "$work/$name.floor" --overwrite >"$work/$name.floor.log" 2>&1
+  evaluate "$name floor" "$work/$name.floor" "$work/$name.rawlog"
+  "$lookboth" register "$work/$name.rawlog" --out "$work/$name.real" --overwrite \
+    >"$work/$name.real.log" 2>&1
+  evaluate "$name real ($([[ $metric == true ]] && echo metric || echo visual))" \
+    "$work/$name.real" "$work/$name.rawlog"
+  if "$lookboth" register "$work/$name.rawlog" --config "$LOOKBOTH_ROOT/share/lookboth/config/paper.yaml" \
+    --out "$work/$name.paper" --overwrite >"$work/$name.paper.log" 2>&1; then
+    evaluate "$name paper" "$work/$name.paper" "$work/$name.rawlog"
+  else
+    echo "$name paper: register failed ($work/$name.paper.log)"
+  fi
+done
+echo "work: $work"
