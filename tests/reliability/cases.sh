@@ -43,7 +43,14 @@ detect_stops_on_signal)
   for sig in INT TERM; do
     "$L" detect img.rawlog --threads 1 >"detect_$sig.log" 2>&1 &
     pid=$!
-    sleep 1.5
+    # Signalled once it is working (its first progress line), not after a
+    # fixed time: on a loaded machine loading the libraries alone can take
+    # longer, and a signal before the handler exists is not what is tested.
+    for _ in $(seq 300); do
+      [[ -s "detect_$sig.log" ]] && break
+      sleep 0.1
+    done
+    sleep 0.3
     kill -"$sig" "$pid"
     start=$(date +%s)
     code=0
