@@ -15,7 +15,7 @@ source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 if [[ ${1:-} == --sanitize ]]; then
   shift
   source "$LOOKBOTH_ROOT/scripts/fuzz.sh"
-  tests=${LOOKBOTH_SANITIZE_TESTS:-'^(core|geometry|cameras|obs|dataset|fuzz)/|^sim/(world|scenario|motion)$|^calib/registration_io$|^vo/options$'}
+  tests=${LOOKBOTH_SANITIZE_TESTS:-'^(core|geometry|cameras|obs|dataset|fuzz)/|^sim/(world|scenario|motion|replay)$|^calib/registration_io$|^vo/options$'}
   lookboth_sanitize_configure
   # Only what those tests run: their build-tree executables, read from
   # ctest's files (ctest lists no command for an executable not built yet).
