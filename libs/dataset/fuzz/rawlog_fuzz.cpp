@@ -13,9 +13,10 @@
 // out-of-memory crash that release builds turn into an error. This target
 // therefore replaces operator new and delete itself (ASan's are weak
 // symbols; malloc and free stay ASan's, so heap errors are still caught)
-// and, while the reader runs, refuses one allocation above the largest bound
-// the release reader could grant for the input: 16 bytes per input byte
-// plus 64 MiB. A refusal is a std::bad_alloc, as in the release build.
+// and refuses, through the reader's own refuseAllocation, what the release
+// reader refuses: while an entry is deserialized, one allocation larger
+// than the rest of the file can hold or four times that in all. A refusal
+// is a std::bad_alloc, as in the release build.
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -28,12 +29,15 @@
 
 namespace fuzz = lookboth::fuzz;
 
+// rawlog_reader.cpp: the reader's allocation bound, applied per entry.
+namespace lookboth::internal {
+bool refuseAllocation(std::size_t size);
+}
+
 namespace {
 
-thread_local std::size_t t_allocation_bound = std::numeric_limits<std::size_t>::max();
-
 void* allocate(std::size_t size, std::size_t alignment) {
-  if (size > t_allocation_bound) throw std::bad_alloc();
+  if (lookboth::internal::refuseAllocation(size)) throw std::bad_alloc();
   void* p = nullptr;
   if (alignment <= alignof(std::max_align_t)) {
     p = std::malloc(size == 0 ? 1 : size);
@@ -101,8 +105,6 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   fuzz::writeBytes(rawlogPath(), data, size);
-  t_allocation_bound = 16 * size + (std::size_t{64} << 20);
   fuzz::expectOnlyLookbothErrors([] { fuzz::readWholeDataset(rawlogPath()); });
-  t_allocation_bound = std::numeric_limits<std::size_t>::max();
   return 0;
 }

@@ -7,7 +7,8 @@
 // zero) 4 GB before it finds that the bytes are not there. While an entry
 // is deserialized, one allocation larger than the rest of the file could
 // hold (16 bytes of memory per byte left, plus 64 MiB) is refused, and the
-// entry is reported as corrupt. The refusal lives in this file's
+// entry is reported as corrupt, as is an entry granted four times that in
+// all (many small blocks). The refusal lives in this file's
 // replacement of the global operator new (a per-thread limit, unlimited
 // outside that read), of MRPT's aligned_malloc (MRPT's matrices) and in
 // OpenCV's default matrix allocator (an image's pixels). Builds with
@@ -60,6 +61,9 @@
 #include "lookboth/obs/CObservationMarkerCorners.h"
 
 namespace lookboth::internal {
+
+bool refuseAllocation(std::size_t size);  // below
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -70,12 +74,22 @@ thread_local std::size_t t_allocation_limit = std::numeric_limits<std::size_t>::
 // The size of the last allocation refused under that bound; 0 for none.
 thread_local std::size_t t_refused_allocation = 0;
 
+// What the bounded allocations granted since the bound was set [bytes].
+thread_local std::size_t t_allocated = 0;
+/// An entry may be granted, in all, this many times what one allocation
+/// may: a container grown element by element (a std::deque of a corrupt
+/// length) asks for many small blocks, each within the bound. Frees are not
+/// counted back; a container that doubles as it grows asks for twice its
+/// final size in all.
+constexpr std::size_t kAllocationTotalFactor = 4;
+
 /// Bounds allocations on this thread for its lifetime.
 class AllocationLimit {
  public:
   explicit AllocationLimit(std::size_t limit) : previous_(t_allocation_limit) {
     t_allocation_limit = limit;
     t_refused_allocation = 0;
+    t_allocated = 0;
   }
   ~AllocationLimit() { t_allocation_limit = previous_; }
   AllocationLimit(const AllocationLimit&) = delete;
@@ -100,10 +114,7 @@ class BoundedMatAllocator final : public cv::MatAllocator {
         const auto n = static_cast<std::size_t>(std::max(sizes[i], 0));
         bytes = n != 0 && bytes > kMax / n ? kMax : bytes * n;
       }
-      if (bytes > t_allocation_limit) {
-        t_refused_allocation = bytes;
-        throw std::bad_alloc();
-      }
+      if (refuseAllocation(bytes)) throw std::bad_alloc();
     }
     return cv::Mat::getStdAllocator()->allocate(dims, sizes, type, data, step, flags, usage);
   }
@@ -651,6 +662,28 @@ class RawlogReader : public DatasetReader {
 
 }  // namespace
 
+/// Whether the reader's bound refuses `size` bytes now (then recording what
+/// was asked for); counts what it grants. External: the rawlog fuzz target's
+/// operator new (AddressSanitizer builds, where this file's is compiled
+/// out) applies the same bound through it.
+bool refuseAllocation(std::size_t size) {
+  constexpr std::size_t kUnlimited = std::numeric_limits<std::size_t>::max();
+  if (t_allocation_limit == kUnlimited) return false;
+  const std::size_t total = t_allocation_limit > kUnlimited / kAllocationTotalFactor
+                                ? kUnlimited
+                                : t_allocation_limit * kAllocationTotalFactor;
+  if (size > t_allocation_limit) {
+    t_refused_allocation = size;
+    return true;
+  }
+  if (size > total - std::min(total, t_allocated)) {
+    t_refused_allocation = t_allocated + size;
+    return true;
+  }
+  t_allocated += size;
+  return false;
+}
+
 std::unique_ptr<DatasetReader> openRawlogReader(const fs::path& rawlog,
                                                 const DatasetReadOptions& options) {
   return std::make_unique<RawlogReader>(rawlog, options);
@@ -660,8 +693,8 @@ std::unique_ptr<DatasetReader> openRawlogReader(const fs::path& rawlog,
 
 // The bounded allocation of the reader (see the header comment): the global
 // operator new, refusing on this thread what t_allocation_limit excludes.
-// The other forms of new (array, nothrow) call this one; delete stays the
-// library's (free). AddressSanitizer brings its own operator new, which a
+// The other forms of new (array, nothrow) call this one or the aligned one
+// below; delete stays the library's (free). AddressSanitizer brings its own operator new, which a
 // second definition would clash with: sanitizer builds go without the bound.
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 #define LOOKBOTH_SANITIZER_NEW 1
@@ -674,12 +707,24 @@ std::unique_ptr<DatasetReader> openRawlogReader(const fs::path& rawlog,
 
 #ifndef LOOKBOTH_SANITIZER_NEW
 void* operator new(std::size_t size) {
-  if (size > lookboth::internal::t_allocation_limit) {
-    lookboth::internal::t_refused_allocation = size;
-    throw std::bad_alloc();
-  }
+  if (lookboth::internal::refuseAllocation(size)) throw std::bad_alloc();
   while (true) {
     if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+    const std::new_handler handler = std::get_new_handler();
+    if (!handler) throw std::bad_alloc();
+    handler();
+  }
+}
+
+// The over-aligned form (Eigen members: MRPT's 6D-feature measurements), as
+// libstdc++'s own does it: aligned_alloc of a multiple of the alignment,
+// freed by its aligned delete (free).
+void* operator new(std::size_t size, std::align_val_t alignment) {
+  if (lookboth::internal::refuseAllocation(size)) throw std::bad_alloc();
+  const auto align = static_cast<std::size_t>(alignment);
+  const std::size_t rounded = (std::max<std::size_t>(size, 1) + align - 1) / align * align;
+  while (true) {
+    if (void* p = std::aligned_alloc(align, rounded)) return p;
     const std::new_handler handler = std::get_new_handler();
     if (!handler) throw std::bad_alloc();
     handler();
@@ -693,10 +738,7 @@ void* operator new(std::size_t size) {
 // otherwise it does what MRPT's does: aligned_alloc of the size rounded up
 // to a multiple of the alignment, freed by MRPT's aligned_free (free).
 void* mrpt::aligned_malloc(std::size_t size, std::size_t alignment) {
-  if (size > lookboth::internal::t_allocation_limit) {
-    lookboth::internal::t_refused_allocation = size;
-    throw std::bad_alloc();
-  }
+  if (lookboth::internal::refuseAllocation(size)) throw std::bad_alloc();
   if (alignment != 0 && size % alignment != 0) size = (size / alignment + 1) * alignment;
   return std::aligned_alloc(alignment, size);
 }
