@@ -18,10 +18,9 @@ class JpegDecodeError : public std::runtime_error {
 /// deserialisation) loses libjpeg's words.
 std::string takeJpegError();
 
-/// True when the libraries of this process that call libjpeg's
-/// jpeg_std_error get this file's (their errors throw JpegDecodeError). The
-/// rawlog reader calls it, which also links jpeg_errors.cpp into every
+/// Does nothing: the rawlog reader calls it so that jpeg_errors.cpp, whose
+/// jpeg_std_error makes libjpeg's errors throw, is linked into every
 /// executable that reads rawlogs.
-bool jpegErrorsThrow();
+void useThrowingJpegErrors();
 
 }  // namespace lookboth::internal

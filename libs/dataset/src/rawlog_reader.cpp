@@ -271,7 +271,7 @@ class RawlogReader : public DatasetReader {
     registerLookbothObservations();
     // A corrupt embedded JPEG must throw, not exit (jpeg_errors.cpp); the
     // test dataset/rawlog_io checks that it does.
-    static_cast<void>(jpegErrorsThrow());
+    useThrowingJpegErrors();
     boundOpenCvAllocations();
     const fs::path manifest_path = manifestPathFor(rawlog);
     if (!fs::exists(manifest_path)) {

@@ -140,12 +140,6 @@ double ReplayedMotion::distanceToLoop(const Eigen::Vector2d& p) const {
   return best;
 }
 
-Eigen::Vector3d ReplayedMotion::toFacility(const Eigen::Vector3d& p_in_recording) const {
-  Eigen::Vector3d p = spec_.scale * (rotation_ * p_in_recording);
-  p.head<2>() += shift_;
-  return p;
-}
-
 namespace {
 
 /// The estimate's poses inside the truth's span, with the truth there.

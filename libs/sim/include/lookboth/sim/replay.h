@@ -61,10 +61,8 @@ class ReplayedMotion : public RobotPath {
 
   /// Time of the first sample of the recording [its clock, ns]: time 0 here.
   TimeNs startTime() const { return truth_.startTime(); }
-  /// The recording's world to the facility's floor: turned by rotate_deg,
-  /// scaled, shifted (applied to positions; z dropped by the projection).
-  Eigen::Vector3d toFacility(const Eigen::Vector3d& p_in_recording) const;
-  /// The rotation part of toFacility.
+  /// The turn (rotate_deg about the vertical) from the recording's world to
+  /// the facility's; positions are then scaled and shifted onto the floor.
   const Eigen::Matrix3d& facilityFromRecording() const { return rotation_; }
   const ReplaySpec& spec() const { return spec_; }
   /// The recorded true path as read.
