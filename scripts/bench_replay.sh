@@ -15,7 +15,8 @@
 #   real    the replayed estimate (metric, or visual mode when its scale is unknown);
 #   paper   the same with config/paper.yaml (the paper's stages alone).
 # It prints one line per run: position and rotation RMSE, the registration's
-# predicted position RMSE and their ratio. Recordings whose name contains
+# predicted position RMSE, their ratio and the positions' NEES per degree of
+# freedom (lookboth evaluate). Recordings whose name contains
 # "_mono" but come from a metric estimator are listed in METRIC below.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
@@ -85,8 +86,10 @@ rot = e['rms']['rotation_deg']
 pred = (r.get('observability') or {}).get('aligned_position_rmse_m')
 n = len(e['cameras'])
 ratio = f"{pos / pred:.2f}" if pred else "-"
+nees = e.get('position_nees_per_dof')
 print(f"{label:40s} cameras {n:>3}  position {pos * 100:6.2f} cm  rotation {rot:5.3f} deg  "
-      f"predicted {pred * 100 if pred else float('nan'):5.2f} cm  measured/predicted {ratio}")
+      f"predicted {pred * 100 if pred else float('nan'):5.2f} cm  measured/predicted {ratio}"
+      + (f"  NEES/dof {nees:.2f}" if nees is not None else ""))
 EOF
 }
 

@@ -1352,6 +1352,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
   // the positions' joint covariance C with the linearised alignment
   // (dp_i = t + w x p_i, least squares over the cameras) projected out,
   // sqrt(trace(P C P) / n) with P = I - A (A^T A)^-1 A^T.
+  std::map<std::size_t, Eigen::Matrix3d> aligned_position_covariance;  // by camera index
   if (have_covariance && aligned_prediction) {
     const std::size_t n = aligned_cameras.size();
     Eigen::MatrixXd C(3 * n, 3 * n), A(3 * n, 6);
@@ -1373,8 +1374,11 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     }
     const Eigen::MatrixXd P = Eigen::MatrixXd::Identity(3 * n, 3 * n) -
                               A * (A.transpose() * A).ldlt().solve(A.transpose());
+    const Eigen::MatrixXd aligned = P * C * P.transpose();
     result.observability.aligned_position_rmse_m =
-        std::sqrt(std::max(0.0, (P * C * P.transpose()).trace() / static_cast<double>(n)));
+        std::sqrt(std::max(0.0, aligned.trace() / static_cast<double>(n)));
+    for (std::size_t a = 0; a < n; ++a)
+      aligned_position_covariance[aligned_cameras[a]] = aligned.block<3, 3>(3 * a, 3 * a);
   }
   auto scalarVariance = [&](const double* a, const double* b) {
     return covariance.block(a, b)(0, 0);
@@ -1500,6 +1504,7 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
                       " detections are consistent with the joint estimate (at least " +
                       std::to_string(options.min_detections) + " needed)";
       camera.covariance.reset();
+      camera.aligned_position_covariance.reset();
       camera.residuals.reset();
       continue;
     }
@@ -1512,6 +1517,11 @@ void runJoint(RegistrationProblem& problem, const JointOptions& options,
     camera.stage_poses["joint"] = pose;
     camera.covariance.reset();
     if (have_covariance) camera.covariance = poseCovariance(jc.pose);
+    camera.aligned_position_covariance.reset();
+    if (const auto found = aligned_position_covariance.find(c);
+        found != aligned_position_covariance.end()) {
+      camera.aligned_position_covariance = found->second;
+    }
     ClockOffsetEstimate offset;
     offset.offset_ns = static_cast<TimeNs>(std::llround(jc.offset_s * 1e9));
     offset.estimated = options.estimate_clock_offsets;

@@ -79,6 +79,7 @@ void runLookDown(RegistrationProblem& problem, const LookDownOptions& options,
     CameraRegistration& camera = problem.camera(label);
     camera.stage_poses.erase("look_down");
     camera.covariance.reset();
+    camera.aligned_position_covariance.reset();
     camera.residuals.reset();
     const auto found = problem.associations_by_camera.find(label);
     const std::vector<std::size_t> none;
@@ -195,6 +196,7 @@ void runLookDown(RegistrationProblem& problem, const LookDownOptions& options,
           covariance.GetCovarianceBlockInTangentSpace(params, params, row_major.data());
           cov = row_major;
           camera.covariance = cov;
+          camera.aligned_position_covariance.reset();
         }
         break;
       }
@@ -222,6 +224,7 @@ void runLookDown(RegistrationProblem& problem, const LookDownOptions& options,
       camera.reason = "its detections disagree: only " + std::to_string(used) + " of " +
                       std::to_string(n) + " are consistent with one camera pose";
       camera.covariance.reset();
+      camera.aligned_position_covariance.reset();
       continue;
     }
     camera.world_from_camera = estimate;

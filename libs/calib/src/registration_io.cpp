@@ -211,11 +211,11 @@ struct Reader : YamlReader {
 };
 
 CameraRegistration readCamera(const Reader& r, const YAML::Node& node, const std::string& field) {
-  r.rejectUnknownKeys(
-      node,
-      {"label", "status", "reason", "world_from_camera", "stages", "covariance", "detections",
-       "residuals", "reprojection", "clock_offset", "warnings", "notes"},
-      field);
+  r.rejectUnknownKeys(node,
+                      {"label", "status", "reason", "world_from_camera", "stages", "covariance",
+                       "aligned_position_covariance", "detections", "residuals", "reprojection",
+                       "clock_offset", "warnings", "notes"},
+                      field);
   CameraRegistration camera;
   camera.label = r.text(r.require(node, "label", field + ".label"), field + ".label");
   const std::string status =
@@ -239,6 +239,10 @@ CameraRegistration readCamera(const Reader& r, const YAML::Node& node, const std
   }
   if (node["covariance"])
     camera.covariance = r.covariance(node["covariance"], field + ".covariance");
+  if (const YAML::Node a = node["aligned_position_covariance"]; a) {
+    const std::vector<double> v = r.numbers(a, field + ".aligned_position_covariance", 9);
+    camera.aligned_position_covariance = Eigen::Map<const Eigen::Matrix3d>(v.data()).transpose();
+  }
   if (const YAML::Node d = node["detections"]; d) {
     const std::string f = field + ".detections";
     r.rejectUnknownKeys(d, {"total", "used", "rejected", "outside_trajectory"}, f);
@@ -390,6 +394,14 @@ std::string registrationToYaml(const Registration& reg) {
     if (c.covariance) {
       out << YAML::Key << "covariance" << YAML::Value;
       emitCovariance(out, *c.covariance);
+    }
+    if (c.aligned_position_covariance) {
+      double values[9];
+      for (int r = 0; r < 3; ++r) {
+        for (int k = 0; k < 3; ++k) values[3 * r + k] = (*c.aligned_position_covariance)(r, k);
+      }
+      out << YAML::Key << "aligned_position_covariance" << YAML::Value;
+      emitNumbers(out, values, 9);
     }
     out << YAML::Key << "detections" << YAML::Value << YAML::Flow << YAML::BeginMap;
     out << YAML::Key << "total" << YAML::Value << c.detections.total;

@@ -51,6 +51,7 @@ Registration sampleRegistration() {
   a.stage_poses["look_down"] = randomPose(rng);
   a.stage_poses["look_up"] = a.world_from_camera;
   a.covariance = randomCovariance(rng);
+  a.aligned_position_covariance = Eigen::Matrix3d(randomCovariance(rng).topLeftCorner<3, 3>());
   a.detections = {120, 110, 10, 0};
   a.residuals = ResidualStats{0.004, 0.1};
   a.reprojection = ReprojectionStats{300, 2.1, 0.9};
@@ -157,6 +158,10 @@ TEST_F(RegistrationIoTest, RoundTripsEveryField) {
     ASSERT_EQ(y.covariance.has_value(), x.covariance.has_value());
     if (x.covariance) {
       EXPECT_EQ(*y.covariance, *x.covariance);
+    }
+    ASSERT_EQ(y.aligned_position_covariance.has_value(), x.aligned_position_covariance.has_value());
+    if (x.aligned_position_covariance) {
+      EXPECT_EQ(*y.aligned_position_covariance, *x.aligned_position_covariance);
     }
     EXPECT_EQ(y.detections.total, x.detections.total);
     EXPECT_EQ(y.detections.used, x.detections.used);

@@ -146,6 +146,33 @@ Eigen::Vector3d rollPitchYaw(const Eigen::Matrix3d& r) {
   return Eigen::Vector3d(roll, pitch, yaw);
 }
 
+namespace {
+
+/// PoseComparison::position_nees_per_dof of a comparison whose alignment and
+/// differences are made.
+std::optional<double> positionNeesPerDof(const PoseComparison& comparison,
+                                         const CameraPoseSet& reference,
+                                         const CameraPoseSet& estimate) {
+  // Against another registration the reference's own error would count too.
+  if (comparison.with_scale || comparison.cameras.empty() ||
+      !reference.aligned_position_covariance.empty())
+    return std::nullopt;
+  const Eigen::Matrix3d turn = comparison.reference_from_estimate.rotation.toRotationMatrix();
+  double sum = 0;
+  for (const CameraDifference& d : comparison.cameras) {
+    const auto found = estimate.aligned_position_covariance.find(d.label);
+    if (found == estimate.aligned_position_covariance.end()) return std::nullopt;
+    const Eigen::Matrix3d covariance = turn * found->second * turn.transpose();
+    const Eigen::LDLT<Eigen::Matrix3d> factor(covariance);
+    if (factor.info() != Eigen::Success || !(factor.vectorD().array() > 0).all())
+      return std::nullopt;
+    sum += d.position_m.dot(factor.solve(d.position_m));
+  }
+  return sum / (3.0 * static_cast<double>(comparison.cameras.size()));
+}
+
+}  // namespace
+
 PoseComparison comparePoses(const CameraPoseSet& reference, const CameraPoseSet& estimate,
                             const CompareOptions& options) {
   PoseComparison result;
@@ -207,6 +234,7 @@ PoseComparison comparePoses(const CameraPoseSet& reference, const CameraPoseSet&
     result.cameras.push_back(d);
   }
   const double n = static_cast<double>(common.size());
+  result.position_nees_per_dof = positionNeesPerDof(result, reference, estimate);
   result.rms.position_m_total = std::sqrt(sum_position / n);
   result.rms.rotation_deg_total = std::sqrt(sum_rotation / n);
   result.rms.position_m = (sum_axes_position / n).cwiseSqrt();
@@ -291,6 +319,7 @@ nlohmann::json comparisonJson(const PoseComparison& c) {
               {"pitch_deg", c.rms.roll_pitch_yaw_deg.y()},
               {"yaw_deg", c.rms.roll_pitch_yaw_deg.z()}};
   j["max"] = {{"position_m", c.rms.position_m_max}, {"rotation_deg", c.rms.rotation_deg_max}};
+  if (c.position_nees_per_dof) j["position_nees_per_dof"] = *c.position_nees_per_dof;
   j["missing_in_estimate"] = c.missing_in_estimate;
   j["missing_in_reference"] = c.missing_in_reference;
   return j;
@@ -372,6 +401,10 @@ std::string formatComparisonTable(const PoseComparison& c, const std::string& ti
       << pad(fixed(c.rms.roll_pitch_yaw_deg.z(), 3), 9) << "\n";
   out << "  " << padRight("max", 12) << pad(fixed(c.rms.position_m_max, 4), 10)
       << pad(fixed(c.rms.rotation_deg_max, 3), 11) << "\n";
+  if (c.position_nees_per_dof) {
+    out << "  position NEES per degree of freedom " << fixed(*c.position_nees_per_dof, 2)
+        << " (near 1 when the registration's predicted uncertainty is honest)\n";
+  }
   if (!c.missing_in_estimate.empty()) {
     out << "  not registered (not counted):";
     for (const std::string& label : c.missing_in_estimate) out << " " << label;

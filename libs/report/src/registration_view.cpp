@@ -16,6 +16,8 @@ CameraPoseSet poseSetOfRegistration(const Registration& registration, const std:
       set.without_pose.push_back(camera.label);
     } else {
       set.world_from_camera[camera.label] = camera.world_from_camera;
+      if (camera.aligned_position_covariance)
+        set.aligned_position_covariance[camera.label] = *camera.aligned_position_covariance;
     }
   }
   return set;

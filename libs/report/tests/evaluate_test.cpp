@@ -118,6 +118,44 @@ TEST(Evaluate, KnownPerturbationsGiveExpectedNumbers) {
   EXPECT_NEAR(c.cameras[2].position_m.z(), -dz, 1e-9);
 }
 
+// The predicted covariance is in the estimate's axes: the NEES turns it into
+// the reference's. The estimate's world is the reference's turned by -90 deg
+// about x, so a height error in the reference is along the estimate's y,
+// the one axis with a small sigma (1 cm): the 2 cm errors give 4 per camera.
+TEST(Evaluate, PositionNeesUsesThePredictedCovarianceInTheReferenceAxes) {
+  CameraPoseSet truth;
+  truth.source = "truth";
+  const Eigen::Quaterniond down(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()));
+  const double corners[4][2] = {{1, 1}, {-1, -1}, {1, -1}, {-1, 1}};
+  const Rigid3d estimate_from_reference(
+      Eigen::Quaterniond(Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitX())),
+      Eigen::Vector3d(5, -2, 1));
+  CameraPoseSet estimate;
+  estimate.source = "estimate";
+  for (int i = 0; i < 4; ++i) {
+    const std::string label = "c" + std::to_string(i);
+    const Rigid3d pose(down, Eigen::Vector3d(corners[i][0] * 3, corners[i][1] * 3, 3.5));
+    truth.world_from_camera[label] = pose;
+    // +-2 cm in height as a saddle (z ~ x y), which no rigid motion removes.
+    Rigid3d moved = pose;
+    moved.translation.z() += (i < 2 ? 0.02 : -0.02);
+    estimate.world_from_camera[label] = estimate_from_reference * moved;
+    estimate.aligned_position_covariance[label] = Eigen::Vector3d(1, 1e-4, 1).asDiagonal();
+  }
+  const PoseComparison c = comparePoses(truth, estimate);
+  ASSERT_TRUE(c.position_nees_per_dof);
+  EXPECT_NEAR(*c.position_nees_per_dof, 4.0 / 3, 1e-6);
+  EXPECT_NE(evaluationToJson({"reg", c, std::nullopt, std::nullopt, std::nullopt})
+                .find("\"position_nees_per_dof\""),
+            std::string::npos);
+
+  EXPECT_FALSE(comparePoses(truth, estimate, {true}).position_nees_per_dof) << "Sim(3)";
+  CameraPoseSet partly = estimate;
+  partly.aligned_position_covariance.erase("c3");
+  EXPECT_FALSE(comparePoses(truth, partly).position_nees_per_dof) << "a camera without";
+  EXPECT_FALSE(comparePoses(estimate, estimate).position_nees_per_dof) << "against a registration";
+}
+
 TEST(Evaluate, UnregisteredCamerasAreListedNotCounted) {
   std::mt19937 rng(9);
   const CameraPoseSet truth = randomCameras(6, rng);

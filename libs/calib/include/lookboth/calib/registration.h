@@ -79,6 +79,12 @@ struct CameraRegistration {
   /// The pose after each stage that produced one, by stage name ("look_down", "look_up").
   std::map<std::string, Rigid3d> stage_poses;
   std::optional<Matrix6d> covariance;  ///< Of world_from_camera; absent when not computed.
+  /// Its position's covariance once a rigid alignment over the registered
+  /// cameras is projected out (joint's covariance, with the cross terms
+  /// between cameras): what the aligned differences `lookboth evaluate`
+  /// measures should show [m^2], in the registration's world axes. Absent
+  /// unless joint computed it (aligned_uncertainty_max_cameras).
+  std::optional<Eigen::Matrix3d> aligned_position_covariance;
   DetectionCounts detections;
   std::optional<ResidualStats> residuals;           ///< Absent when unregistered.
   std::optional<ReprojectionStats> reprojection;    ///< Absent when stage 4 did not run for it.

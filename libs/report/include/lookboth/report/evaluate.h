@@ -44,6 +44,10 @@ struct CameraPoseSet {
   /// Cameras the source knows but could not give a pose for (status
   /// unregistered in a registration).
   std::vector<std::string> without_pose;
+  /// A registration's predicted covariance of each camera's position after
+  /// a rigid alignment (CameraRegistration::aligned_position_covariance),
+  /// where it has one [m^2].
+  std::map<std::string, Eigen::Matrix3d> aligned_position_covariance;
 };
 
 /// Reads `label,tx,ty,tz,qx,qy,qz,qw` (world_from_camera, metres, Hamilton
@@ -94,6 +98,15 @@ struct PoseComparison {
   /// Cameras both have, in label order.
   std::vector<CameraDifference> cameras;
   DifferenceRms rms;
+  /// Normalised estimation error squared of the positions per degree of
+  /// freedom: the mean over cameras of d^T S^-1 d / 3, d the aligned
+  /// difference and S the estimate's aligned_position_covariance turned into
+  /// the reference's axes. Near 1 when the predicted uncertainty is honest;
+  /// absent unless every common camera has a covariance, the alignment is
+  /// rigid and the reference has no covariance of its own (ground truth). It treats the cameras as
+  /// independent (each its own block of the aligned covariance), and is exact for the alignment
+  /// only when the common cameras are the registration's aligned ones.
+  std::optional<double> position_nees_per_dof;
   /// Reference cameras the estimate has no pose for (unregistered or
   /// absent): listed, not counted in the RMS.
   std::vector<std::string> missing_in_estimate;
