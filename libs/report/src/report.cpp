@@ -35,6 +35,7 @@ std::string ReportOptions::check() const {
   if (out.empty()) return "'out': the HTML file to write is required";
   if (max_reprojection_rms_px < 0) return "'max_reprojection_rms_px': must be >= 0";
   if (!(max_position_sigma_m > 0)) return "'max_position_sigma_m': must be positive";
+  if (!(max_position_nees_per_dof > 0)) return "'max_position_nees_per_dof': must be positive";
   if (auto_frames < 1) return "'auto_frames': must be at least 1";
   if (max_env_views < 0) return "'max_env_views': must be >= 0";
   return {};
@@ -149,6 +150,11 @@ void comparisonTables(std::ostringstream& out, const PoseComparison& c, const st
   out << "<tr><td class=l>max</td><td></td><td></td><td></td><td></td><td></td><td></td><td>"
       << fixed(c.rms.position_m_max, 4) << "</td><td>" << fixed(c.rms.rotation_deg_max, 4)
       << "</td></tr></table>\n";
+  if (c.position_nees_per_dof) {
+    out << "<p>Position NEES per degree of freedom: " << fixed(*c.position_nees_per_dof, 2)
+        << " (the differences measured against the registration's own predicted error; near 1 "
+           "when that prediction is honest, above when it is too small).</p>\n";
+  }
   if (!c.missing_in_estimate.empty()) {
     out << "<p class=note>Not registered, not counted:";
     for (const auto& label : c.missing_in_estimate) out << " " << escape(label);
@@ -233,6 +239,14 @@ ReportSummary writeReport(const fs::path& dataset, const fs::path& registration_
     reasons.push_back("rotation RMS against ground truth " +
                       fixed(ground_truth->rms.rotation_deg_total, 2) + " deg exceeds " +
                       fixed(options.max_rotation_error_deg, 2) + " deg");
+  }
+  if (ground_truth && ground_truth->position_nees_per_dof &&
+      *ground_truth->position_nees_per_dof > options.max_position_nees_per_dof) {
+    reasons.push_back(
+        "the predicted uncertainty is too small: position NEES per degree of "
+        "freedom " +
+        fixed(*ground_truth->position_nees_per_dof, 2) + " against ground truth (above " +
+        fixed(options.max_position_nees_per_dof, 1) + ")");
   }
   // Notes (a prior held what a flat floor cannot determine, detections set
   // aside at the ends) are expected and leave the verdict alone.
@@ -325,7 +339,7 @@ ReportSummary writeReport(const fs::path& dataset, const fs::path& registration_
          "<th>detections used / total</th><th>rejected</th><th>outside traj.</th>"
          "<th>residual pos. [mm]</th><th>residual rot. [&deg;]</th><th>blobs</th>"
          "<th>reproj. before [px]</th><th>reproj. after [px]</th><th>&sigma; pos. [mm]</th>"
-         "<th>&sigma; rot. [&deg;]</th>";
+         "<th>&sigma; rot. [&deg;]</th><th>predicted error pos. [mm]</th>";
   if (ground_truth) out << "<th>error pos. [mm]</th><th>error rot. [&deg;]</th>";
   out << "<th class=l>reason / warnings</th></tr>\n";
   for (const CameraRegistration& c : registration.cameras) {
@@ -358,6 +372,13 @@ ReportSummary writeReport(const fs::path& dataset, const fs::path& registration_
     } else {
       out << "<td></td><td></td>";
     }
+    if (c.aligned_position_covariance && c.status != CameraStatus::kUnregistered) {
+      out << "<td>"
+          << fixed(std::sqrt(std::max(0.0, c.aligned_position_covariance->trace())) * 1000, 2)
+          << "</td>";
+    } else {
+      out << "<td></td>";
+    }
     if (ground_truth) {
       const auto d = std::find_if(ground_truth->cameras.begin(), ground_truth->cameras.end(),
                                   [&](const CameraDifference& x) { return x.label == c.label; });
@@ -373,8 +394,10 @@ ReportSummary writeReport(const fs::path& dataset, const fs::path& registration_
     out << "</td></tr>\n";
   }
   out << "</table>\n<p class=note>&sigma;: one standard deviation along the worst direction, from "
-         "the registration's covariance. Residuals: RMS of the looking-down residuals of the "
-         "used detections.</p>\n";
+         "the registration's covariance. Predicted error: the root of the trace of the camera's "
+         "position covariance once a rigid alignment over the cameras is projected out, what an "
+         "aligned comparison with ground truth should show. Residuals: RMS of the looking-down "
+         "residuals of the used detections.</p>\n";
 
   // Table I.
   out << "<h2>Reprojection of the camera positions into the fisheye (paper's Table I)</h2>\n";

@@ -165,6 +165,33 @@ TEST_F(ReportTest, VerdictNamesWhatIsWrong) {
   EXPECT_NE(all.find("1 camera(s) suspect"), std::string::npos) << all;
 }
 
+// Against ground truth, a registration whose predicted uncertainty is far
+// smaller than its errors is not "ok": 1 cm height errors predicted at 1 mm.
+TEST_F(ReportTest, VerdictDistrustsAnUncertaintyTooSmallForTheErrors) {
+  auto reasonsWith = [&](double predicted_sigma_m, const std::string& name) {
+    Registration reg = registration_;
+    for (size_t i = 0; i < reg.cameras.size(); ++i) {
+      reg.cameras[i].world_from_camera.translation.z() += (i % 2 ? 0.01 : -0.01);
+      reg.cameras[i].aligned_position_covariance =
+          Eigen::Matrix3d::Identity() * predicted_sigma_m * predicted_sigma_m;
+    }
+    saveRegistration(reg, dir_ / name);
+    ReportOptions options;
+    options.out = dir_ / (name + ".html");
+    options.ground_truth = dataset_;
+    options.overview = false;
+    options.max_env_views = 0;
+    options.auto_frames = 1;
+    std::string all;
+    for (const auto& r : writeReport(dataset_, dir_ / name, options, ProgressReporter()).reasons)
+      all += r + "\n";
+    return all;
+  };
+  EXPECT_NE(reasonsWith(0.001, "overconfident").find("the predicted uncertainty is too small"),
+            std::string::npos);
+  EXPECT_EQ(reasonsWith(0.02, "honest").find("the predicted uncertainty"), std::string::npos);
+}
+
 TEST(Base64, KnownVectors) {
   const auto b = [](const std::string& s) {
     return base64(std::vector<unsigned char>(s.begin(), s.end()));

@@ -31,6 +31,11 @@ struct ReportOptions {
   double max_position_sigma_m = 0.05;   ///< 1-sigma position uncertainty of a camera [m].
   double max_position_error_m = 0.10;   ///< Against ground truth: position RMS [m].
   double max_rotation_error_deg = 1.0;  ///< Against ground truth: rotation RMS [deg].
+  /// Against ground truth: the positions' NEES per degree of freedom
+  /// (PoseComparison::position_nees_per_dof) above which the registration's
+  /// predicted uncertainty is too small to trust [-]. 2 leaves room for the
+  /// spread of a few dozen cameras' NEES around 1.
+  double max_position_nees_per_dof = 2.0;
   std::string check() const;
 };
 
