@@ -29,6 +29,7 @@ if [[ ! -d $data ]]; then
   exit 2
 fi
 mkdir -p "$work"
+data=$(cd "$data" && pwd)  # the scenarios name its files from elsewhere
 
 # Per recording: the scale that makes it a robot-sized drive, and whether
 # its estimate is metric. A hand-held desk sequence (4 m across) is tripled,
@@ -75,7 +76,11 @@ scenario() {
 
 evaluate() {
   local label=$1 reg=$2 truth=$3
-  "$lookboth" evaluate "$reg" --ground-truth "$truth" --json "$reg/eval.json" >/dev/null
+  if ! "$lookboth" evaluate "$reg" --ground-truth "$truth" --json "$reg/eval.json" \
+    >"$reg.evaluate.log" 2>&1; then
+    echo "$label: not evaluated: $(tail -1 "$reg.evaluate.log")"
+    return 0
+  fi
   python3 - "$label" "$reg" <<'EOF'
 import json, sys, yaml
 label, reg = sys.argv[1], sys.argv[2]
