@@ -14,7 +14,8 @@
 #   floor   the true path as a metric trajectory;
 #   real    the replayed estimate (metric, or visual mode when its scale is unknown);
 #   paper   the same with config/paper.yaml (the paper's stages alone).
-# It prints one line per run: position and rotation RMSE, the registration's
+# $LOOKBOTH_REPLAY_CONFIG, when set, is given to the floor and real runs as
+# --config (an experiment with the joint's options). It prints one line per run: position and rotation RMSE, the registration's
 # predicted position RMSE, their ratio and the positions' NEES per degree of
 # freedom (lookboth evaluate). Recordings whose name contains
 # "_mono" but come from a metric estimator are listed in METRIC below.
@@ -24,6 +25,8 @@ source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 data=${1:-${LOOKBOTH_REAL_TRAJECTORIES:-$LOOKBOTH_ROOT/../shared/data/real_trajectories}}
 work=${2:-$(mktemp -d "${TMPDIR:-/tmp}/lookboth-replay.XXXXXX")}
 lookboth=${LOOKBOTH_BIN:-$LOOKBOTH_ROOT/build/apps/lookboth/lookboth}
+config=()
+if [[ -n ${LOOKBOTH_REPLAY_CONFIG:-} ]]; then config=(--config "$LOOKBOTH_REPLAY_CONFIG"); fi
 if [[ ! -d $data ]]; then
   echo "bench_replay.sh: no recordings in '$data' (see scripts/derive_real_trajectories.py)" >&2
   exit 2
@@ -108,9 +111,9 @@ for dir in "$data"/*/; do
   "$lookboth" simulate --scenario "$work/$name.scenario.yaml" --detections-only \
     --out "$work/$name.rawlog" --overwrite >"$work/$name.simulate.log"
   "$lookboth" register "$work/$name.rawlog" --trajectory metric --trajectory-label ground_truth \
-    --out "$work/$name.floor" --overwrite >"$work/$name.floor.log" 2>&1
+    "${config[@]}" --out "$work/$name.floor" --overwrite >"$work/$name.floor.log" 2>&1
   evaluate "$name floor" "$work/$name.floor" "$work/$name.rawlog"
-  "$lookboth" register "$work/$name.rawlog" --out "$work/$name.real" --overwrite \
+  "$lookboth" register "$work/$name.rawlog" "${config[@]}" --out "$work/$name.real" --overwrite \
     >"$work/$name.real.log" 2>&1
   evaluate "$name real ($([[ $metric == true ]] && echo metric || echo visual))" \
     "$work/$name.real" "$work/$name.rawlog"
