@@ -98,9 +98,11 @@ mrpt::Clock::time_point toMrptTimeExact(TimeNs t) {
 TimeNs fromMrptTime(mrpt::Clock::time_point t) {
   const std::int64_t ticks = t.time_since_epoch().count();
   if (ticks == 0) throw Error("invalid (unset) MRPT timestamp");
-  const std::int64_t since_unix = ticks - kMrptTicksAtUnixEpoch;
   constexpr std::int64_t kLimit = std::numeric_limits<TimeNs>::max() / kNanosecondsPerMrptTick;
-  if (since_unix > kLimit || since_unix < -kLimit) {
+  // A corrupt stamp near the int64 limits would overflow the subtraction.
+  std::int64_t since_unix = 0;
+  if (__builtin_sub_overflow(ticks, kMrptTicksAtUnixEpoch, &since_unix) || since_unix > kLimit ||
+      since_unix < -kLimit) {
     throw Error("MRPT timestamp " + std::to_string(ticks) +
                 " is outside the range of lookboth time");
   }

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdint>
+#include <limits>
 #include <random>
 
 #include "lookboth/core/error.h"
@@ -37,6 +39,14 @@ TEST(Time, RoundsToNearestTickAndRefusesInexactWhenAsked) {
 
 TEST(Time, InvalidMrptStampIsAnError) {
   EXPECT_THROW(fromMrptTime(mrpt::Clock::time_point()), Error);
+  // Corrupt stamps at the ends of int64 (found by fuzz_rawlog): an error, not
+  // an overflow of the epoch subtraction.
+  for (const std::int64_t ticks :
+       {std::numeric_limits<std::int64_t>::min(), std::numeric_limits<std::int64_t>::min() + 1,
+        std::numeric_limits<std::int64_t>::max()}) {
+    EXPECT_THROW(fromMrptTime(mrpt::Clock::time_point(mrpt::Clock::duration(ticks))), Error)
+        << ticks;
+  }
 }
 
 TEST(Time, ParsesDecimalSecondsExactly) {
