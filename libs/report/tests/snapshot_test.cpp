@@ -119,7 +119,7 @@ TEST_F(SnapshotTest, DetectionsOnlySmallScenario) {
   options.size = cv::Size(800, 450);
   options.references.push_back(
       {"ground_truth",
-       CameraPoseSet{"ground truth", s.manifest.ground_truth.world_from_camera, {}}});
+       CameraPoseSet{"ground truth", s.manifest.ground_truth.world_from_camera, {}, {}}});
   const SnapshotResult result = writeSnapshots(dataset, s.view, options, ProgressReporter());
 
   std::map<std::string, int> kinds;
