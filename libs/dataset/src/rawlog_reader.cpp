@@ -440,7 +440,10 @@ class RawlogReader : public DatasetReader {
       throw Error(whereReading(position) + ": corrupt: " + cause);
     }
     ++entry_;
-    if (auto frame = std::dynamic_pointer_cast<mrpt::obs::CSensoryFrame>(object)) {
+    if (!object) {
+      // MRPT's stream marker of an empty pointer: nothing to read in it.
+      skippedOnce("empty (null) objects");
+    } else if (auto frame = std::dynamic_pointer_cast<mrpt::obs::CSensoryFrame>(object)) {
       for (const auto& obs : *frame) convert(obs);
     } else if (auto obs = std::dynamic_pointer_cast<mrpt::obs::CObservation>(object)) {
       convert(obs);
