@@ -305,7 +305,12 @@ void readCameras(Parser& p, Section s, EnvCamerasSpec& c) {
   s.text("label_prefix", c.label_prefix);
   c.calibration = p.calibration(s.get("calibration"), "cameras.calibration");
   s.number("rate_hz", c.rate_hz);
-  s.number("store_radius_m", c.store_radius_m);
+  if (const YAML::Node radius = s.get("store_radius_m"); radius.IsDefined()) {
+    // "all": a full recording, every frame of the drive (a real camera's).
+    c.store_radius_m = radius.IsScalar() && radius.Scalar() == "all"
+                           ? std::numeric_limits<double>::infinity()
+                           : p.number(radius, "cameras.store_radius_m");
+  }
   s.number("mount_drop_m", c.mount_drop_m);
   s.number("tilt_max_deg", c.tilt_max_deg);
   s.number("lateral_offset_max_m", c.lateral_offset_max_m);
@@ -478,7 +483,9 @@ std::optional<std::pair<std::string, std::string>> Scenario::problem() const {
     return std::make_pair(std::string("cameras.label_prefix"),
                           "'" + cameras.label_prefix + "' cannot start a label");
   if (auto p = range("cameras.rate_hz", cameras.rate_hz, 0.1, 200)) return p;
-  if (auto p = range("cameras.store_radius_m", cameras.store_radius_m, 0.1, 100)) return p;
+  if (!std::isinf(cameras.store_radius_m)) {
+    if (auto p = range("cameras.store_radius_m", cameras.store_radius_m, 0.1, 100)) return p;
+  }
   if (auto p =
           range("cameras.mount_drop_m", cameras.mount_drop_m, cameras.housing_height_m + 0.01, 2.0))
     return std::make_pair(p->first, p->second + " (the housing hangs " +
@@ -764,7 +771,8 @@ std::vector<EnvCameraPlacement> placeEnvCameras(
         best = std::max(best, d);
       }
     }
-    const double needed = spec.store_radius_m + 0.5;
+    // With every frame stored, far enough that the marker is out of view.
+    const double needed = (std::isinf(spec.store_radius_m) ? 2.5 : spec.store_radius_m) + 0.5;
     if (best < needed)
       throw Error("'faults.unvisited_camera': no place in the facility is " +
                   formatFixed(needed, 1) + " m from the loop (store_radius_m + 0.5 m); the " +

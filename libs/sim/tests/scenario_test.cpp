@@ -101,6 +101,16 @@ TEST(Scenario, MinimalFileGetsDefaults) {
   EXPECT_EQ(s.lines.at("robot.loop"), 5);
 }
 
+// A full recording: every frame of every camera, as real cameras record.
+TEST(Scenario, StoreRadiusAllKeepsEveryFrame) {
+  const Scenario s =
+      parse(replace(kMinimal, "  count: 4\n", "  count: 4\n  store_radius_m: all\n"));
+  EXPECT_TRUE(std::isinf(s.cameras.store_radius_m));
+  EXPECT_EQ(s.check(), "");
+  EXPECT_NE(parseError(replace(kMinimal, "  count: 4\n", "  count: 4\n  store_radius_m: most\n")),
+            "");
+}
+
 TEST(Scenario, ErrorsNameTheFieldAndTheLine) {
   struct Case {
     std::string yaml, expected;

@@ -65,8 +65,10 @@ struct EnvCamerasSpec {
   std::string label_prefix = "cam";   ///< Labels cam00, cam01...
   std::filesystem::path calibration;  ///< Resolved path of the calibration file (all cameras).
   double rate_hz = 30;                ///< [Hz].
-  double store_radius_m =
-      2.5;  ///< Frames exist only while the robot is this close to the nadir [m].
+  /// Frames exist only while the robot is this close to the nadir [m];
+  /// infinity ("all" in a file): every frame of the drive, as a real camera
+  /// records it.
+  double store_radius_m = 2.5;
   double mount_drop_m = 0.15;  ///< Optical centre below the ceiling's underside [m].
   double tilt_max_deg = 3.0;  ///< Tilt of the optical axis from straight down, uniform in [0, max].
   double lateral_offset_max_m = 0.5;  ///< Offset of the nadir from the path, uniform in +-max [m].
