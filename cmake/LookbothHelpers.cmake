@@ -3,8 +3,11 @@
 #   lookboth_add_library(<module> SOURCES ... [PUBLIC_DEPS ...] [PRIVATE_DEPS ...] [SHARED])
 #     -> target lookboth_<module>, alias lookboth::<module>, headers in
 #        libs/<module>/include/lookboth/<module>/.
-#   lookboth_add_test(<module>/<name> SOURCES ... DEPS ... [LABELS ...])
+#   lookboth_add_test(<module>/<name> SOURCES ... DEPS ... [LABELS ...] [COST <seconds>])
 #     -> a GoogleTest executable registered with ctest under the name <module>/<name>.
+#        COST: about how long it runs, for a test that takes much longer than
+#        most: ctest starts those first, so that a parallel run does not end
+#        with one long test alone (a clean clone has no timings of its own).
 #   lookboth_add_benchmark(<name> SOURCES ... DEPS ...)
 #     -> a Google Benchmark executable (not run by ctest; see doc/benchmarks.md).
 
@@ -39,7 +42,7 @@ function(lookboth_add_test name)
   if(NOT LOOKBOTH_BUILD_TESTS)
     return()
   endif()
-  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "" "COST" "SOURCES;DEPS;LABELS" ${ARGN})
   string(REPLACE "/" "_" target "test_${name}")
   add_executable(${target} ${ARG_SOURCES})
   target_link_libraries(${target} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main)
@@ -47,8 +50,13 @@ function(lookboth_add_test name)
     LOOKBOTH_SHARE_DIR="${LOOKBOTH_SHARE_DIR}"
     LOOKBOTH_TEST_DATA_DIR="${LOOKBOTH_TEST_DATA_DIR}")
   lookboth_target_defaults(${target})
+  lookboth_sanitize_test_target(${target})
   add_test(NAME ${name} COMMAND ${target})
-  set_tests_properties(${name} PROPERTIES LABELS "unit;${ARG_LABELS}" TIMEOUT 300)
+  set_tests_properties(${name} PROPERTIES LABELS "unit;${ARG_LABELS}"
+    TIMEOUT ${LOOKBOTH_TEST_TIMEOUT})
+  if(ARG_COST)
+    set_tests_properties(${name} PROPERTIES COST ${ARG_COST})
+  endif()
 endfunction()
 
 function(lookboth_add_benchmark name)

@@ -23,6 +23,14 @@ option(LOOKBOTH_FUZZ "Build the libFuzzer targets (libs/*/fuzz); needs clang" OF
 set(LOOKBOTH_SANITIZE_O0_MODULES calib detect vo report studio CACHE STRING
   "Modules whose library is compiled at -O0 in sanitizer builds")
 
+# A unit test's time limit [s]: the sanitizers make the rendering,
+# odometry and adjustment tests several times slower.
+if(LOOKBOTH_SANITIZE OR LOOKBOTH_FUZZ)
+  set(LOOKBOTH_TEST_TIMEOUT 1800)
+else()
+  set(LOOKBOTH_TEST_TIMEOUT 300)
+endif()
+
 if(LOOKBOTH_FUZZ AND NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
   message(FATAL_ERROR "LOOKBOTH_FUZZ needs clang's libFuzzer; configure with "
     "-DCMAKE_CXX_COMPILER=clang++ (scripts/fuzz.sh does)")
@@ -47,6 +55,16 @@ function(lookboth_sanitize_unoptimised_modules)
       target_compile_options(lookboth_${module} PRIVATE -O0)
     endif()
   endforeach()
+endfunction()
+
+# A test executable's own code is compiled without optimisation in sanitizer
+# builds: optimising it took half of the sanitizer tree's build (the tests'
+# gtest and Eigen templates), and it runs little beside the libraries' code,
+# which keeps the build type's -O1.
+function(lookboth_sanitize_test_target target)
+  if(LOOKBOTH_SANITIZE OR LOOKBOTH_FUZZ)
+    target_compile_options(${target} PRIVATE -O0)
+  endif()
 endfunction()
 
 function(lookboth_add_fuzzer name)

@@ -88,10 +88,21 @@ Rigid3<T> poseAtChained(const Bracket& b, const T* nk, const T* nk1, const T* of
   }
 }
 
+// Blocks: node k, node k+1 (7: [t q]), the edge's scale segment (1).
 struct RelativeMotionCost {
   Rigid3d delta_unscaled;  // Nref_k^-1 Nref_k+1 in trajectory units
   double sigma_t = 1, sigma_r = 1;
   double vertical_ratio = 1, tilt_ratio = 1;  // body z's sigma / sigma_t; roll's, pitch's / sigma_r
+  static ceres::CostFunction* Create(const Rigid3d& delta_unscaled, double sigma_t, double sigma_r,
+                                     double vertical_ratio, double tilt_ratio) {
+    auto* cost = new RelativeMotionCost;
+    cost->delta_unscaled = delta_unscaled;
+    cost->sigma_t = sigma_t;
+    cost->sigma_r = sigma_r;
+    cost->vertical_ratio = vertical_ratio;
+    cost->tilt_ratio = tilt_ratio;
+    return new ceres::AutoDiffCostFunction<RelativeMotionCost, 6, 7, 7, 1>(cost);
+  }
   template <typename T>
   bool operator()(const T* nk, const T* nk1, const T* scale, T* residual) const {
     const Rigid3<T> a = poseFromParams(nk), b = poseFromParams(nk1);
@@ -107,8 +118,14 @@ struct RelativeMotionCost {
   }
 };
 
+// Blocks: two neighbouring scale segments (1, 1).
 struct ScaleWalkCost {
   double sigma = 1;
+  static ceres::CostFunction* Create(double sigma) {
+    auto* cost = new ScaleWalkCost;
+    cost->sigma = sigma;
+    return new ceres::AutoDiffCostFunction<ScaleWalkCost, 1, 1, 1>(cost);
+  }
   template <typename T>
   bool operator()(const T* a, const T* b, T* residual) const {
     residual[0] = (b[0] - a[0]) / T(sigma);
@@ -116,8 +133,15 @@ struct ScaleWalkCost {
   }
 };
 
+// Blocks: a scalar (1): a scale, a clock offset.
 struct ScalarPriorCost {
   double value = 0, sigma = 1;
+  static ceres::CostFunction* Create(double value, double sigma) {
+    auto* cost = new ScalarPriorCost;
+    cost->value = value;
+    cost->sigma = sigma;
+    return new ceres::AutoDiffCostFunction<ScalarPriorCost, 1, 1>(cost);
+  }
   template <typename T>
   bool operator()(const T* x, T* residual) const {
     residual[0] = (x[0] - T(value)) / T(sigma);
@@ -125,11 +149,18 @@ struct ScalarPriorCost {
   }
 };
 
-// One tangent component c of a pose ([dt; dtheta] at `prior`).
+// One tangent component c of a pose ([dt; dtheta] at `prior`). Blocks: the pose (7).
 struct ComponentPriorCost {
   Rigid3d prior;
   int component = 0;
   double sigma = 1;
+  static ceres::CostFunction* Create(const Rigid3d& prior, int component, double sigma) {
+    auto* cost = new ComponentPriorCost;
+    cost->prior = prior;
+    cost->component = component;
+    cost->sigma = sigma;
+    return new ceres::AutoDiffCostFunction<ComponentPriorCost, 1, 7>(cost);
+  }
   template <typename T>
   bool operator()(const T* x, T* residual) const {
     const Eigen::Matrix<T, 6, 1> e = poseError(poseFromParams(x), prior);

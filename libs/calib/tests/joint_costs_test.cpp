@@ -4,6 +4,7 @@
 
 #include <random>
 
+#include "../src/joint_adjustment.h"
 #include "../src/joint_costs.h"
 #include "lookboth/cameras/camera_io.h"
 
@@ -441,4 +442,64 @@ TEST(JointCosts, CacheRecomputesAtANewPointAndWhenJacobiansAreAskedLater) {
 }
 
 }  // namespace
+
+// The clock search of a camera look_down could not register: the configured
+// offset (shift 0) stays unless another is clearly better, by the blobs
+// where there are scores, else by the detections' spread.
+TEST(JointClockSearch, KeepsTheConfiguredOffsetUnlessAnotherIsClearlyBetter) {
+  const std::vector<double> shifts = {-0.01, 0.0, 0.01};
+  const double none = std::numeric_limits<double>::quiet_NaN();
+  // Spreads alike and no blobs: 0 stays although -0.01 spreads least.
+  EXPECT_EQ(joint_detail::chooseShift(shifts, {0.010, 0.011, 0.012}, {none, none, none}), 1u);
+  // One spread 25x smaller: it wins (the others are not even admissible).
+  EXPECT_EQ(joint_detail::chooseShift(shifts, {0.002, 0.05, 0.06}, {none, none, none}), 0u);
+  // The blobs decide among admissible spreads: 0.5 px beats 3 px by more
+  // than 1 px; 2.5 px does not.
+  EXPECT_EQ(joint_detail::chooseShift(shifts, {0.010, 0.011, 0.012}, {5.0, 3.0, 0.5}), 2u);
+  EXPECT_EQ(joint_detail::chooseShift(shifts, {0.010, 0.011, 0.012}, {5.0, 3.0, 2.5}), 1u);
+  // Among the other shifts, one with a blob score beats one without; the
+  // configured offset stays against it, unless its spread is 1.5x larger.
+  EXPECT_EQ(joint_detail::chooseShift({-0.01, 0.01}, {0.010, 0.010}, {none, 4.0}), 1u);
+  EXPECT_EQ(joint_detail::chooseShift({0.0, 0.01}, {0.010, 0.010}, {none, 4.0}), 0u);
+  EXPECT_EQ(joint_detail::chooseShift({0.0, 0.01}, {0.016, 0.010}, {none, 4.0}), 1u);
+}
+
+// A detection's rotation is the marker's, noisy by degrees; its position in
+// the camera is good. Sharing the mean rotation removes what the rotation
+// noise does to the camera positions: noise-free positions come back.
+TEST(JointClockSearch, SharedRotationRemovesTheMarkersRotationNoise) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> deg(0.0, 2.0 * M_PI / 180.0);
+  const Rigid3d world_from_camera(so3Exp(Eigen::Vector3d(3.1, 0.05, -0.4)),
+                                  Eigen::Vector3d(4.0, -2.0, 3.2));
+  std::vector<Rigid3d> candidates;
+  std::vector<Eigen::Vector3d> marker_in_camera;
+  for (int i = 0; i < 9; ++i) {
+    const Eigen::Vector3d m(0.3 * (i % 3) - 0.3, 0.2 * (i / 3) - 0.2, 2.9);
+    const Eigen::Vector3d w(deg(rng), deg(rng), deg(rng));
+    // Rotated about the marker: the marker stays where the camera saw it.
+    const Eigen::Vector3d marker_in_world = world_from_camera * m;
+    const Eigen::Quaterniond rotation = so3Exp(w) * world_from_camera.rotation;
+    candidates.emplace_back(rotation, marker_in_world - rotation * m);
+    marker_in_camera.push_back(m);
+  }
+  // A symmetric set: the mean rotation is the true one.
+  for (int i = 0; i < 9; ++i) {
+    const Eigen::Vector3d m = marker_in_camera[static_cast<std::size_t>(i)];
+    const Eigen::Quaterniond back = world_from_camera.rotation *
+                                    candidates[static_cast<std::size_t>(i)].rotation.conjugate() *
+                                    world_from_camera.rotation;
+    const Eigen::Vector3d marker_in_world = world_from_camera * m;
+    candidates.emplace_back(back, marker_in_world - back * m);
+    marker_in_camera.push_back(m);
+  }
+  const Eigen::Vector3d before = joint_detail::medianPosition(candidates);
+  EXPECT_GT(joint_detail::medianDistance(candidates, before), 0.05);
+  joint_detail::shareMeanRotation(candidates, marker_in_camera);
+  const Eigen::Vector3d after = joint_detail::medianPosition(candidates);
+  EXPECT_LT((after - world_from_camera.translation).norm(), 1e-9);
+  EXPECT_LT(joint_detail::medianDistance(candidates, after), 1e-9);
+  EXPECT_EQ(joint_detail::medianDistance({}, after), std::numeric_limits<double>::infinity());
+}
+
 }  // namespace lookboth

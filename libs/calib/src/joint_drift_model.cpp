@@ -1,0 +1,113 @@
+// Stage `joint`: the drift model estimated from the data
+// (estimate_drift_model; joint_adjustment.h). Factors on the configured
+// sigmas of the relative motions' horizontal translation, vertical
+// translation, tilt (roll, pitch) and yaw, by Helmert's variance component
+// estimation after a round: each group's factor is multiplied by
+// sqrt(sum of its squared whitened residuals / its redundancy), the
+// redundancy sum_i (1 - (J_i Cov J_i^T)_cc) over the group's residual
+// components (what the other measurements leave to the relative motions to
+// decide), from the covariance of the nodes and scales on the pattern of the
+// problem (selected inversion). Gap edges are left out.
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <set>
+
+#include "joint_adjustment.h"
+
+namespace lookboth::joint_detail {
+
+bool JointAdjustment::updateDriftModel() {
+  ceres::Problem& Q = *ceres_problem_;
+  lap();
+  auto isFree = [&](const double* b) {
+    return !Q.IsParameterBlockConstant(const_cast<double*>(b));
+  };
+  std::vector<std::pair<const double*, const double*>> pairs;
+  std::set<std::pair<const double*, const double*>> seen;
+  auto want = [&](const double* a, const double* b) {
+    if (!isFree(a) || !isFree(b)) return;
+    if (seen.count({b, a}) == 0 && seen.insert({a, b}).second) pairs.emplace_back(a, b);
+  };
+  for (std::size_t k = 0; k < edge_block_.size(); ++k) {
+    if (edge_block_[k] == nullptr) continue;
+    const double* blocks[3] = {nodes_[k].data(), nodes_[k + 1].data(),
+                               &scales_[segment_of_edge_[k]]};
+    for (int i = 0; i < 3; ++i) {
+      for (int j = i; j < 3; ++j) want(blocks[i], blocks[j]);
+    }
+  }
+  // The blocks that touch many others are requested too, so that they go
+  // to the dense group: their fill would make the factor 10x larger.
+  for (const JointCamera& c : cameras_) want(c.pose, c.pose);
+  want(x_params_, x_params_);
+  frame_poses_->PrepareForEvaluation(true, true);
+  calib_detail::SparseCovariance cov;
+  if (!cov.compute(pairs, &Q, options_.threads)) {
+    result_.warnings.push_back("joint: the drift model could not be estimated (" + cov.message() +
+                               "); the configured one was used, so the reported uncertainty "
+                               "may not fit this trajectory's drift");
+    drift_.failed = true;  // no further attempts
+    return false;
+  }
+  double squares[4] = {0, 0, 0, 0}, redundancy[4] = {0, 0, 0, 0};
+  constexpr int kGroupOf[6] = {0, 0, 1, 2, 2, 3};  // residual component -> group
+  for (std::size_t k = 0; k < edge_block_.size(); ++k) {
+    if (edge_block_[k] == nullptr) continue;
+    double* blocks[3] = {nodes_[k].data(), nodes_[k + 1].data(), &scales_[segment_of_edge_[k]]};
+    Eigen::Matrix<double, 6, 7, Eigen::RowMajor> ambient[2];
+    Eigen::Matrix<double, 6, 1> d_scale;
+    double* jacobians[3] = {isFree(blocks[0]) ? ambient[0].data() : nullptr,
+                            isFree(blocks[1]) ? ambient[1].data() : nullptr,
+                            isFree(blocks[2]) ? d_scale.data() : nullptr};
+    double r[6];
+    if (!Q.GetCostFunctionForResidualBlock(edge_block_[k])->Evaluate(blocks, r, jacobians)) {
+      continue;
+    }
+    Eigen::Matrix<double, 6, Eigen::Dynamic> tangent[3];
+    for (int i = 0; i < 2; ++i) {
+      if (jacobians[i] == nullptr) continue;
+      Eigen::Matrix<double, 7, 6, Eigen::RowMajor> plus;
+      Q.GetManifold(blocks[i])->PlusJacobian(blocks[i], plus.data());
+      tangent[i] = ambient[i] * plus;
+    }
+    if (jacobians[2] != nullptr) tangent[2] = d_scale;
+    Eigen::Matrix<double, 6, 6> leverage = Eigen::Matrix<double, 6, 6>::Zero();
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) {
+        if (jacobians[i] == nullptr || jacobians[j] == nullptr) continue;
+        leverage += tangent[i] * cov.block(blocks[i], blocks[j]) * tangent[j].transpose();
+      }
+    }
+    const Eigen::Matrix<double, 6, 1> h = leverage.diagonal();
+    if (!h.allFinite() || h.maxCoeff() > 1 + 1e-6 || h.minCoeff() < -1e-9) continue;
+    for (int c = 0; c < 6; ++c) {
+      squares[kGroupOf[c]] += r[c] * r[c];
+      redundancy[kGroupOf[c]] += 1 - h[c];
+    }
+  }
+  bool changed = false;
+  for (int g = 0; g < 4; ++g) {
+    if (redundancy[g] < 10) continue;  // the data leave this group nothing to judge by
+    const double step = std::sqrt(std::clamp(squares[g] / redundancy[g], 1e-4, 1e4));
+    // A group moved the same way twice: its step squared. Helmert's
+    // iteration converges linearly, slowly for a component the odometry
+    // does not have (its factor tends to 0): on `paper_det` 4 updates reach
+    // what the odometry's own model gives, where plain steps need 6.
+    const bool again = drift_.updates > 0 && (step - 1) * (drift_.last_step[g] - 1) > 0;
+    const double applied = again ? step * step : step;
+    drift_.last_step[g] = step;
+    drift_.factor[g] = std::clamp(drift_.factor[g] * applied, 1e-3, 1e3);
+    changed |= std::abs(step - 1) > kDriftModelTolerance;
+  }
+  if (verbose_) {
+    std::cerr << "joint drift model update " << drift_.updates + 1 << " (CPU " << lap() << " s"
+              << cov.describe() << "): sigma factors horizontal " << drift_.factor[0]
+              << ", vertical " << drift_.factor[1] << ", tilt " << drift_.factor[2] << ", yaw "
+              << drift_.factor[3] << " (redundancies " << redundancy[0] << ", " << redundancy[1]
+              << ", " << redundancy[2] << ", " << redundancy[3] << ")\n";
+  }
+  return changed;
+}
+
+}  // namespace lookboth::joint_detail
