@@ -53,8 +53,9 @@
 #include <vector>
 
 #include "fill_reducing_ordering.h"
-#include "joint_costs.h"
+#include "joint_bracket.h"
 #include "lookboth/calib/stages.h"
+#include "lookboth/cameras/camera.h"
 #include "sparse_covariance.h"
 
 namespace lookboth::joint_detail {
@@ -136,6 +137,8 @@ double medianDistance(const std::vector<Rigid3d>& poses, const Eigen::Vector3d& 
 std::size_t chooseShift(const std::vector<double>& shifts, const std::vector<double>& spreads,
                         const std::vector<double>& blob_scores);
 
+class FramePoseCache;  // joint_costs.h
+
 class JointAdjustment {
  public:
   JointAdjustment(RegistrationProblem& problem, const JointOptions& options,
@@ -187,6 +190,9 @@ class JointAdjustment {
   void addCamerasAndDetections();
   void addBlobs(bool drift_update_follows);
   void chooseOrdering();
+  // The blob frames' poses and their derivatives at the current estimate
+  // (before the problem is evaluated outside Solve).
+  void prepareFramePoses();
   void solveRound(int round, bool drift_update_follows);
   // Verbose: the parameters before a round, how far the round moved each
   // kind (the largest move), and the round's solver summary and costs.
@@ -281,7 +287,9 @@ class JointAdjustment {
   // The losses and the frame-pose cache are shared by many blocks: the
   // problem does not own them, and is destroyed before them.
   std::unique_ptr<ceres::LossFunction> huber_, cauchy_;
-  std::unique_ptr<FramePoseCache> frame_poses_;  // the blob frames' poses at each evaluation point
+  // The blob frames' poses at each evaluation point (shared: its type is
+  // complete only where the costs are built, joint_rounds.cpp).
+  std::shared_ptr<FramePoseCache> frame_poses_;
   std::unique_ptr<ceres::Problem> ceres_problem_;
   std::vector<bool> node_used_;                     // in this round's problem
   std::vector<ceres::ResidualBlockId> edge_block_;  // per edge; null across a gap

@@ -41,7 +41,7 @@ bool JointAdjustment::updateDriftModel() {
   // to the dense group: their fill would make the factor 10x larger.
   for (const JointCamera& c : cameras_) want(c.pose, c.pose);
   want(x_params_, x_params_);
-  frame_poses_->PrepareForEvaluation(true, true);
+  prepareFramePoses();
   calib_detail::SparseCovariance cov;
   if (!cov.compute(pairs, &Q, options_.threads)) {
     result_.warnings.push_back("joint: the drift model could not be estimated (" + cov.message() +

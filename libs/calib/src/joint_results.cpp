@@ -109,7 +109,7 @@ void JointAdjustment::computeCovariance() {
   }
   if (options_.covariance && !blocks.empty()) {
     progress_.report("joint", max_rounds_, max_rounds_, "covariance");
-    frame_poses_->PrepareForEvaluation(true, true);  // (Problem::Evaluate calls it too)
+    prepareFramePoses();  // (Problem::Evaluate calls it too)
     lap();
     have_covariance_ = covariance_.compute(blocks, ceres_problem_.get(), options_.threads);
     if (verbose_) {

@@ -8,6 +8,7 @@
 
 #include "blob_association.h"
 #include "joint_adjustment.h"
+#include "joint_costs.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/threads.h"
 
@@ -233,7 +234,7 @@ void JointAdjustment::buildProblem(bool drift_update_follows) {
   cauchy_ = std::make_unique<ceres::CauchyLoss>(options_.cauchy);
   ceres::Problem::Options problem_options;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  frame_poses_ = std::make_unique<FramePoseCache>();
+  frame_poses_ = std::make_shared<FramePoseCache>();
   problem_options.evaluation_callback = frame_poses_.get();
   ceres_problem_ = std::make_unique<ceres::Problem>(problem_options);
   for (auto& blocks : group_blocks_) blocks.clear();
@@ -416,6 +417,8 @@ void JointAdjustment::chooseOrdering() {
     ordering_note_ = o.str();
   }
 }
+
+void JointAdjustment::prepareFramePoses() { frame_poses_->PrepareForEvaluation(true, true); }
 
 void JointAdjustment::solveRound(int round, bool drift_update_follows) {
   const double cpu_setup = lap();
