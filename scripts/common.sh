@@ -12,7 +12,10 @@ lookboth_build() {
   if command -v ninja >/dev/null 2>&1 && [[ ! -f "$LOOKBOTH_BUILD_DIR/Makefile" ]]; then
     generator=(-G Ninja)
   fi
+  # LOOKBOTH_BUILD_BENCHMARKS=OFF leaves the benchmark programs out (CI:
+  # .ci/run); they are built by default and by scripts/bench_*.sh.
   cmake -S "$LOOKBOTH_ROOT" -B "$LOOKBOTH_BUILD_DIR" "${generator[@]}" \
-    -DCMAKE_BUILD_TYPE=Release -DLOOKBOTH_WERROR=ON >/dev/null
+    -DCMAKE_BUILD_TYPE=Release -DLOOKBOTH_WERROR=ON \
+    "-DLOOKBOTH_BUILD_BENCHMARKS=${LOOKBOTH_BUILD_BENCHMARKS:-ON}" >/dev/null
   cmake --build "$LOOKBOTH_BUILD_DIR" --parallel "$LOOKBOTH_JOBS" ${1:+--target "$@"}
 }
