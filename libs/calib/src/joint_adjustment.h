@@ -133,9 +133,10 @@ void shareMeanRotation(std::vector<Rigid3d>& candidates,
 // The median distance of the poses' positions from `centre` (infinity: none).
 double medianDistance(const std::vector<Rigid3d>& poses, const Eigen::Vector3d& centre);
 // Of trial clock shifts [s] with their detections' spreads [m] and blob
-// scores [px] (NaN: none), the index of the one a restart takes.
+// scores [px] (NaN: none), the index of the one a restart takes;
+// `admissible_m` (optional): the largest spread it considered.
 std::size_t chooseShift(const std::vector<double>& shifts, const std::vector<double>& spreads,
-                        const std::vector<double>& blob_scores);
+                        const std::vector<double>& blob_scores, double* admissible_m = nullptr);
 
 class FramePoseCache;  // joint_costs.h
 

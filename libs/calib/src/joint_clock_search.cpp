@@ -133,9 +133,10 @@ double medianDistance(const std::vector<Rigid3d>& poses, const Eigen::Vector3d& 
 // blobs, 1 px or 10 % of its score, else by the spread, 1.5x (the scores are
 // noisy and flat along one pass).
 std::size_t chooseShift(const std::vector<double>& shifts, const std::vector<double>& spreads,
-                        const std::vector<double>& blob_scores) {
+                        const std::vector<double>& blob_scores, double* admissible_m) {
   const double least = *std::min_element(spreads.begin(), spreads.end());
   const double admissible = std::max(1.5 * least, least + 0.02);
+  if (admissible_m != nullptr) *admissible_m = admissible;
   // Whether shift i beats shift j: by the blobs when both have a score (by
   // more than `margin_px` or `ratio` of j's), else by the spread (`factor`
   // times smaller); `by_score`: a score beats none.
@@ -213,14 +214,13 @@ std::optional<std::pair<Rigid3d, double>> JointAdjustment::restartCamera(
       blob_scores.push_back(blobScore(median));
     }
     if (!shifts.empty()) {
-      const std::size_t chosen = chooseShift(shifts, spreads, blob_scores);
+      double admissible = 0;
+      const std::size_t chosen = chooseShift(shifts, spreads, blob_scores, &admissible);
       best = spreads[chosen];
       best_shift = shifts[chosen];
       if (verbose_) {
-        const double least = *std::min_element(spreads.begin(), spreads.end());
         std::cerr << "joint clock search " << c.label << ": chose " << best_shift * 1e3
-                  << " ms (spread admissible below " << std::max(1.5 * least, least + 0.02)
-                  << " m)\n";
+                  << " ms (spread admissible below " << admissible << " m)\n";
         for (std::size_t i = 0; i < shifts.size(); i += 5) {
           std::cerr << "  " << shifts[i] * 1e3 << " ms: spread " << spreads[i] << " m, blobs "
                     << blob_scores[i] << " px\n";
