@@ -14,7 +14,8 @@
 #   floor   the true path as a metric trajectory;
 #   real    the replayed estimate (metric, or visual mode when its scale is unknown);
 #   paper   the same with config/paper.yaml (the paper's stages alone).
-# $LOOKBOTH_REPLAY_CONFIG, when set, is given to the floor and real runs as
+# The floor and real runs get default.yaml with blob_pass_error_share: 0 (the
+# simulated blobs are independent), or $LOOKBOTH_REPLAY_CONFIG when set, as
 # --config (an experiment with the joint's options). It prints one line per run: position and rotation RMSE, the registration's
 # predicted position RMSE, their ratio and the positions' NEES per degree of
 # freedom (lookboth evaluate). Recordings whose name contains
@@ -33,12 +34,23 @@ if [[ ! -d $data ]]; then
 fi
 mkdir -p "$work"
 data=$(cd "$data" && pwd)  # the scenarios name its files from elsewhere
+# The simulator's blobs are independent (it shares only the markers' errors
+# within a pass, noise.marker_pass_share below): the joint is told so.
+if [[ ${#config[@]} -eq 0 ]]; then
+  sed 's/^    blob_pass_error_share: .*/    blob_pass_error_share: 0/' \
+    "$LOOKBOTH_ROOT/share/lookboth/config/default.yaml" >"$work/replay_config.yaml"
+  config=(--config "$work/replay_config.yaml")
+fi
 
 # Per recording: the scale that makes it a robot-sized drive, and whether
 # its estimate is metric. A hand-held desk sequence (4 m across) is tripled,
 # the small EuRoC room (6 m) doubled; the machine hall is kept as it is.
 declare -A SCALE=([tum_fr2_desk_orbslam_mono]=3 [euroc_v203_vio_mono]=2)
 declare -A METRIC=([tum_fr2_desk_orbslam_mono]=false)
+# The share of a marker detection's error its pass shares, as our detector's
+# on rendered recordings (noise.marker_pass_share, doc/formats.md);
+# $LOOKBOTH_REPLAY_PASS_SHARE=0 gives independent detections.
+PASS_SHARE=${LOOKBOTH_REPLAY_PASS_SHARE:-0.15}
 
 # The extent of a TUM path's x and y after scaling [m] and its length [m].
 extent() {
@@ -74,6 +86,7 @@ scenario() {
     -e "/^  corner_radius_m:/d" -e "/^  max_speed_mps:/d" -e "/^  max_acceleration_mps2:/d" \
     -e "/^  max_lateral_acceleration_mps2:/d" -e "/^  laps:/d" -e "/^  wait_s:/d" \
     -e "s/^  count: .*/  count: $count/" \
+    -e "s/^noise: {/noise: {marker_pass_share: $PASS_SHARE, /" \
     "$LOOKBOTH_ROOT/share/lookboth/scenarios/small.yaml"
 }
 

@@ -45,6 +45,13 @@ void printEvaluation(const DetectOptions& options, const DetectSummary& summary,
         "markers vs ground truth: recall %d/%d (%.1f %%), false positives %d, "
         "mean NEES %.2f (6 expected)\n",
         e.detected_frames, e.visible_frames, 100 * e.recall(), e.false_positives, e.mean_nees);
+    if (e.passes > 0) {
+      std::printf(
+          "  per pass (%d passes, %.1f detections each): mean NEES of the pass's weighted mean "
+          "error as a camera pose error %.2f (6 expected when the errors are independent);\n"
+          "  the share of a detection's error common to its pass (pass_error_share): %.3f\n",
+          e.passes, e.mean_pass_detections, e.mean_pass_nees, e.pass_error_share);
+    }
     for (const std::string& note : e.false_positive_notes)
       std::printf("  false positive: %s\n", note.c_str());
     std::printf("  %-12s %6s %12s %12s %14s %12s %10s\n", "distance m", "n", "pos med mm",
@@ -71,6 +78,13 @@ void printEvaluation(const DetectOptions& options, const DetectSummary& summary,
         "p90 %.2f px\n",
         e.frames, e.matched, e.expected, 100 * e.recall(), e.falsePositivesPerFrame(),
         e.median_error_px, e.p90_error_px);
+    if (e.passes > 0) {
+      std::printf(
+          "  per pass (%d passes): mean NEES of the pass's mean error %.2f (2 expected when the "
+          "errors are independent);\n  the share of a blob's error common to its pass %.3f, "
+          "%.3f px per coordinate (blob_pass_error_share = its square over blob_sigma_px's)\n",
+          e.passes, e.mean_pass_nees, e.pass_error_share, e.shared_error_px);
+    }
   }
 }
 

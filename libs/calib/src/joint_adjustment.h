@@ -216,6 +216,9 @@ class JointAdjustment {
   void noteModelEstimates();
   void countDetections();
   void computeCovariance();
+  void computePassCovariance();
+  Matrix6d informationOn(ceres::ResidualBlockId id, double* block) const;
+  Matrix6d passCovariance(std::size_t c) const;
   void computeAlignedPrediction();
   void writeFisheyeFromMarker();
   void writeScale();
@@ -296,6 +299,15 @@ class JointAdjustment {
   std::vector<ceres::ResidualBlockId> edge_block_;  // per edge; null across a gap
   // Verbose diagnostics: the cost of the odometry, marker and blob residuals apart.
   std::array<std::vector<ceres::ResidualBlockId>, 3> group_blocks_;
+  // The marker detections' residual blocks, with the detection's index, and
+  // the blobs', with their camera and frame time (computePassCovariance).
+  std::vector<std::pair<ceres::ResidualBlockId, std::size_t>> marker_blocks_;
+  struct BlobBlock {
+    ceres::ResidualBlockId id;
+    std::size_t camera;
+    TimeNs t;
+  };
+  std::vector<BlobBlock> blob_blocks_;
   double cpu_mark_ = 0;
   std::vector<char> previous_inlier_;
   std::vector<double> previous_offset_;
@@ -333,6 +345,9 @@ class JointAdjustment {
   std::vector<std::size_t> aligned_cameras_;
   bool aligned_prediction_ = false;
   std::map<std::size_t, Eigen::Matrix3d> aligned_position_covariance_;  // by camera index
+  // What the pass-shared detection errors add to each camera's pose
+  // covariance (pass_error_share), in its parameters' tangent; by camera index.
+  std::map<std::size_t, Matrix6d> pass_covariance_;
 };
 
 }  // namespace lookboth::joint_detail

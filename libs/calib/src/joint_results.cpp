@@ -122,7 +122,96 @@ void JointAdjustment::computeCovariance() {
                                  "with few detections");
     }
   }
+  if (have_covariance_) computePassCovariance();
   if (have_covariance_ && aligned_prediction_) computeAlignedPrediction();
+}
+
+// The detections of a pass share a part of their errors, which the residuals
+// cannot show (the camera's pose absorbs it) and the covariance above leaves
+// out. By the model `lookboth detect --evaluate` measures it in, a group of n
+// measurements (a camera's marker detections, or the blobs of its housing,
+// with no gap over pass_gap_s) whose errors share beta times each one's
+// covariance has the information H_g of independent ones but an error whose
+// covariance, mapped through them, is (1 + beta n) H_g: about beta n H_g more.
+// Given the trajectory, the camera's pose moves by H^-1 J_g^T e_g for a
+// group's errors e_g (H: its pose's information from all its residuals, at the
+// solution, robust weights included), so its covariance gains
+// H^-1 (sum_g beta_g n_g H_g) H^-1: a sandwich over the groups, with
+// pass_error_share for the markers and blob_pass_error_share for the blobs.
+void JointAdjustment::computePassCovariance() {
+  pass_covariance_.clear();
+  const double share[2] = {options_.pass_error_share, options_.blob_pass_error_share};
+  if (!(share[0] > 0) && !(share[1] > 0)) return;
+  prepareFramePoses();  // the blob costs' frame poses, as the covariance's
+  const ceres::Problem& Q = *ceres_problem_;
+  struct Member {
+    TimeNs t;
+    int kind;  // 0 marker, 1 blob
+    ceres::ResidualBlockId id;
+  };
+  std::vector<std::vector<Member>> by_camera(cameras_.size());
+  for (const auto& [id, i] : marker_blocks_) {
+    by_camera[detections_[i].camera].push_back({detections_[i].t_camera, 0, id});
+  }
+  for (const BlobBlock& b : blob_blocks_) by_camera[b.camera].push_back({b.t, 1, b.id});
+  const TimeNs gap = secondsToNs(options_.pass_gap_s);
+  for (std::size_t c = 0; c < cameras_.size(); ++c) {
+    double* pose = cameras_[c].pose;
+    if (by_camera[c].empty() || Q.IsParameterBlockConstant(pose)) continue;
+    std::vector<ceres::ResidualBlockId> blocks;
+    Q.GetResidualBlocksForParameterBlock(pose, &blocks);
+    Matrix6d all = Matrix6d::Zero();
+    for (ceres::ResidualBlockId id : blocks) all += informationOn(id, pose);
+    const Eigen::LDLT<Matrix6d> h(all);
+    if (h.info() != Eigen::Success) continue;
+    Matrix6d middle = Matrix6d::Zero();
+    for (int kind = 0; kind < 2; ++kind) {
+      if (!(share[kind] > 0)) continue;
+      std::vector<Member> group;
+      for (const Member& m : by_camera[c]) {
+        if (m.kind == kind) group.push_back(m);
+      }
+      std::sort(group.begin(), group.end(),
+                [](const Member& a, const Member& b) { return a.t < b.t; });
+      for (std::size_t begin = 0; begin < group.size();) {
+        std::size_t end = begin + 1;
+        while (end < group.size() && group[end].t - group[end - 1].t <= gap) ++end;
+        Matrix6d information = Matrix6d::Zero();
+        for (std::size_t k = begin; k < end; ++k) information += informationOn(group[k].id, pose);
+        middle += share[kind] * static_cast<double>(end - begin) * information;
+        begin = end;
+      }
+    }
+    const Matrix6d spread = h.solve(h.solve(middle).transpose());  // H^-1 M H^-1
+    if (spread.allFinite()) pass_covariance_[c] = 0.5 * (spread + spread.transpose());
+  }
+}
+
+// J^T J of a residual block's Jacobian with respect to one of its pose
+// blocks: Ceres returns it in the pose's tangent, with the loss function
+// applied.
+Matrix6d JointAdjustment::informationOn(ceres::ResidualBlockId id, double* block) const {
+  const ceres::Problem& Q = *ceres_problem_;
+  std::vector<double*> parameters;
+  Q.GetParameterBlocksForResidualBlock(id, &parameters);
+  const int rows = Q.GetCostFunctionForResidualBlock(id)->num_residuals();
+  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> tangent(rows, 6);
+  std::vector<double*> jacobians(parameters.size(), nullptr);
+  for (std::size_t k = 0; k < parameters.size(); ++k) {
+    if (parameters[k] == block) jacobians[k] = tangent.data();
+  }
+  std::vector<double> residuals(static_cast<std::size_t>(rows));
+  double cost = 0;
+  if (!Q.EvaluateResidualBlock(id, true, &cost, residuals.data(), jacobians.data()) ||
+      !tangent.allFinite()) {
+    return Matrix6d::Zero();
+  }
+  return tangent.transpose() * tangent;
+}
+
+Matrix6d JointAdjustment::passCovariance(std::size_t c) const {
+  const auto found = pass_covariance_.find(c);
+  return found == pass_covariance_.end() ? Matrix6d::Zero() : found->second;
 }
 
 // The cameras' position RMSE the covariance predicts after a rigid alignment
@@ -140,8 +229,9 @@ void JointAdjustment::computeAlignedPrediction() {
   for (std::size_t a = 0; a < n; ++a) {
     const double* pa = cameras_[aligned_cameras_[a]].pose;
     for (std::size_t b = a; b < n; ++b) {
-      const Eigen::Matrix3d block =
+      Eigen::Matrix3d block =
           covariance_.block(pa, cameras_[aligned_cameras_[b]].pose).topLeftCorner<3, 3>();
+      if (a == b) block += passCovariance(aligned_cameras_[a]).topLeftCorner<3, 3>();
       C.block<3, 3>(3 * a, 3 * b) = block;
       C.block<3, 3>(3 * b, 3 * a) = block.transpose();
     }
@@ -286,7 +376,9 @@ void JointAdjustment::writeCamera(std::size_t c) {
   camera.world_from_camera = pose;
   camera.stage_poses["joint"] = pose;
   camera.covariance.reset();
-  if (have_covariance_) camera.covariance = Matrix6d(covariance_.block(jc.pose, jc.pose));
+  if (have_covariance_) {
+    camera.covariance = Matrix6d(covariance_.block(jc.pose, jc.pose)) + passCovariance(c);
+  }
   camera.aligned_position_covariance.reset();
   if (const auto found = aligned_position_covariance_.find(c);
       found != aligned_position_covariance_.end()) {

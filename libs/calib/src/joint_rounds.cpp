@@ -238,6 +238,8 @@ void JointAdjustment::buildProblem(bool drift_update_follows) {
   problem_options.evaluation_callback = frame_poses_.get();
   ceres_problem_ = std::make_unique<ceres::Problem>(problem_options);
   for (auto& blocks : group_blocks_) blocks.clear();
+  marker_blocks_.clear();
+  blob_blocks_.clear();
   node_used_.assign(nodes_.size(), false);
   edge_block_.assign(nodes_.empty() ? 0 : nodes_.size() - 1, nullptr);
   if (!options_.fix_trajectory) addTrajectory();
@@ -335,6 +337,7 @@ void JointAdjustment::addCamerasAndDetections() {
     const ceres::ResidualBlockId id =
         Q.AddResidualBlock(markerCost(i), huber_.get(), nodes_[b.k].data(), nodes_[b.k + 1].data(),
                            x_params_, cameras_[d.camera].pose, &cameras_[d.camera].offset_s);
+    marker_blocks_.emplace_back(id, i);
     if (verbose_) group_blocks_[1].push_back(id);
   }
 }
@@ -370,6 +373,7 @@ void JointAdjustment::addBlobs(bool drift_update_follows) {
       addNode(f.bracket.k + 1);
       const ceres::ResidualBlockId id =
           Q.AddResidualBlock(cost, cauchy_.get(), nk, nk1, cameras_[c].pose);
+      blob_blocks_.push_back({id, c, f.blobs->t});
       if (verbose_) group_blocks_[2].push_back(id);
     }
   }

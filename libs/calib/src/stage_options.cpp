@@ -249,6 +249,9 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
                        "reject_chi2_pose",
                        "reject_chi2_corners",
                        "estimate_variance_factor",
+                       "pass_error_share",
+                       "blob_pass_error_share",
+                       "pass_gap_s",
                        "default_translation_sigma_m",
                        "default_rotation_sigma_deg",
                        "min_detections",
@@ -307,6 +310,9 @@ void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::
   s.number("reject_chi2_pose", reject_chi2_pose);
   s.number("reject_chi2_corners", reject_chi2_corners);
   flag("estimate_variance_factor", estimate_variance_factor);
+  s.number("pass_error_share", pass_error_share);
+  s.number("blob_pass_error_share", blob_pass_error_share);
+  s.number("pass_gap_s", pass_gap_s);
   s.number("default_translation_sigma_m", default_translation_sigma_m);
   s.number("default_rotation_sigma_deg", default_rotation_sigma_deg);
   s.integer("min_detections", min_detections);
@@ -370,6 +376,26 @@ std::string JointOptions::check() const {
   if (!(min_sigma_m > 0) || !(min_sigma_deg > 0)) {
     return "'min_sigma_m', 'min_sigma_deg': must be positive (they keep the trajectory's "
            "relative-motion factors finite)";
+  }
+  for (const auto& [name, value] : std::initializer_list<std::pair<const char*, double>>{
+           {"pass_error_share", pass_error_share},
+           {"blob_pass_error_share", blob_pass_error_share}}) {
+    if (!(value >= 0 && value <= 1)) {
+      return std::string("'") + name + "': must be between 0 and 1, got " + formatDouble(value);
+    }
+  }
+  if (!(pass_gap_s > 0) || !std::isfinite(pass_gap_s)) {
+    return "'pass_gap_s': must be positive, got " + formatDouble(pass_gap_s);
+  }
+  for (const auto& [name, value] : std::initializer_list<std::pair<const char*, double>>{
+           {"pass_error_share", pass_error_share},
+           {"blob_pass_error_share", blob_pass_error_share}}) {
+    if (!(value >= 0 && value <= 1)) {
+      return std::string("'") + name + "': must be between 0 and 1, got " + formatDouble(value);
+    }
+  }
+  if (!(pass_gap_s > 0) || !std::isfinite(pass_gap_s)) {
+    return "'pass_gap_s': must be positive, got " + formatDouble(pass_gap_s);
   }
   if (ambiguity_ratio < 1) return "'ambiguity_ratio': must be at least 1";
   if (min_detections < 1) return "'min_detections': must be at least 1";

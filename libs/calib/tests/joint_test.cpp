@@ -8,6 +8,7 @@
 #include "lookboth/calib/stages.h"
 #include "lookboth/core/error.h"
 #include "lookboth/geometry/lie.h"
+#include "lookboth/sim/marker_corners.h"
 #include "synthetic.h"
 
 namespace lookboth {
@@ -161,11 +162,14 @@ JointOptions forExactTrajectory() {
 }
 
 // The joint options of the consistency tests: every sample a node, so that
-// the drift model is exactly the one the trajectory is drifted with.
+// the drift model is exactly the one the trajectory is drifted with, and the
+// detections' errors independent, as the synthetic scenes draw them.
 JointOptions everySampleANode() {
   JointOptions joint;
   joint.node_interval_s = 0;
   joint.blob_sigma_px = 0.7;
+  joint.pass_error_share = 0;
+  joint.blob_pass_error_share = 0;
   return joint;
 }
 
@@ -264,6 +268,46 @@ TEST(Joint, PredictsThePositionErrorAfterAlignment) {
   joint.aligned_uncertainty_max_cameras = 0;  // off
   SyntheticScene scene = makeSyntheticScene(noisyOptions(1));
   EXPECT_FALSE(solve(scene, joint).result.observability.aligned_position_rmse_m);
+}
+
+// Errors a pass shares (pass_error_share): each camera's detections (one pass
+// each) moved together by a bias drawn as sim::addPassBias draws it, with a
+// share of 1 (the shared part as large as each detection's own). Counted, the
+// cameras' covariance stays consistent (mean NEES/dof in [0.6, 1.6] over the
+// seeds: 1.50, the bias also drags the trajectory, which the sandwich given
+// the trajectory leaves out); left out, it is too small (3.1).
+TEST(Joint, CountsTheErrorsAPassShares) {
+  JointOptions joint = everySampleANode();
+  joint.pass_error_share = 1.0;
+  JointOptions independent = joint;
+  independent.pass_error_share = 0;
+  double nees[2] = {0, 0};
+  int cameras = 0;
+  for (std::uint32_t seed = 1; seed <= 4; ++seed) {
+    SyntheticScene scene = makeSyntheticScene(noisyOptions(seed));
+    std::map<std::string, std::vector<MarkerObservation*>> passes;
+    for (MarkerObservation& m : scene.input.markers) passes[m.camera].push_back(&m);
+    std::mt19937 rng(seed + 300);
+    for (auto& [camera, pass] : passes) sim::addPassBias(pass, 1.0, rng, nullptr, 0.1);
+    std::mt19937 drift(seed + 100);
+    scene.input.trajectory = Trajectory(driftedTrajectory(scene.truth, joint, drift));
+    const RegistrationProblem counted = solve(scene, joint);
+    const RegistrationProblem left_out = solve(scene, independent);
+    for (const CameraRegistration& c : counted.result.cameras) {
+      ASSERT_TRUE(c.covariance) << c.label;
+      nees[0] += neesPerDof(c, scene.world_from_camera.at(c.label));
+      ++cameras;
+    }
+    for (const CameraRegistration& c : left_out.result.cameras) {
+      ASSERT_TRUE(c.covariance) << c.label;
+      nees[1] += neesPerDof(c, scene.world_from_camera.at(c.label));
+    }
+  }
+  std::cout << "mean NEES/dof over " << cameras << " cameras: shares counted " << nees[0] / cameras
+            << ", left out " << nees[1] / cameras << "\n";
+  EXPECT_GE(nees[0] / cameras, 0.6);
+  EXPECT_LE(nees[0] / cameras, 1.6);
+  EXPECT_GT(nees[1] / cameras, 2.5);
 }
 
 // The drift model estimated from the data: the trajectory drifts with a

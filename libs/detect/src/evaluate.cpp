@@ -7,12 +7,103 @@
 #include "lookboth/core/text.h"
 #include "lookboth/dataset/dataset_io.h"
 #include "lookboth/geometry/lie.h"
+#include "lookboth/geometry/pose_perturbation.h"
 
 namespace lookboth {
 
 namespace {
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+// A detection's error as a perturbation of its camera's pose
+// (geometry/pose_perturbation.h), the quantity a pass's errors must average
+// out in.
+struct WeightedError {
+  TimeNs t = 0;
+  Vector6d delta;
+  Matrix6d information;
+
+  WeightedError(TimeNs stamp, const Rigid3d& camera_from_marker, const Vector6d& e,
+                const Matrix6d& info)
+      : t(stamp),
+        delta(cameraPerturbationFromMarkerError(camera_from_marker) * e),
+        information(informationOnCameraPose(camera_from_marker, info)) {}
+};
+
+// MarkerEvaluation::mean_pass_nees: a pass ends at a gap of over a second.
+void scorePasses(std::map<std::string, std::vector<WeightedError>>& errors_by_camera,
+                 MarkerEvaluation& out) {
+  constexpr TimeNs kPassGap = 1'000'000'000;
+  constexpr size_t kMinDetections = 3;
+  double nees_sum = 0, detections_sum = 0;
+  for (auto& [camera, errors] : errors_by_camera) {
+    std::sort(errors.begin(), errors.end(),
+              [](const WeightedError& a, const WeightedError& b) { return a.t < b.t; });
+    for (size_t begin = 0; begin < errors.size();) {
+      size_t end = begin + 1;
+      while (end < errors.size() && errors[end].t - errors[end - 1].t <= kPassGap) ++end;
+      if (end - begin >= kMinDetections) {
+        Matrix6d h = Matrix6d::Zero();
+        Vector6d g = Vector6d::Zero();
+        for (size_t i = begin; i < end; ++i) {
+          h += errors[i].information;
+          g += errors[i].information * errors[i].delta;
+        }
+        nees_sum += g.dot(h.ldlt().solve(g));
+        detections_sum += static_cast<double>(end - begin);
+        ++out.passes;
+      }
+      begin = end;
+    }
+  }
+  if (out.passes > 0) {
+    out.mean_pass_nees = nees_sum / out.passes;
+    out.mean_pass_detections = detections_sum / out.passes;
+    // The detections' own scale (mean NEES / 6) factored out: beta is what
+    // their covariance, however scaled, leaves out.
+    const double scale = out.mean_nees > 0 ? out.mean_nees / 6.0 : 1.0;
+    out.pass_error_share =
+        std::max(0.0, (nees_sum / scale - 6.0 * out.passes) / (6.0 * detections_sum));
+  }
 }
+
+// BlobEvaluation::pass_error_share: per camera, its matched blobs with no gap
+// over a second form a pass; a pass's mean error e_p of n_p blobs has
+// n_p |e_p|^2 / s^2 = 2 (1 + beta n_p) on average, s^2 the per-coordinate
+// variance of one blob's error, from the median (|e|^2 is s^2 chi-square 2,
+// median 2 ln 2 s^2) so that the few gross errors within the match radius do
+// not set it.
+void scoreBlobPasses(
+    std::map<std::string, std::vector<std::pair<TimeNs, Eigen::Vector2d>>>& by_camera,
+    const std::vector<double>& distances, BlobEvaluation& out) {
+  constexpr TimeNs kPassGap = 1'000'000'000;
+  const double median = medianOf(distances);
+  const double s2 = median * median / (2 * std::log(2.0));
+  if (!(s2 > 0)) return;
+  double nees_sum = 0, count = 0;
+  for (auto& [camera, errors] : by_camera) {
+    std::sort(errors.begin(), errors.end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (size_t begin = 0; begin < errors.size();) {
+      size_t end = begin + 1;
+      while (end < errors.size() && errors[end].first - errors[end - 1].first <= kPassGap) ++end;
+      if (end - begin >= 3) {
+        Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+        for (size_t i = begin; i < end; ++i) sum += errors[i].second;
+        const double n = static_cast<double>(end - begin);
+        nees_sum += sum.squaredNorm() / n / s2;
+        count += n;
+        ++out.passes;
+      }
+      begin = end;
+    }
+  }
+  if (out.passes > 0) {
+    out.mean_pass_nees = nees_sum / out.passes;
+    out.pass_error_share = std::max(0.0, (nees_sum - 2.0 * out.passes) / (2.0 * count));
+    out.shared_error_px = std::sqrt(out.pass_error_share * s2);
+  }
+}
+}  // namespace
 
 double medianOf(std::vector<double> values) { return quantileOf(std::move(values), 0.5); }
 
@@ -75,6 +166,7 @@ MarkerEvaluation evaluateMarkers(const GroundTruthView& truth,
   std::map<std::pair<std::string, TimeNs>, bool> found;
   double nees_sum = 0;
   int nees_count = 0;
+  std::map<std::string, std::vector<WeightedError>> errors_by_camera;
   for (const MarkerObservation& d : detections) {
     ++out.detections;
     const auto pose = truth.cameraFromMarker(d.camera, d.t);
@@ -99,6 +191,7 @@ MarkerEvaluation evaluateMarkers(const GroundTruthView& truth,
     if (!d.information.isZero()) {
       nees_sum += e.dot(d.information * e);
       ++nees_count;
+      errors_by_camera[d.camera].emplace_back(d.t, d.camera_from_marker, e, d.information);
     }
     const double distance = pose->translation.norm();
     const Eigen::Matrix3d relative =
@@ -130,6 +223,7 @@ MarkerEvaluation evaluateMarkers(const GroundTruthView& truth,
     out.bands.push_back(band);
   }
   out.mean_nees = nees_count ? nees_sum / nees_count : 0.0;
+  scorePasses(errors_by_camera, out);
   return out;
 }
 
@@ -162,6 +256,7 @@ BlobEvaluation evaluateBlobs(const GroundTruthView& truth,
                              const std::vector<BlobObservation>& observations, double match_px) {
   BlobEvaluation out;
   std::vector<double> errors;
+  std::map<std::string, std::vector<std::pair<TimeNs, Eigen::Vector2d>>> by_camera;
   for (const BlobObservation& obs : observations) {
     const CameraSensor* sensor = truth.manifest.findCamera(obs.camera);
     if (!sensor || !sensor->camera) continue;
@@ -192,12 +287,15 @@ BlobEvaluation evaluateBlobs(const GroundTruthView& truth,
         used[static_cast<size_t>(best)] = true;
         ++out.matched;
         errors.push_back(best_distance);
+        const Blob& blob = obs.blobs[static_cast<size_t>(best)];
+        by_camera[label].push_back({obs.t, Eigen::Vector2d(blob.u, blob.v) - *p});
       }
     }
     for (const bool u : used) out.false_positives += u ? 0 : 1;
   }
   out.median_error_px = medianOf(errors);
   out.p90_error_px = quantileOf(errors, 0.9);
+  scoreBlobPasses(by_camera, errors, out);
   return out;
 }
 

@@ -4,10 +4,12 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <sstream>
 
 #include "lookboth/core/error.h"
 #include "lookboth/core/scoped_environment.h"
 #include "lookboth/detect/evaluate.h"
+#include "lookboth/sim/scenario.h"
 #include "lookboth/sim/simulate.h"
 
 namespace lookboth {
@@ -263,6 +265,59 @@ TEST(DetectConfig, TheUsersFileLayersOverDefaultYaml) {
   EXPECT_DOUBLE_EQ(plain.markers.corner_sigma_px, 0.3);
   EXPECT_DOUBLE_EQ(layered.markers.max_speed_mps, 0.7);    // from default.yaml
   EXPECT_DOUBLE_EQ(layered.markers.corner_sigma_px, 0.2);  // the user's
+}
+
+// The pass statistic of evaluateMarkers against the simulator's model of
+// errors a pass shares (noise.marker_pass_share): `paper`'s detections (43
+// cameras, one pass each) with independent errors score no share, with a
+// share of 0.3 about that.
+std::vector<MarkerObservation> pathDetections(const fs::path& dir, double share) {
+  std::ifstream in(sim::builtinScenarioDirectory() / "paper.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  const std::string key = "noise: {";
+  const auto at = yaml.find(key);
+  if (at == std::string::npos) throw std::runtime_error("paper.yaml: no noise section");
+  yaml.insert(at + key.size(), "marker_pass_share: " + std::to_string(share) + ", ");
+  const fs::path scenario = dir / ("paper_share_" + std::to_string(share) + ".yaml");
+  std::ofstream(scenario) << yaml;
+  sim::SimulateOptions options;
+  options.scenario = scenario.string();
+  options.out = dir / ("paper_" + std::to_string(share) + ".rawlog");
+  options.detections_only = true;
+  options.max_duration_s = 60;
+  sim::simulate(options, ProgressReporter());
+  std::vector<MarkerObservation> markers;
+  auto reader = DatasetReader::open(options.out);
+  while (auto r = reader->next()) {
+    if (const auto* m = std::get_if<MarkerObservation>(&*r)) markers.push_back(*m);
+  }
+  return markers;
+}
+
+TEST(PassStatistics, MeasureTheShareOfTheErrorThatAPassShares) {
+  const fs::path dir = fs::temp_directory_path() / "lookboth_pass_statistics_test";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  for (const double share : {0.0, 0.3}) {
+    const auto markers = pathDetections(dir, share);
+    const GroundTruthView truth =
+        loadGroundTruth(dir / ("paper_" + std::to_string(share) + ".rawlog"));
+    const MarkerEvaluation e = evaluateMarkers(truth, markers, {}, {0.0, 100.0});
+    std::printf("share %.2f: %d passes of %.1f detections, pass NEES %.2f, measured share %.3f\n",
+                share, e.passes, e.mean_pass_detections, e.mean_pass_nees, e.pass_error_share);
+    ASSERT_GE(e.passes, 10);
+    if (share == 0) {
+      EXPECT_LT(e.pass_error_share, 0.03);
+      EXPECT_GT(e.mean_pass_nees, 4.0);
+      EXPECT_LT(e.mean_pass_nees, 8.0);
+    } else {
+      EXPECT_GT(e.pass_error_share, 0.6 * share);
+      EXPECT_LT(e.pass_error_share, 1.5 * share);
+    }
+  }
+  fs::remove_all(dir);
 }
 
 }  // namespace

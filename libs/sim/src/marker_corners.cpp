@@ -1,16 +1,18 @@
 #include "lookboth/sim/marker_corners.h"
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 
 #include "lookboth/geometry/lie.h"
+#include "lookboth/geometry/pose_perturbation.h"
 
 namespace lookboth::sim {
 namespace {
 
 using Vector8d = Eigen::Matrix<double, 8, 1>;
 using Matrix86d = Eigen::Matrix<double, 8, 6>;
-using Vector6d = Eigen::Matrix<double, 6, 1>;
 
 /// The pose moved by [dt; dtheta]: t + dt, R Exp(dtheta) (MarkerObservation's perturbation).
 Rigid3d perturbed(const Rigid3d& pose, const Vector6d& delta) {
@@ -119,6 +121,36 @@ std::optional<MarkerObservation> markerFromNoisyCorners(const Camera& camera,
   obs.corners_px.assign(corners.begin(), corners.end());
   obs.corner_sigma_px = corner_sigma_px;
   return obs;
+}
+
+void addPassBias(const std::vector<MarkerObservation*>& pass, double share, std::mt19937& rng,
+                 const Camera* camera, double marker_size_m) {
+  if (pass.empty() || !(share > 0)) return;
+  Matrix6d information = Matrix6d::Zero();
+  for (const MarkerObservation* m : pass) {
+    information += informationOnCameraPose(m->camera_from_marker, m->information);
+  }
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(0.5 * (information + information.transpose()));
+  const double scale = share * static_cast<double>(pass.size());
+  std::normal_distribution<double> gaussian(0.0, 1.0);
+  Vector6d delta = Vector6d::Zero();
+  for (int k = 0; k < 6; ++k) {
+    const double draw = gaussian(rng);
+    const double value = eig.eigenvalues()[k];
+    if (value > 0) delta += std::sqrt(scale / value) * draw * eig.eigenvectors().col(k);
+  }
+  const Eigen::Quaterniond turn = so3Exp(Eigen::Vector3d(delta.tail<3>()));
+  const auto corners = markerCornersInMarker(marker_size_m);
+  for (MarkerObservation* m : pass) {
+    const Rigid3d before = m->camera_from_marker;
+    m->camera_from_marker.rotation = (turn * before.rotation).normalized();
+    m->camera_from_marker.translation = turn * before.translation + delta.head<3>();
+    for (std::size_t k = 0; camera != nullptr && k < m->corners_px.size() && k < 4; ++k) {
+      const auto from = camera->project(before * corners[k]);
+      const auto to = camera->project(m->camera_from_marker * corners[k]);
+      if (from && to) m->corners_px[k] += *to - *from;
+    }
+  }
 }
 
 }  // namespace lookboth::sim

@@ -518,6 +518,7 @@ std::optional<std::pair<std::string, std::string>> Scenario::problem() const {
   if (auto p = range("noise.min_marker_px", noise.min_marker_px, 1, 1000)) return p;
   if (auto p = range("noise.image_margin_px", noise.image_margin_px, 0, 100)) return p;
   if (auto p = range("noise.blob_sigma_px", noise.blob_sigma_px, 0, 20)) return p;
+  if (auto p = range("noise.marker_pass_share", noise.marker_pass_share, 0, 1)) return p;
   if (auto p = range("faults.drop_probability", faults.drop_probability, 0, 0.9)) return p;
   if (auto p = range("faults.false_marker_rate", faults.false_marker_rate, 0, 1)) return p;
   if (auto p = range("faults.occlusion_probability", faults.occlusion_probability, 0, 1)) return p;
@@ -609,6 +610,7 @@ Scenario scenarioFromYaml(const std::string& yaml, const std::string& source,
     n.number("image_margin_px", scenario.noise.image_margin_px);
     n.number("blob_sigma_px", scenario.noise.blob_sigma_px);
     n.boolean("marker_corners", scenario.noise.marker_corners);
+    n.number("marker_pass_share", scenario.noise.marker_pass_share);
     n.finish();
   }
   readFaults(parser, top.sub("faults"), scenario.faults);

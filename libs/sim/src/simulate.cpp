@@ -31,8 +31,6 @@ namespace fs = std::filesystem;
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDegree = kPi / 180.0;
 
-using Matrix6d = Eigen::Matrix<double, 6, 6>;
-
 enum class EventKind : int { kGroundTruth = 0, kOdometry = 1, kFisheye = 2, kEnv = 3 };
 
 /// One thing that happens at one instant: a frame, a trajectory sample.
@@ -203,6 +201,27 @@ std::optional<Rigid3d> decoyWorldFromMarker(const Camera& camera, const Rigid3d&
   Eigen::Vector3d point = world_from_camera.translation + s * direction;
   point.z() = 0.001;
   return Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ())), point);
+}
+
+/// noise.marker_pass_share: a camera's marker detections (its events from
+/// `first`; decoys left alone) get the bias of their pass (no gap over 1 s),
+/// drawn by addPassBias from the stream pass/<camera>, one draw per pass.
+void sharePassErrors(std::vector<Event>& events, std::size_t first, const Camera& camera,
+                     const Scenario& sc, std::uint32_t seed, const std::string& label) {
+  std::vector<Event*> seen;
+  for (std::size_t i = first; i < events.size(); ++i) {
+    if (events[i].marker && !events[i].false_marker) seen.push_back(&events[i]);
+  }
+  std::int64_t pass = 0;
+  for (std::size_t begin = 0; begin < seen.size(); ++pass) {
+    std::size_t end = begin + 1;
+    while (end < seen.size() && seen[end]->t - seen[end - 1]->t <= 1.0) ++end;
+    std::vector<MarkerObservation*> members;
+    for (std::size_t i = begin; i < end; ++i) members.push_back(&*seen[i]->marker);
+    std::mt19937 rng(itemSeed(seed, "pass/" + label, pass));
+    addPassBias(members, sc.noise.marker_pass_share, rng, &camera, sc.marker.size_m);
+    begin = end;
+  }
 }
 
 // ---------------------------------------------------------------------------
@@ -463,6 +482,7 @@ std::vector<Event> buildEvents(const Setup& setup, const SimulateOptions& option
     const EnvCameraPlacement& placement = setup.placements[c];
     const Eigen::Vector2d nadir = placement.world_from_camera.translation.head<2>();
     const Rigid3d camera_from_world = placement.world_from_camera.inverse();
+    const std::size_t first_event = events.size();
     for (std::int64_t k = 0;; ++k) {
       const double t = setup.camera_phase[c] + static_cast<double>(k) * camera_period;
       if (t > last_fisheye) break;
@@ -527,6 +547,9 @@ std::vector<Event> buildEvents(const Setup& setup, const SimulateOptions& option
         if (e.occluded) ++fault_counts["occluded marker frames"];
       }
       events.push_back(std::move(e));
+    }
+    if (options.detections_only && sc.noise.marker_pass_share > 0) {
+      sharePassErrors(events, first_event, *setup.env_camera, sc, seed, placement.label);
     }
   }
 

@@ -219,6 +219,21 @@ struct JointOptions {
   /// hold (the trajectory between nodes), and rejecting against it alone
   /// throws good detections away. Reported in the warnings.
   bool estimate_variance_factor = true;
+  /// The share of a marker detection's error (of its covariance) that the
+  /// other detections of its pass share (its camera's detections with no gap
+  /// over pass_gap_s): the part of the detector's and the camera model's
+  /// error that the viewing geometry sets, which does not average out over a
+  /// pass and which the residuals cannot show (the camera's pose absorbs
+  /// it). The cameras' covariance counts it (a sandwich over the passes, in
+  /// computePassCovariance); the estimate is unchanged. 0: independent
+  /// detections. Measured by `lookboth detect --evaluate` on rendered
+  /// recordings (doc/benchmarks.md, "Marker detection: errors a pass shares").
+  double pass_error_share = 0.15;
+  /// The same for the blobs of a camera's housing in the fisheye's frames,
+  /// relative to blob_sigma_px's variance: most of a rendered blob's error is
+  /// where the housing's image sits (0.2-0.3 px), not its noise.
+  double blob_pass_error_share = 0.06;
+  double pass_gap_s = 1.0;  ///< A longer gap between a camera's detections starts a pass [s].
   /// Marker pose noise for detections without an information matrix [m], [deg].
   double default_translation_sigma_m = 0.01;
   double default_rotation_sigma_deg = 2.0;

@@ -50,6 +50,22 @@ struct MarkerEvaluation {
   /// "cam03 @ 1700000012.300000000 s: 1.234 m off" for each false positive.
   std::vector<std::string> false_positive_notes;
   double mean_nees = 0;  ///< Mean of e^T I e over correct detections (6 degrees of freedom).
+  /// Whether a pass's errors average out, as an adjustment that treats
+  /// detections as independent assumes. Per pass (a camera's correct
+  /// detections with no gap over 1 s, at least 3), each error is taken as a
+  /// perturbation delta_i of the camera's pose (the bias a pass leaves in the
+  /// camera), and the information-weighted mean delta_p = H^-1 sum I_i delta_i
+  /// (H = sum I_i) gives the NEES delta_p^T H delta_p. Independent errors give
+  /// 6 on average; errors shared across the pass (a bias of the detector or of
+  /// the camera model at that viewing geometry) give more.
+  double mean_pass_nees = 0;
+  int passes = 0;
+  double mean_pass_detections = 0;
+  /// beta of the model "each detection's error has a part shared by its pass,
+  /// of beta times its own covariance": E[NEES_p] = 6 s (1 + beta n_p), pooled
+  /// over the passes, with s = mean_nees / 6 the detections' own scale. A pass is then worth at
+  /// most 1/beta detections (CalibOptions' joint.pass_error_share uses it).
+  double pass_error_share = 0;
   double recall() const { return visible_frames ? double(detected_frames) / visible_frames : 0.0; }
 };
 
@@ -70,6 +86,16 @@ struct BlobEvaluation {
   int matched = 0;          ///< Expected ones with a blob within `match_px`.
   int false_positives = 0;  ///< Blobs matched to no housing.
   double median_error_px = 0, p90_error_px = 0;
+  /// As MarkerEvaluation's, for each housing's matched blobs (passes of at
+  /// least 3 with no gap over 1 s; errors in pixels, scaled by one blob's
+  /// error from their median): NEES of a pass's mean error (2 expected when
+  /// independent) and the share of a blob's error its pass shares.
+  int passes = 0;
+  double mean_pass_nees = 0;
+  double pass_error_share = 0;
+  /// The shared part's sigma per coordinate [px]: the joint's
+  /// blob_pass_error_share is its square over blob_sigma_px's.
+  double shared_error_px = 0;
   double recall() const { return expected ? double(matched) / expected : 0.0; }
   double falsePositivesPerFrame() const { return frames ? double(false_positives) / frames : 0.0; }
 };

@@ -8,6 +8,7 @@
 #include <array>
 #include <optional>
 #include <random>
+#include <vector>
 
 #include "lookboth/cameras/camera.h"
 #include "lookboth/dataset/manifest.h"
@@ -48,5 +49,16 @@ std::optional<MarkerObservation> markerFromNoisyCorners(const Camera& camera,
                                                         const Rigid3d& camera_from_marker,
                                                         const MarkerSpec& marker,
                                                         double corner_sigma_px, std::mt19937& rng);
+
+/// The bias a pass's detections share (DetectionNoiseSpec::marker_pass_share):
+/// one perturbation delta of the camera's pose (geometry/pose_perturbation.h)
+/// drawn from N(0, share n D^-1), n the detections, D the sum of their
+/// informations about it (6 draws from `rng`), applied to each as a camera
+/// would move (camera_from_marker -> Exp(phi) R, Exp(phi) t + rho); their
+/// corners, when they have them and `camera` is given, move with its
+/// projection of the marker's corners (`marker_size_m`). The pass's weighted
+/// mean error then has NEES 6 (1 + share n) on average.
+void addPassBias(const std::vector<MarkerObservation*>& pass, double share, std::mt19937& rng,
+                 const Camera* camera, double marker_size_m);
 
 }  // namespace lookboth::sim

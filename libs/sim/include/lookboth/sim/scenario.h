@@ -101,6 +101,17 @@ struct DetectionNoiseSpec {
   /// from them (sim/marker_corners.h); false: the pose noise model alone, no
   /// corners (what every dataset made before this option holds).
   bool marker_corners = false;
+  /// The share of a marker detection's error its pass shares (a pass: the
+  /// camera's detections with no gap over 1 s): a real detector's error
+  /// depends on the viewing geometry, which changes slowly over a pass, so it
+  /// does not average out. Each pass's detections move together by a
+  /// perturbation of the camera's pose drawn with share times n the pass's
+  /// covariance (n its detections): the model `lookboth detect --evaluate`
+  /// measures on rendered recordings (its pass_error_share; doc/benchmarks.md,
+  /// "Marker detection: errors a pass shares") and the joint's
+  /// pass_error_share assumes. 0 (the default): independent detections, so
+  /// that a scenario and seed give the same dataset with or without the option.
+  double marker_pass_share = 0;
 };
 
 struct MotionBlurBurst {
