@@ -202,7 +202,10 @@ Matrix6d JointAdjustment::informationOn(ceres::ResidualBlockId id, double* block
   }
   std::vector<double> residuals(static_cast<std::size_t>(rows));
   double cost = 0;
-  if (!Q.EvaluateResidualBlock(id, true, &cost, residuals.data(), jacobians.data()) ||
+  // (The frame poses the blob costs read are prepared once, by the caller:
+  // EvaluateResidualBlock would prepare all of them for every block.)
+  if (!Q.EvaluateResidualBlockAssumingParametersUnchanged(id, true, &cost, residuals.data(),
+                                                          jacobians.data()) ||
       !tangent.allFinite()) {
     return Matrix6d::Zero();
   }
