@@ -11,6 +11,7 @@
 
 #include "joint_adjustment.h"
 #include "lookboth/core/text.h"
+#include "lookboth/geometry/time.h"
 
 namespace lookboth::joint_detail {
 namespace {
@@ -154,7 +155,7 @@ void JointAdjustment::computePassCovariance() {
     by_camera[detections_[i].camera].push_back({detections_[i].t_camera, 0, id});
   }
   for (const BlobBlock& b : blob_blocks_) by_camera[b.camera].push_back({b.t, 1, b.id});
-  const TimeNs gap = secondsToNs(options_.pass_gap_s);
+  const TimeNs gap = secondsToNsRounded(options_.pass_gap_s);
   for (std::size_t c = 0; c < cameras_.size(); ++c) {
     double* pose = cameras_[c].pose;
     if (by_camera[c].empty() || Q.IsParameterBlockConstant(pose)) continue;
@@ -173,13 +174,12 @@ void JointAdjustment::computePassCovariance() {
       }
       std::sort(group.begin(), group.end(),
                 [](const Member& a, const Member& b) { return a.t < b.t; });
-      for (std::size_t begin = 0; begin < group.size();) {
-        std::size_t end = begin + 1;
-        while (end < group.size() && group[end].t - group[end - 1].t <= gap) ++end;
+      std::vector<TimeNs> times;
+      for (const Member& m : group) times.push_back(m.t);
+      for (const auto& [begin, end] : runsWithinGap(times, gap)) {
         Matrix6d information = Matrix6d::Zero();
         for (std::size_t k = begin; k < end; ++k) information += informationOn(group[k].id, pose);
         middle += share[kind] * static_cast<double>(end - begin) * information;
-        begin = end;
       }
     }
     const Matrix6d spread = h.solve(h.solve(middle).transpose());  // H^-1 M H^-1

@@ -387,16 +387,6 @@ std::string JointOptions::check() const {
   if (!(pass_gap_s > 0) || !std::isfinite(pass_gap_s)) {
     return "'pass_gap_s': must be positive, got " + formatDouble(pass_gap_s);
   }
-  for (const auto& [name, value] : std::initializer_list<std::pair<const char*, double>>{
-           {"pass_error_share", pass_error_share},
-           {"blob_pass_error_share", blob_pass_error_share}}) {
-    if (!(value >= 0 && value <= 1)) {
-      return std::string("'") + name + "': must be between 0 and 1, got " + formatDouble(value);
-    }
-  }
-  if (!(pass_gap_s > 0) || !std::isfinite(pass_gap_s)) {
-    return "'pass_gap_s': must be positive, got " + formatDouble(pass_gap_s);
-  }
   if (ambiguity_ratio < 1) return "'ambiguity_ratio': must be at least 1";
   if (min_detections < 1) return "'min_detections': must be at least 1";
   if (min_blobs < 1) return "'min_blobs': must be at least 1";

@@ -8,6 +8,7 @@
 #include "lookboth/dataset/dataset_io.h"
 #include "lookboth/geometry/lie.h"
 #include "lookboth/geometry/pose_perturbation.h"
+#include "lookboth/geometry/time.h"
 
 namespace lookboth {
 
@@ -32,27 +33,25 @@ struct WeightedError {
 // MarkerEvaluation::mean_pass_nees: a pass ends at a gap of over a second.
 void scorePasses(std::map<std::string, std::vector<WeightedError>>& errors_by_camera,
                  MarkerEvaluation& out) {
-  constexpr TimeNs kPassGap = 1'000'000'000;
+  constexpr TimeNs kPassGap = kNanosecondsPerSecond;
   constexpr size_t kMinDetections = 3;
   double nees_sum = 0, detections_sum = 0;
   for (auto& [camera, errors] : errors_by_camera) {
     std::sort(errors.begin(), errors.end(),
               [](const WeightedError& a, const WeightedError& b) { return a.t < b.t; });
-    for (size_t begin = 0; begin < errors.size();) {
-      size_t end = begin + 1;
-      while (end < errors.size() && errors[end].t - errors[end - 1].t <= kPassGap) ++end;
-      if (end - begin >= kMinDetections) {
-        Matrix6d h = Matrix6d::Zero();
-        Vector6d g = Vector6d::Zero();
-        for (size_t i = begin; i < end; ++i) {
-          h += errors[i].information;
-          g += errors[i].information * errors[i].delta;
-        }
-        nees_sum += g.dot(h.ldlt().solve(g));
-        detections_sum += static_cast<double>(end - begin);
-        ++out.passes;
+    std::vector<TimeNs> times;
+    for (const WeightedError& e : errors) times.push_back(e.t);
+    for (const auto& [begin, end] : runsWithinGap(times, kPassGap)) {
+      if (end - begin < kMinDetections) continue;
+      Matrix6d h = Matrix6d::Zero();
+      Vector6d g = Vector6d::Zero();
+      for (size_t i = begin; i < end; ++i) {
+        h += errors[i].information;
+        g += errors[i].information * errors[i].delta;
       }
-      begin = end;
+      nees_sum += g.dot(h.ldlt().solve(g));
+      detections_sum += static_cast<double>(end - begin);
+      ++out.passes;
     }
   }
   if (out.passes > 0) {
@@ -75,7 +74,7 @@ void scorePasses(std::map<std::string, std::vector<WeightedError>>& errors_by_ca
 void scoreBlobPasses(
     std::map<std::string, std::vector<std::pair<TimeNs, Eigen::Vector2d>>>& by_camera,
     const std::vector<double>& distances, BlobEvaluation& out) {
-  constexpr TimeNs kPassGap = 1'000'000'000;
+  constexpr TimeNs kPassGap = kNanosecondsPerSecond;
   const double median = medianOf(distances);
   const double s2 = median * median / (2 * std::log(2.0));
   if (!(s2 > 0)) return;
@@ -83,18 +82,16 @@ void scoreBlobPasses(
   for (auto& [camera, errors] : by_camera) {
     std::sort(errors.begin(), errors.end(),
               [](const auto& a, const auto& b) { return a.first < b.first; });
-    for (size_t begin = 0; begin < errors.size();) {
-      size_t end = begin + 1;
-      while (end < errors.size() && errors[end].first - errors[end - 1].first <= kPassGap) ++end;
-      if (end - begin >= 3) {
-        Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-        for (size_t i = begin; i < end; ++i) sum += errors[i].second;
-        const double n = static_cast<double>(end - begin);
-        nees_sum += sum.squaredNorm() / n / s2;
-        count += n;
-        ++out.passes;
-      }
-      begin = end;
+    std::vector<TimeNs> times;
+    for (const auto& e : errors) times.push_back(e.first);
+    for (const auto& [begin, end] : runsWithinGap(times, kPassGap)) {
+      if (end - begin < 3) continue;
+      Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+      for (size_t i = begin; i < end; ++i) sum += errors[i].second;
+      const double n = static_cast<double>(end - begin);
+      nees_sum += sum.squaredNorm() / n / s2;
+      count += n;
+      ++out.passes;
     }
   }
   if (out.passes > 0) {

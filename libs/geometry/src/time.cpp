@@ -109,4 +109,16 @@ TimeNs fromMrptTime(mrpt::Clock::time_point t) {
   return since_unix * kNanosecondsPerMrptTick;
 }
 
+std::vector<std::pair<std::size_t, std::size_t>> runsWithinGap(const std::vector<TimeNs>& sorted,
+                                                               TimeNs max_gap) {
+  std::vector<std::pair<std::size_t, std::size_t>> runs;
+  for (std::size_t begin = 0; begin < sorted.size();) {
+    std::size_t end = begin + 1;
+    while (end < sorted.size() && sorted[end] - sorted[end - 1] <= max_gap) ++end;
+    runs.emplace_back(begin, end);
+    begin = end;
+  }
+  return runs;
+}
+
 }  // namespace lookboth

@@ -79,5 +79,13 @@ TEST(Time, DoubleSecondsConversions) {
   EXPECT_THROW(secondsToNsRounded(std::nan("")), Error);
 }
 
+TEST(Time, RunsWithinGapSplitAtLongerGapsOnly) {
+  using Runs = std::vector<std::pair<std::size_t, std::size_t>>;
+  EXPECT_EQ(runsWithinGap({}, 10), Runs{});
+  EXPECT_EQ(runsWithinGap({5}, 10), (Runs{{0, 1}}));
+  // A gap of exactly max_gap stays inside the run; one more nanosecond splits it.
+  EXPECT_EQ(runsWithinGap({0, 10, 20, 31, 41, 100}, 10), (Runs{{0, 3}, {3, 5}, {5, 6}}));
+}
+
 }  // namespace
 }  // namespace lookboth

@@ -17,6 +17,7 @@
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
 #include "lookboth/geometry/lie.h"
+#include "lookboth/geometry/time.h"
 #include "lookboth/sim/marker_corners.h"
 #include "lookboth/sim/motion.h"
 #include "lookboth/sim/render.h"
@@ -212,15 +213,14 @@ void sharePassErrors(std::vector<Event>& events, std::size_t first, const Camera
   for (std::size_t i = first; i < events.size(); ++i) {
     if (events[i].marker && !events[i].false_marker) seen.push_back(&events[i]);
   }
+  std::vector<TimeNs> times;
+  for (const Event* e : seen) times.push_back(secondsToNsRounded(e->t));
   std::int64_t pass = 0;
-  for (std::size_t begin = 0; begin < seen.size(); ++pass) {
-    std::size_t end = begin + 1;
-    while (end < seen.size() && seen[end]->t - seen[end - 1]->t <= 1.0) ++end;
+  for (const auto& [begin, end] : runsWithinGap(times, kNanosecondsPerSecond)) {
     std::vector<MarkerObservation*> members;
     for (std::size_t i = begin; i < end; ++i) members.push_back(&*seen[i]->marker);
-    std::mt19937 rng(itemSeed(seed, "pass/" + label, pass));
+    std::mt19937 rng(itemSeed(seed, "pass/" + label, pass++));
     addPassBias(members, sc.noise.marker_pass_share, rng, &camera, sc.marker.size_m);
-    begin = end;
   }
 }
 

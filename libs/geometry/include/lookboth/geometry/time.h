@@ -13,6 +13,8 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 namespace lookboth {
 
@@ -39,6 +41,11 @@ TimeNs secondsToNsRounded(double seconds);
 std::optional<TimeNs> parseSeconds(std::string_view text);
 /// "1305031102.175304000": seconds with exactly 9 decimals; reads back exactly with parseSeconds.
 std::string formatSeconds(TimeNs t);
+
+/// The runs of ascending times in which no two neighbours are more than
+/// `max_gap` apart, as [begin, end) index pairs: a camera's passes.
+std::vector<std::pair<std::size_t, std::size_t>> runsWithinGap(const std::vector<TimeNs>& sorted,
+                                                               TimeNs max_gap);
 
 /// True when t is a whole number of MRPT ticks (a multiple of 100 ns).
 constexpr bool isExactMrptTime(TimeNs t) { return t % kNanosecondsPerMrptTick == 0; }
