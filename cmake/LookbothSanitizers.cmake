@@ -20,7 +20,7 @@ option(LOOKBOTH_FUZZ "Build the libFuzzer targets (libs/*/fuzz); needs clang" OF
 # UBSan doubles the compile time of optimised template-heavy code (Ceres,
 # Eigen); these modules' libraries are compiled without optimisation, as the
 # sanitizer tests and fuzz targets run little of their code (option parsing).
-set(LOOKBOTH_SANITIZE_O0_MODULES calib detect vo report studio CACHE STRING
+set(LOOKBOTH_SANITIZE_O0_MODULES solver calib detect vo report pipeline studio CACHE STRING
   "Modules whose library is compiled at -O0 in sanitizer builds")
 
 # A unit test's time limit [s]: the sanitizers make the rendering,

@@ -35,12 +35,12 @@
 #include <opencv2/imgproc.hpp>
 
 #include "image_view.h"
-#include "lookboth/calib/full_pipeline.h"
 #include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
 #include "lookboth/core/version.h"
 #include "lookboth/dataset/rosbag_import.h"
+#include "lookboth/pipeline/full_pipeline.h"
 #include "lookboth/report/draw.h"
 #include "lookboth/report/report.h"
 #include "lookboth/report/snapshot.h"

@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "lookboth/calib/full_pipeline.h"
-#include "lookboth/calib/pipeline.h"
+#include "lookboth/pipeline/full_pipeline.h"
+#include "lookboth/pipeline/registration_controller.h"
 #include "lookboth/studio/dataset_index.h"
 #include "lookboth/studio/job_runner.h"
 

@@ -4,11 +4,11 @@
 #include <iostream>
 
 #include "commands.h"
-#include "lookboth/calib/full_pipeline.h"
-#include "lookboth/calib/pipeline.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/progress.h"
 #include "lookboth/dataset/dataset_io.h"
+#include "lookboth/pipeline/full_pipeline.h"
+#include "lookboth/pipeline/registration_controller.h"
 #include "signals.h"
 
 namespace lookboth::app {

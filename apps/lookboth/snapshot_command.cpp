@@ -5,11 +5,11 @@
 #include <iostream>
 
 #include "commands.h"
-#include "lookboth/calib/registration.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/output_path.h"
 #include "lookboth/core/progress.h"
 #include "lookboth/dataset/dataset_io.h"
+#include "lookboth/registration/registration.h"
 #include "lookboth/report/snapshot.h"
 #include "signals.h"
 

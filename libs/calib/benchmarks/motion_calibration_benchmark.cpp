@@ -11,7 +11,8 @@
 #include <opencv2/core/eigen.hpp>
 
 #include "../tests/synthetic.h"
-#include "lookboth/calib/stages.h"
+#include "lookboth/calib/associate.h"
+#include "lookboth/calib/motion_calibration.h"
 #include "lookboth/geometry/lie.h"
 
 namespace {

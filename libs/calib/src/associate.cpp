@@ -4,7 +4,7 @@
 // time is t - clock_offset(camera) (node clock - robot clock, 0 unless configured).
 #include <algorithm>
 
-#include "lookboth/calib/stages.h"
+#include "lookboth/calib/associate.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
 

@@ -52,11 +52,11 @@
 #include <string>
 #include <vector>
 
-#include "fill_reducing_ordering.h"
 #include "joint_bracket.h"
-#include "lookboth/calib/stages.h"
+#include "lookboth/calib/joint.h"
 #include "lookboth/cameras/camera.h"
-#include "sparse_covariance.h"
+#include "lookboth/solver/fill_reducing_ordering.h"
+#include "lookboth/solver/sparse_covariance.h"
 
 namespace lookboth::joint_detail {
 
@@ -281,11 +281,11 @@ class JointAdjustment {
   // below 1; the costs and the rejection are scaled by it.
   double variance_factor_[2] = {1.0, 1.0};
   ceres::Solver::Options solver_;
-  calib_detail::FillOrderingMethod fill_method_ = calib_detail::FillOrderingMethod::kAuto;
+  FillOrderingMethod fill_method_ = FillOrderingMethod::kAuto;
   struct {
     bool made = false;
     double residuals = 0;  // residual blocks of the round it was made on
-    calib_detail::FillOrderingMethod method = calib_detail::FillOrderingMethod::kAmd;
+    FillOrderingMethod method = FillOrderingMethod::kAmd;
   } ordering_choice_;          // auto's last choice
   std::string ordering_note_;  // verbose: the round's ordering
   // The losses and the frame-pose cache are shared by many blocks: the
@@ -338,7 +338,7 @@ class JointAdjustment {
 
   // Results.
   std::vector<int> used_, rejected_;  // detections per camera
-  calib_detail::SparseCovariance covariance_;
+  SparseCovariance covariance_;
   bool have_covariance_ = false;
   bool scale_covariance_ = false;  // the scales' covariance is computed
   // The cameras' positions after a rigid alignment (aligned_position_rmse_m).

@@ -11,9 +11,6 @@
 
 namespace lookboth::joint_detail {
 
-using calib_detail::poseError;
-using calib_detail::poseFromParams;
-
 constexpr std::size_t kMaxParams = 64;  // camera model parameters a cost can carry
 
 // Where a time falls between two nodes and the reference trajectory there.

@@ -14,9 +14,6 @@
 namespace lookboth::joint_detail {
 namespace {
 
-using calib_detail::paramsToPose;
-using calib_detail::poseToParams;
-
 // A blob frame and world_from_fisheye there.
 using BlobView = std::pair<const BlobObservation*, Rigid3d>;
 

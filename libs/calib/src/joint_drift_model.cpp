@@ -42,7 +42,7 @@ bool JointAdjustment::updateDriftModel() {
   for (const JointCamera& c : cameras_) want(c.pose, c.pose);
   want(x_params_, x_params_);
   prepareFramePoses();
-  calib_detail::SparseCovariance cov;
+  SparseCovariance cov;
   if (!cov.compute(pairs, &Q, options_.threads)) {
     result_.warnings.push_back("joint: the drift model could not be estimated (" + cov.message() +
                                "); the configured one was used, so the reported uncertainty "

@@ -16,8 +16,6 @@
 namespace lookboth::joint_detail {
 namespace {
 
-using calib_detail::paramsToPose;
-
 const char* kComponentNames[6] = {
     "x", "y", "z", "roll (about x)", "pitch (about y)", "yaw (about z)"};
 

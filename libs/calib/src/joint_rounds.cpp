@@ -14,13 +14,6 @@
 
 namespace lookboth::joint_detail {
 
-using calib_detail::FillOrdering;
-using calib_detail::FillOrderingMethod;
-using calib_detail::fillOrderingMethodName;
-using calib_detail::newPoseManifold;
-using calib_detail::paramsToPose;
-using calib_detail::solverOrdering;
-
 void JointAdjustment::solveRounds() {
   lap();
   for (int round = 0; round < max_rounds_; ++round) {

@@ -10,7 +10,6 @@ namespace lookboth {
 namespace joint_detail {
 namespace {
 
-using calib_detail::poseToParams;
 using calib_detail::sqrtInformation;
 
 // A detection's square-root information: its own, or the configured sigmas
@@ -265,8 +264,8 @@ void JointAdjustment::configureSolver() {
   } else {
     solver_.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   }
-  calib_detail::parseFillOrderingMethod(options_.fill_reducing_ordering,
-                                        &fill_method_);  // check()ed
+  parseFillOrderingMethod(options_.fill_reducing_ordering,
+                          &fill_method_);  // check()ed
   solver_.max_num_iterations = options_.max_iterations;
   solver_.num_threads = options_.threads;
   solver_.function_tolerance = options_.function_tolerance;

@@ -12,7 +12,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "lookboth/calib/stages.h"
+#include "lookboth/calib/look_down.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
 #include "pose_costs.h"
@@ -21,11 +21,6 @@ namespace lookboth {
 namespace {
 
 using calib_detail::meanRotation;
-using calib_detail::newPoseManifold;
-using calib_detail::paramsToPose;
-using calib_detail::poseError;
-using calib_detail::poseErrorD;
-using calib_detail::poseToParams;
 using calib_detail::sqrtInformation;
 
 constexpr double kDeg = M_PI / 180.0;
@@ -35,7 +30,7 @@ struct LookDownCost {
       : world_from_marker(world_from_marker), measured(measured), sqrt_info(sqrt_info) {}
   template <typename T>
   bool operator()(const T* world_from_camera_params, T* residual) const {
-    const Rigid3<T> world_from_camera = calib_detail::poseFromParams(world_from_camera_params);
+    const Rigid3<T> world_from_camera = poseFromParams(world_from_camera_params);
     const Rigid3<T> predicted = world_from_camera.inverse() * world_from_marker.cast<T>();
     Eigen::Map<Eigen::Matrix<T, 6, 1>> r(residual);
     r = sqrt_info.cast<T>() * poseError(predicted, measured);

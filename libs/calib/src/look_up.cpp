@@ -15,7 +15,7 @@
 #include <variant>
 
 #include "blob_association.h"
-#include "lookboth/calib/stages.h"
+#include "lookboth/calib/look_up.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
 #include "pose_costs.h"

@@ -27,7 +27,7 @@
 #include <limits>
 #include <sstream>
 
-#include "lookboth/calib/stages.h"
+#include "lookboth/calib/motion_calibration.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
 #include "pose_costs.h"
@@ -36,10 +36,6 @@ namespace lookboth {
 namespace {
 
 using calib_detail::angleOf;
-using calib_detail::newPoseManifold;
-using calib_detail::paramsToPose;
-using calib_detail::poseFromParams;
-using calib_detail::poseToParams;
 using calib_detail::sqrtInformation;
 
 constexpr double kDeg = M_PI / 180.0;

@@ -2,9 +2,9 @@
 // layer sets the keys it has; unknown keys are errors) and checks.
 #include <cmath>
 
-#include "fill_reducing_ordering.h"
-#include "lookboth/calib/stages.h"
+#include "lookboth/calib/builtin_stages.h"
 #include "lookboth/core/text.h"
+#include "lookboth/solver/fill_reducing_ordering.h"
 
 namespace lookboth {
 namespace {
@@ -424,8 +424,7 @@ std::string JointOptions::check() const {
            "'" +
            linear_solver + "'";
   }
-  if (calib_detail::FillOrderingMethod method;
-      !calib_detail::parseFillOrderingMethod(fill_reducing_ordering, &method)) {
+  if (FillOrderingMethod method; !parseFillOrderingMethod(fill_reducing_ordering, &method)) {
     return "'fill_reducing_ordering': must be auto, amd or nested_dissection, got '" +
            fill_reducing_ordering + "'";
   }

@@ -1,7 +1,7 @@
 #include <sstream>
 
-#include "lookboth/calib/stage.h"
-#include "lookboth/calib/stages.h"
+#include "lookboth/calib/builtin_stages.h"
+#include "lookboth/calib/stage_registry.h"
 #include "lookboth/core/error.h"
 
 namespace lookboth {

@@ -19,7 +19,7 @@ using joint_detail::FramePoseCache;
 // A pose block's Jacobian (rows x 7, stored numbers) times the manifold's
 // PlusJacobian: the tangent Jacobian (rows x 6) that Ceres uses.
 Eigen::MatrixXd tangentJacobian(const double* block, const double* jacobian, int rows) {
-  const std::unique_ptr<ceres::Manifold> manifold(calib_detail::newPoseManifold());
+  const std::unique_ptr<ceres::Manifold> manifold(newPoseManifold());
   Eigen::Matrix<double, 7, 6, Eigen::RowMajor> plus;
   manifold->PlusJacobian(block, plus.data());
   const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 7, Eigen::RowMajor>> j(jacobian,
@@ -92,7 +92,7 @@ TEST(JointCosts, RelativeMotionWeighsVerticalAndTiltByTheirRatios) {
       moved.rotation = so3Exp(w);
     }
     double b[7];
-    calib_detail::poseToParams(moved, b);
+    poseToParams(moved, b);
     double r[6];
     ASSERT_TRUE(cost(a, b, &scale, r));
     const double sigma = axis == 2   ? 0.002 * 0.1
@@ -163,14 +163,14 @@ TEST(JointCosts, CachedBlobCostMatchesTheAutodiffReference) {
     Rigid3d ref_k, ref_k1;
     Bracket b = randomBracket(rng, &ref_k, &ref_k1);
     double nk[7], nk1[7], camera[7];
-    calib_detail::poseToParams(ref_k * randomPose(rng, 0.01, 0.005), nk);
-    calib_detail::poseToParams(ref_k1 * randomPose(rng, 0.01, 0.005), nk1);
+    poseToParams(ref_k * randomPose(rng, 0.01, 0.005), nk);
+    poseToParams(ref_k1 * randomPose(rng, 0.01, 0.005), nk1);
     // A ceiling camera 3 m above the frame, within the fisheye's view.
     const Rigid3d world_from_fisheye = joint_detail::poseAt<double>(b, nk, nk1, b.tau_ref_s);
     const Eigen::Vector3d in_fisheye(4 * (u(rng) - 0.5), 4 * (u(rng) - 0.5), 3.0);
     const Rigid3d world_from_camera(so3Exp(Eigen::Vector3d(3 * u(rng), 0.1, -0.2)),
                                     world_from_fisheye * in_fisheye);
-    calib_detail::poseToParams(world_from_camera, camera);
+    poseToParams(world_from_camera, camera);
     const Eigen::Vector3d offset(0.01, -0.02, 0.03);
     const Eigen::Vector2d observed(320 + 20 * u(rng), 180 + 20 * u(rng));
 
@@ -223,8 +223,8 @@ TEST(JointCosts, TimeOutsideItsBracketHoldsTheNearerNodesCorrection) {
     double nk[7], nk1[7];
     const Rigid3d node_k = ref_k * randomPose(rng, 0.01, 0.005);
     const Rigid3d node_k1 = ref_k1 * randomPose(rng, 0.01, 0.005);
-    calib_detail::poseToParams(node_k, nk);
-    calib_detail::poseToParams(node_k1, nk1);
+    poseToParams(node_k, nk);
+    poseToParams(node_k1, nk1);
     for (const double tau : {-0.35, -0.01, 0.13, 2.0}) {
       const bool before = tau < 0;
       const Rigid3d correction = before ? node_k * b.ref_inverse_k : node_k1 * b.ref_inverse_k1;
@@ -248,11 +248,11 @@ TEST(JointCosts, TimeOutsideItsBracketHoldsTheNearerNodesCorrection) {
 // The pose manifold's Jacobians written out against AutoDiffManifold's.
 TEST(JointCosts, PoseManifoldMatchesAutodiff) {
   std::mt19937 rng(3);
-  const ceres::AutoDiffManifold<calib_detail::RightPerturbedPose, 7, 6> reference;
-  const std::unique_ptr<ceres::Manifold> manifold(calib_detail::newPoseManifold());
+  const ceres::AutoDiffManifold<RightPerturbedPose, 7, 6> reference;
+  const std::unique_ptr<ceres::Manifold> manifold(newPoseManifold());
   for (int trial = 0; trial < 20; ++trial) {
     double x[7], delta[6] = {0.1, -0.2, 0.3, 0.02, -0.01, 0.03}, y0[7], y1[7], m0[6], m1[6];
-    calib_detail::poseToParams(randomPose(rng, 2.0, 1.0), x);
+    poseToParams(randomPose(rng, 2.0, 1.0), x);
     Eigen::Matrix<double, 7, 6, Eigen::RowMajor> p0, p1;
     Eigen::Matrix<double, 6, 7, Eigen::RowMajor> n0, n1;
     ASSERT_TRUE(reference.PlusJacobian(x, p0.data()));
@@ -278,15 +278,15 @@ TEST(JointCosts, PoseManifoldMatchesAutodiff) {
 // the nodes up to 2.5 rad.
 TEST(JointCosts, PoseAtJacobianMatchesJets) {
   std::mt19937 rng(21);
-  const std::unique_ptr<ceres::Manifold> manifold(calib_detail::newPoseManifold());
+  const std::unique_ptr<ceres::Manifold> manifold(newPoseManifold());
   int compared = 0;
   for (int trial = 0; trial < 40; ++trial) {
     Rigid3d ref_k, ref_k1;
     const Bracket b = randomMovingBracket(rng, &ref_k, &ref_k1);
     double nk[7], nk1[7];
     const double spread = trial < 20 ? 0.005 : 0.5;  // the nodes' rotations apart
-    calib_detail::poseToParams(ref_k * randomPose(rng, 0.01, spread), nk);
-    calib_detail::poseToParams(ref_k1 * randomPose(rng, 0.01, spread), nk1);
+    poseToParams(ref_k * randomPose(rng, 0.01, spread), nk);
+    poseToParams(ref_k1 * randomPose(rng, 0.01, spread), nk1);
     for (const double tau : {-0.05, 0.0, 0.013, 0.061, 0.1, 0.3}) {
       joint_detail::PoseAtJacobian d;
       const Rigid3d pose = joint_detail::poseAtWithJacobian(b, nk, nk1, tau, &d);
@@ -342,11 +342,11 @@ TEST(JointCosts, AnalyticMarkerCostsMatchTheAutodiffReference) {
     Rigid3d ref_k, ref_k1;
     const Bracket b = randomMovingBracket(rng, &ref_k, &ref_k1);
     double nk[7], nk1[7], x[7], camera[7], offset = 0.004 * (u(rng) - 0.5);
-    calib_detail::poseToParams(ref_k * randomPose(rng, 0.01, 0.005), nk);
-    calib_detail::poseToParams(ref_k1 * randomPose(rng, 0.01, 0.005), nk1);
+    poseToParams(ref_k * randomPose(rng, 0.01, 0.005), nk);
+    poseToParams(ref_k1 * randomPose(rng, 0.01, 0.005), nk1);
     const Rigid3d fisheye_from_marker(so3Exp(Eigen::Vector3d(0.02, -0.01, 1.5 * u(rng))),
                                       Eigen::Vector3d(0.01, -0.15, -0.05));
-    calib_detail::poseToParams(fisheye_from_marker, x);
+    poseToParams(fisheye_from_marker, x);
     const double tau = 0.1 * u(rng);
     // A camera 3 m above the marker, looking down at it.
     const Rigid3d world_from_marker =
@@ -357,7 +357,7 @@ TEST(JointCosts, AnalyticMarkerCostsMatchTheAutodiffReference) {
     const Rigid3d world_from_camera(
         down.rotation, world_from_marker * Eigen::Vector3d(0.3 * u(rng), 0.2 * u(rng), 0.0) +
                            Eigen::Vector3d(0, 0, 3.0));
-    calib_detail::poseToParams(world_from_camera, camera);
+    poseToParams(world_from_camera, camera);
     const Rigid3d measured =
         world_from_camera.inverse() * world_from_marker * randomPose(rng, 0.01, 0.02);
 
@@ -422,9 +422,8 @@ TEST(JointCosts, CacheRecomputesAtANewPointAndWhenJacobiansAreAskedLater) {
   b.duration_s = 0.1;
   b.tau_ref_s = 0.04;
   double nk[7], nk1[7];
-  calib_detail::poseToParams(Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(1, 0, 0)), nk);
-  calib_detail::poseToParams(Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(2, 0, 0)),
-                             nk1);
+  poseToParams(Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(1, 0, 0)), nk);
+  poseToParams(Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(2, 0, 0)), nk1);
   FramePoseCache cache;
   const std::size_t slot = cache.add(b, nk, nk1);
   cache.PrepareForEvaluation(false, true);

@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 #include <cmath>
 
-#include "lookboth/calib/stages.h"
+#include "lookboth/calib/builtin_stages.h"
 #include "lookboth/core/error.h"
 #include "lookboth/geometry/lie.h"
 #include "lookboth/sim/marker_corners.h"

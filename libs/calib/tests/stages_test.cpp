@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "lookboth/calib/stages.h"
+#include "lookboth/calib/builtin_stages.h"
 #include "lookboth/geometry/lie.h"
 #include "synthetic.h"
 

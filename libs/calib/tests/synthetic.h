@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "lookboth/calib/problem.h"
-#include "lookboth/calib/registration.h"
+#include "lookboth/registration/registration.h"
 
 namespace lookboth::testing {
 

@@ -1,8 +1,8 @@
 // The bridge from libs/calib's Registration to what evaluation and pictures need.
 #include <cmath>
 
-#include "lookboth/calib/registration.h"
 #include "lookboth/core/error.h"
+#include "lookboth/registration/registration.h"
 #include "lookboth/report/evaluate.h"
 #include "lookboth/report/snapshot.h"
 

@@ -8,13 +8,13 @@
 #include <fstream>
 #include <sstream>
 
-#include "lookboth/calib/registration.h"
 #include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/temporary_files.h"
 #include "lookboth/core/text.h"
 #include "lookboth/core/version.h"
 #include "lookboth/dataset/dataset_io.h"
+#include "lookboth/registration/registration.h"
 
 namespace lookboth::report {
 namespace fs = std::filesystem;

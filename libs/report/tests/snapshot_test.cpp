@@ -9,9 +9,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <random>
 
-#include "lookboth/calib/pipeline.h"
 #include "lookboth/core/error.h"
 #include "lookboth/geometry/tum.h"
+#include "lookboth/pipeline/registration_controller.h"
 #include "lookboth/report/draw.h"
 #include "lookboth/report/overview.h"
 #include "lookboth/report/snapshot.h"

@@ -8,8 +8,8 @@
 
 #include <filesystem>
 
-#include "lookboth/calib/registration.h"
 #include "lookboth/dataset/dataset_io.h"
+#include "lookboth/registration/registration.h"
 
 namespace lookboth::report::testing {
 

@@ -1,7 +1,8 @@
 // The shared state of a registration: what the estimation stages read and
-// write. A stage (lookboth/calib/stage.h) takes a RegistrationProblem, checks
+// write. A stage (lookboth/calib/stage_registry.h) takes a RegistrationProblem, checks
 // that what it needs is there (e.g. look_down needs fisheye_from_marker) and
-// adds its results; the controller (pipeline.h) only runs stages in order.
+// adds its results; the controller (lookboth/pipeline/registration_controller.h) only runs stages
+// in order.
 //
 // Frames (doc/conventions.md): the trajectory is world_from_fisheye, up to
 // the metric scale `scale` in visual mode: the metric pose is
@@ -15,10 +16,10 @@
 #include <string>
 #include <vector>
 
-#include "lookboth/calib/registration.h"
 #include "lookboth/dataset/manifest.h"
 #include "lookboth/dataset/records.h"
 #include "lookboth/geometry/trajectory.h"
+#include "lookboth/registration/registration.h"
 
 namespace lookboth {
 

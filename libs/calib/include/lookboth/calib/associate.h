@@ -1,0 +1,29 @@
+// The stage "associate": the robot's pose at each detection's time (linear
+// interpolation and slerp on the trajectory, never extrapolated; detections in
+// a gap or outside the trajectory are dropped and counted).
+#pragma once
+#include <Eigen/Geometry>
+#include <map>
+#include <optional>
+#include <string>
+
+#include "lookboth/calib/problem.h"
+#include "lookboth/calib/stage_registry.h"
+
+namespace lookboth {
+
+struct AssociateOptions {
+  /// Largest interval between the two trajectory samples around a detection
+  /// across which the pose is interpolated [s]; detections in longer gaps are dropped.
+  double max_gap_s = 0.5;
+  /// Known clock offsets, node clock minus robot clock, by camera label [ns]
+  /// (0 when absent: NTP-synchronised nodes, as in the paper).
+  std::map<std::string, TimeNs> clock_offsets_ns;
+  void read(const YamlReader& reader, const YAML::Node& node, const std::string& field);
+  std::string check() const;
+};
+
+void runAssociate(RegistrationProblem& problem, const AssociateOptions& options,
+                  const ProgressReporter& progress);
+
+}  // namespace lookboth

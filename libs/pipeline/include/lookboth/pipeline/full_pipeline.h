@@ -1,0 +1,109 @@
+// The whole job from a recording to a registration, for the command line
+// (`lookboth register`) and the desktop app alike:
+//   1. detect   - when the dataset has frames but not their detections
+//                 (markers in environment cameras, blobs in the fisheye);
+//   2. odometry - in visual mode, when the dataset has no VO trajectory
+//                 (the result is added to the dataset as trajectory "vo");
+//   3. register - the configured stages (RegistrationController);
+//   4. output   - the registration directory, written atomically.
+// Steps 1-2 add their results to the dataset through augmentDataset (a
+// complete new dataset swapped in, never a half-written one), so that the
+// next run, the report and the desktop app find them; each says so in its
+// step line. With write_back off they go to a temporary copy beside the
+// output instead (images hard-linked for a folder, copied for a rawlog),
+// removed when the run ends: the dataset is not touched.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "lookboth/core/progress.h"
+#include "lookboth/pipeline/registration_controller.h"
+
+namespace lookboth {
+
+struct FullPipelineOptions {
+  std::filesystem::path dataset;
+  std::filesystem::path out;  ///< The registration directory.
+  bool overwrite = false;     ///< Replace an existing `out`.
+  /// Which trajectory to register with. With choose_trajectory set, mode and
+  /// trajectory_label are chosen from the dataset (chooseTrajectory) and a
+  /// step line says which; else they are used as given.
+  bool choose_trajectory = false;
+  TrajectoryMode mode = TrajectoryMode::kVisual;
+  std::string trajectory_label;           ///< "" = "vo" (visual) or "odometry" (metric).
+  std::filesystem::path trajectory_file;  ///< A TUM file instead of a dataset trajectory.
+  std::optional<std::filesystem::path> config_file;  ///< Over share/lookboth/config/default.yaml.
+  bool auto_detect = true;                           ///< Run detection when detections are missing.
+  bool auto_odometry = true;  ///< Run odometry when the visual trajectory is missing.
+  int threads = 0;            ///< Detection threads (0 = one per core).
+  bool write_back = true;     ///< Add detections and odometry to the dataset (see above).
+  /// Problems found in the input as it is read (rows dropped, frames skipped).
+  std::function<void(const DatasetIssue&)> on_issue;
+  std::string check() const;
+};
+
+/// What the dataset holds, for deciding which steps are needed.
+struct DatasetContents {
+  std::int64_t fisheye_frames = 0;
+  std::int64_t camera_frames = 0;  ///< Environment cameras' frames.
+  std::int64_t markers = 0;
+  std::int64_t blob_records = 0;
+  std::vector<TrajectoryInfo> trajectories;  ///< As the manifest describes them.
+  bool hasTrajectory(const std::string& label) const;
+};
+DatasetContents inspectDataset(const std::filesystem::path& dataset,
+                               const ProgressReporter& progress);
+
+/// The trajectory a registration uses when the user names none, and why.
+struct TrajectoryChoice {
+  TrajectoryMode mode = TrajectoryMode::kVisual;
+  std::string label;   ///< The dataset trajectory ("vo" also when odometry must make it).
+  std::string reason;  ///< One line for the user: what was chosen and how to choose another.
+};
+/// The dataset's own description decides, in this order (ground truth never):
+///   1. its visual odometry "vo" (visual mode);
+///   2. its only trajectory marked not metric (visual mode: the scale is
+///      estimated), e.g. the user's own monocular SLAM;
+///   3. "vo" made by `lookboth odometry` when it has fisheye frames;
+///   4. its metric trajectory "odometry", else its only metric one (metric mode).
+/// Throws lookboth::Error listing the trajectories when none of these applies
+/// or the choice is ambiguous (several unscaled ones).
+TrajectoryChoice chooseTrajectory(const std::filesystem::path& dataset,
+                                  const DatasetContents& contents);
+
+/// What one step did: whether it ran, and a line saying what it did or why
+/// it was skipped ("detect: 120 marker detections, ...").
+struct StepOutcome {
+  bool ran = false;
+  std::string summary;
+};
+
+/// Step 1 alone: detection when `contents` (of options.dataset) shows frames
+/// without their detections and options.auto_detect is set; else skipped.
+/// (options.out is not used.)
+/// `out`: where the augmented dataset goes (empty: into options.dataset).
+StepOutcome runDetectStep(const FullPipelineOptions& options, const DatasetContents& contents,
+                          const ProgressReporter& progress, const std::filesystem::path& out = {});
+/// Step 2 alone: visual odometry in visual mode when the dataset has no VO
+/// trajectory; else skipped. Throws lookboth::Error when it is needed but
+/// cannot run (no fisheye frames, auto_odometry off, another label).
+StepOutcome runOdometryStep(const FullPipelineOptions& options, const DatasetContents& contents,
+                            const ProgressReporter& progress,
+                            const std::filesystem::path& out = {});
+
+struct FullPipelineResult {
+  std::vector<std::string> steps;  ///< One line per step run or skipped, and why.
+  RegistrationRun run;
+};
+
+/// Runs the steps above. Throws lookboth::Error on bad input (naming the
+/// file or camera), StopRequested when stopped (the dataset stays complete:
+/// either as it was or with the finished steps' additions).
+FullPipelineResult runFullPipeline(const FullPipelineOptions& options,
+                                   const ProgressReporter& progress);
+
+}  // namespace lookboth
