@@ -5,6 +5,7 @@ set -euo pipefail
 
 PACKAGES=(
   build-essential cmake ninja-build pkg-config clang-format time
+  universal-ctags  # function lengths (scripts/check-function-length.sh)
   libeigen3-dev libceres-dev libsuitesparse-dev libopengv-dev
   libmrpt-dev mrpt-apps
   libopencv-dev libopencv-contrib-dev

@@ -365,132 +365,153 @@ struct Direction {
   enum Kind { kTranslation, kRotation, kScale } kind = kTranslation;
 };
 
-}  // namespace
+// The stage's steps in order, each a method: the pairs of detections, the
+// linear start, two solves (the weights depend on R_X), what the motion
+// determines, the priors for the rest, and the results.
+class MotionCalibration {
+ public:
+  MotionCalibration(RegistrationProblem& problem, const MotionCalibrationOptions& options)
+      : problem_(problem),
+        options_(options),
+        scale_free_(problem.input.mode == TrajectoryMode::kVisual) {}
 
-void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationOptions& options,
-                          const ProgressReporter& progress) {
-  if (!problem.associated) {
-    throw Error("motion_calibration needs associated detections: put 'associate' before it");
+  void run(const ProgressReporter& progress) {
+    progress.report("motion_calibration", 0, 3);
+    makePairs();
+    initialise();
+    progress.report("motion_calibration", 1, 3);
+    progress.checkStop();
+    // Two rounds: the whitening (and, with translation_from_camera_orientation,
+    // t_B itself) depends on R_X. Iterating this to a fixed point is unstable
+    // with noisy detections (measured on small_det: 0.2 m), so it stays at two.
+    solve(false);
+    progress.checkStop();
+    information_ = solve(false);
+    progress.report("motion_calibration", 2, 3);
+    classifyDirections();
+    describeObservability();
+    writeResults();
+    progress.report("motion_calibration", 3, 3);
   }
-  progress.report("motion_calibration", 0, 3);
-  const bool scale_free = problem.input.mode == TrajectoryMode::kVisual;
-  const TimeNs min_dt = static_cast<TimeNs>(options.min_pair_interval_s * 1e9);
-  const TimeNs max_dt = static_cast<TimeNs>(options.max_pair_interval_s * 1e9);
 
-  // Pairs of detections of one camera.
-  std::vector<MotionPair> pairs;
-  std::vector<Matrix6d> covariances(problem.associations.size());
-  const double default_t = 0.01, default_r = 2.0 * kDeg;
-  for (std::size_t a = 0; a < problem.associations.size(); ++a) {
-    covariances[a] =
-        detectionCovariance(problem.marker(problem.associations[a]), default_t, default_r);
-  }
-  std::vector<std::vector<std::size_t>> detections_of_camera;
-  for (const auto& [label, indices] : problem.associations_by_camera) {
-    detections_of_camera.push_back(indices);
-    std::size_t j = 0;
-    for (std::size_t i = 0; i < indices.size(); ++i) {
-      const Association& ai = problem.associations[indices[i]];
-      if (j <= i) j = i + 1;
-      while (j < indices.size() && problem.associations[indices[j]].t_robot - ai.t_robot < min_dt) {
-        ++j;
-      }
-      if (j >= indices.size()) break;
-      const Association& aj = problem.associations[indices[j]];
-      if (aj.t_robot - ai.t_robot > max_dt) continue;
-      MotionPair p;
-      p.i = indices[i];
-      p.j = indices[j];
-      p.a_unscaled = ai.world_from_fisheye.inverse() * aj.world_from_fisheye;
-      const Rigid3d& mi = problem.marker(ai).camera_from_marker;
-      p.b = mi.inverse() * problem.marker(aj).camera_from_marker;
-      p.mi = mi;
-      p.camera = detections_of_camera.size() - 1;
-      p.covariance_i = covariances[p.i];
-      p.covariance_j = covariances[p.j];
-      pairs.push_back(p);
+ private:
+  /// Pairs of detections of one camera, min_pair_interval_s to
+  /// max_pair_interval_s apart; the implausible ones screened out.
+  void makePairs() {
+    const TimeNs min_dt = static_cast<TimeNs>(options_.min_pair_interval_s * 1e9);
+    const TimeNs max_dt = static_cast<TimeNs>(options_.max_pair_interval_s * 1e9);
+    std::vector<Matrix6d> covariances(problem_.associations.size());
+    const double default_t = 0.01, default_r = 2.0 * kDeg;
+    for (std::size_t a = 0; a < problem_.associations.size(); ++a) {
+      covariances[a] =
+          detectionCovariance(problem_.marker(problem_.associations[a]), default_t, default_r);
     }
-  }
-  if (pairs.size() < 3) {
-    throw Error("motion_calibration: only " + std::to_string(pairs.size()) +
-                " pairs of detections of one camera " + formatDouble(options.min_pair_interval_s) +
-                " to " + formatDouble(options.max_pair_interval_s) +
-                " s apart: not enough to estimate the scale and fisheye_from_marker");
-  }
-
-  // The mount's lever for the screening: the prior's offset, else 0.5 m.
-  const double lever_m =
-      options.prior_translation_m ? options.prior_translation_m->norm() + 0.1 : 0.5;
-  const std::size_t total_pairs = pairs.size();
-  const std::size_t screened = screenPairs(pairs, scale_free, lever_m);
-
-  double scale = 1.0;
-  Rigid3d X = linearInitialisation(pairs, scale_free, options.min_rotation_for_axis_deg * kDeg,
-                                   options.prior_rotation, options.prior_translation_m, &scale);
-  progress.report("motion_calibration", 1, 3);
-  progress.checkStop();
-
-  const double sigma_r = options.sigma_rotation_deg * kDeg;
-  const double sigma_t = options.sigma_translation_m;
-  double x[7];
-  double s[1] = {scale};
-  std::vector<Direction> undetermined;
-  std::vector<double> eigenvalues;
-  Eigen::MatrixXd information;
-  std::vector<std::string> prior_notes;
-  std::vector<std::string> unfixed;
-
-  // Builds and solves the problem with weights from the current X; returns
-  // the information matrix J^T J over the tangent space.
-  auto solve = [&](bool with_priors) {
-    const bool camera_orientation = options.translation_from_camera_orientation;
-    poseToParams(X, x);
-    ceres::Problem ceres_problem;
-    const Eigen::Matrix3d Rx = X.rotation.toRotationMatrix();
-    // Each camera's orientation world_from_camera, averaged over its detections.
-    std::vector<Eigen::Quaterniond> camera_rotation;
-    if (camera_orientation) {
-      for (const std::vector<std::size_t>& indices : detections_of_camera) {
-        std::vector<Eigen::Quaterniond> rotations;
-        for (std::size_t a : indices) {
-          const Association& as = problem.associations[a];
-          rotations.push_back(as.world_from_fisheye.rotation * X.rotation *
-                              problem.marker(as).camera_from_marker.rotation.conjugate());
+    for (const auto& [label, indices] : problem_.associations_by_camera) {
+      detections_of_camera_.push_back(indices);
+      std::size_t j = 0;
+      for (std::size_t i = 0; i < indices.size(); ++i) {
+        const Association& ai = problem_.associations[indices[i]];
+        if (j <= i) j = i + 1;
+        while (j < indices.size() &&
+               problem_.associations[indices[j]].t_robot - ai.t_robot < min_dt) {
+          ++j;
         }
-        camera_rotation.push_back(calib_detail::meanRotation(rotations));
+        if (j >= indices.size()) break;
+        const Association& aj = problem_.associations[indices[j]];
+        if (aj.t_robot - ai.t_robot > max_dt) continue;
+        MotionPair p;
+        p.i = indices[i];
+        p.j = indices[j];
+        p.a_unscaled = ai.world_from_fisheye.inverse() * aj.world_from_fisheye;
+        const Rigid3d& mi = problem_.marker(ai).camera_from_marker;
+        p.b = mi.inverse() * problem_.marker(aj).camera_from_marker;
+        p.mi = mi;
+        p.camera = detections_of_camera_.size() - 1;
+        p.covariance_i = covariances[p.i];
+        p.covariance_j = covariances[p.j];
+        pairs_.push_back(p);
       }
     }
-    for (const MotionPair& measured : pairs) {
+    if (pairs_.size() < 3) {
+      throw Error("motion_calibration: only " + std::to_string(pairs_.size()) +
+                  " pairs of detections of one camera " +
+                  formatDouble(options_.min_pair_interval_s) + " to " +
+                  formatDouble(options_.max_pair_interval_s) +
+                  " s apart: not enough to estimate the scale and fisheye_from_marker");
+    }
+    // The mount's lever for the screening: the prior's offset, else 0.5 m.
+    const double lever_m =
+        options_.prior_translation_m ? options_.prior_translation_m->norm() + 0.1 : 0.5;
+    total_pairs_ = pairs_.size();
+    screened_ = screenPairs(pairs_, scale_free_, lever_m);
+  }
+
+  void initialise() {
+    X_ = linearInitialisation(pairs_, scale_free_, options_.min_rotation_for_axis_deg * kDeg,
+                              options_.prior_rotation, options_.prior_translation_m, &scale_);
+  }
+
+  /// Each camera's orientation world_from_camera, averaged over its detections.
+  std::vector<Eigen::Quaterniond> cameraRotations() const {
+    std::vector<Eigen::Quaterniond> camera_rotation;
+    for (const std::vector<std::size_t>& indices : detections_of_camera_) {
+      std::vector<Eigen::Quaterniond> rotations;
+      for (std::size_t a : indices) {
+        const Association& as = problem_.associations[a];
+        rotations.push_back(as.world_from_fisheye.rotation * X_.rotation *
+                            problem_.marker(as).camera_from_marker.rotation.conjugate());
+      }
+      camera_rotation.push_back(calib_detail::meanRotation(rotations));
+    }
+    return camera_rotation;
+  }
+
+  /// With translation_from_camera_orientation: t_B from the marker's
+  /// displacement in the camera frame, mapped by the marker's orientation
+  /// PREDICTED from the camera's averaged orientation (the single
+  /// detection's orientation carries its tilt noise into t_B); returns B's
+  /// covariance for that t_B.
+  Matrix6d useCameraOrientation(MotionPair& p, const Eigen::Quaterniond& camera_rotation) const {
+    Matrix6d b_covariance = Matrix6d::Zero();
+    const Association& ai = problem_.associations[p.i];
+    const Eigen::Quaterniond camera_from_marker_rotation =
+        camera_rotation.conjugate() * ai.world_from_fisheye.rotation * X_.rotation;
+    const Eigen::Vector3d displacement =
+        problem_.marker(problem_.associations[p.j]).camera_from_marker.translation -
+        p.mi.translation;
+    p.b.translation = camera_from_marker_rotation.conjugate() * displacement;
+    const Eigen::Matrix3d R = camera_from_marker_rotation.toRotationMatrix();
+    b_covariance.topLeftCorner<3, 3>() =
+        R.transpose() *
+        (p.covariance_i.topLeftCorner<3, 3>() + p.covariance_j.topLeftCorner<3, 3>()) * R;
+    const Eigen::Matrix3d Rb_t = p.b.rotation.toRotationMatrix().transpose();
+    b_covariance.bottomRightCorner<3, 3>() =
+        p.covariance_j.bottomRightCorner<3, 3>() +
+        Rb_t * p.covariance_i.bottomRightCorner<3, 3>() * Rb_t.transpose();
+    return b_covariance;
+  }
+
+  /// One residual per pair, whitened with the weights of the current X.
+  void addPairResiduals(ceres::Problem& ceres_problem) {
+    const bool camera_orientation = options_.translation_from_camera_orientation;
+    const double sigma_r = options_.sigma_rotation_deg * kDeg;
+    const double sigma_t = options_.sigma_translation_m;
+    const Eigen::Matrix3d Rx = X_.rotation.toRotationMatrix();
+    std::vector<Eigen::Quaterniond> camera_rotation;
+    if (camera_orientation) camera_rotation = cameraRotations();
+    for (const MotionPair& measured : pairs_) {
       MotionPair p = measured;
       Matrix6d b_covariance_override = Matrix6d::Zero();
-      if (camera_orientation) {
-        // t_B from the marker's displacement in the camera frame, mapped by the
-        // marker's orientation PREDICTED from the camera's averaged orientation
-        // (the single detection's orientation carries its tilt noise into t_B).
-        const Association& ai = problem.associations[p.i];
-        const Eigen::Quaterniond camera_from_marker_rotation =
-            camera_rotation[p.camera].conjugate() * ai.world_from_fisheye.rotation * X.rotation;
-        const Eigen::Vector3d displacement =
-            problem.marker(problem.associations[p.j]).camera_from_marker.translation -
-            p.mi.translation;
-        p.b.translation = camera_from_marker_rotation.conjugate() * displacement;
-        const Eigen::Matrix3d R = camera_from_marker_rotation.toRotationMatrix();
-        b_covariance_override.topLeftCorner<3, 3>() =
-            R.transpose() *
-            (p.covariance_i.topLeftCorner<3, 3>() + p.covariance_j.topLeftCorner<3, 3>()) * R;
-        const Eigen::Matrix3d Rb_t = p.b.rotation.toRotationMatrix().transpose();
-        b_covariance_override.bottomRightCorner<3, 3>() =
-            p.covariance_j.bottomRightCorner<3, 3>() +
-            Rb_t * p.covariance_i.bottomRightCorner<3, 3>() * Rb_t.transpose();
-      }
+      if (camera_orientation)
+        b_covariance_override = useCameraOrientation(p, camera_rotation[p.camera]);
       Matrix6d J = Matrix6d::Zero();
       J.topLeftCorner<3, 3>() = -Rx;
       J.bottomRightCorner<3, 3>() = -Eigen::Matrix3d::Identity();
       // Covariance of B at the PREDICTED relative motion X^-1 A X: weights
       // from the measured B would favour pairs whose noise shortened them
       // (a bias of the scale).
-      const Rigid3d a_scaled(p.a_unscaled.rotation, scale * p.a_unscaled.translation);
-      const Rigid3d b_predicted = X.inverse() * a_scaled * X;
+      const Rigid3d a_scaled(p.a_unscaled.rotation, scale_ * p.a_unscaled.translation);
+      const Rigid3d b_predicted = X_.inverse() * a_scaled * X_;
       Matrix6d cov = J *
                      (camera_orientation
                           ? b_covariance_override
@@ -501,34 +522,47 @@ void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationO
       const Matrix6d sqrt_info = sqrtInformation(cov.inverse());
       ceres_problem.AddResidualBlock(new ceres::AutoDiffCostFunction<MotionPairCost, 6, 7, 1>(
                                          new MotionPairCost(p, sqrt_info)),
-                                     new ceres::HuberLoss(options.huber), x, s);
+                                     new ceres::HuberLoss(options_.huber), x_, s_);
     }
-    ceres_problem.SetManifold(x, newPoseManifold());
-    if (!scale_free) {
-      ceres_problem.SetParameterBlockConstant(s);
+  }
+
+  /// The configured priors on the directions the motion leaves undetermined.
+  void addPriors(ceres::Problem& ceres_problem) {
+    for (const Direction& d : undetermined_) {
+      if (d.kind == Direction::kScale) continue;
+      const bool t = d.kind == Direction::kTranslation;
+      if (t && !options_.prior_translation_m) continue;
+      if (!t && !options_.prior_rotation) continue;
+      auto* cost = new DirectionPriorCost;
+      cost->prior = Rigid3d(options_.prior_rotation.value_or(X_.rotation),
+                            options_.prior_translation_m.value_or(X_.translation));
+      cost->direction = (t ? d.v.head<3>() : d.v.segment<3>(3)).normalized();
+      cost->translation = t;
+      cost->sigma =
+          t ? options_.prior_translation_sigma_m : options_.prior_rotation_sigma_deg * kDeg;
+      ceres_problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<DirectionPriorCost, 1, 7>(cost), nullptr, x_);
+    }
+  }
+
+  /// Builds and solves the problem with weights from the current X; returns
+  /// the information matrix J^T J over the tangent space [dt; dtheta; (ds)]
+  /// at the solution (robust weights included).
+  Eigen::MatrixXd solve(bool with_priors) {
+    poseToParams(X_, x_);
+    s_[0] = scale_;
+    ceres::Problem ceres_problem;
+    addPairResiduals(ceres_problem);
+    ceres_problem.SetManifold(x_, newPoseManifold());
+    if (!scale_free_) {
+      ceres_problem.SetParameterBlockConstant(s_);
     } else {
-      ceres_problem.SetParameterLowerBound(s, 0, 1e-9);
+      ceres_problem.SetParameterLowerBound(s_, 0, 1e-9);
     }
-    if (with_priors) {
-      for (const Direction& d : undetermined) {
-        if (d.kind == Direction::kScale) continue;
-        const bool t = d.kind == Direction::kTranslation;
-        if (t && !options.prior_translation_m) continue;
-        if (!t && !options.prior_rotation) continue;
-        auto* cost = new DirectionPriorCost;
-        cost->prior = Rigid3d(options.prior_rotation.value_or(X.rotation),
-                              options.prior_translation_m.value_or(X.translation));
-        cost->direction = (t ? d.v.head<3>() : d.v.segment<3>(3)).normalized();
-        cost->translation = t;
-        cost->sigma =
-            t ? options.prior_translation_sigma_m : options.prior_rotation_sigma_deg * kDeg;
-        ceres_problem.AddResidualBlock(
-            new ceres::AutoDiffCostFunction<DirectionPriorCost, 1, 7>(cost), nullptr, x);
-      }
-    }
+    if (with_priors) addPriors(ceres_problem);
     ceres::Solver::Options solver;
     solver.linear_solver_type = ceres::DENSE_QR;
-    solver.max_num_iterations = options.max_iterations;
+    solver.max_num_iterations = options_.max_iterations;
     // Converge fully (a start from a measured mount can be a degree off; the
     // default relative cost tolerance of 1e-6 would stop ~1e-5 rad short).
     solver.function_tolerance = 1e-12;
@@ -536,160 +570,192 @@ void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationO
     solver.num_threads = 1;
     ceres::Solver::Summary summary;
     ceres::Solve(solver, &ceres_problem, &summary);
-    X = paramsToPose(x);
-    scale = s[0];
-    // Information over [dt; dtheta; (ds)] at the solution (robust weights included).
+    X_ = paramsToPose(x_);
+    scale_ = s_[0];
     ceres::CRSMatrix crs;
     ceres::Problem::EvaluateOptions eval;
-    eval.parameter_blocks = {x};
-    if (scale_free) eval.parameter_blocks.push_back(s);
+    eval.parameter_blocks = {x_};
+    if (scale_free_) eval.parameter_blocks.push_back(s_);
     ceres_problem.Evaluate(eval, nullptr, nullptr, nullptr, &crs);
     Eigen::MatrixXd J = Eigen::MatrixXd::Zero(crs.num_rows, crs.num_cols);
     for (int r = 0; r < crs.num_rows; ++r) {
       for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) J(r, crs.cols[k]) = crs.values[k];
     }
     return Eigen::MatrixXd(J.transpose() * J);
-  };
-
-  // Two rounds: the whitening (and, with translation_from_camera_orientation,
-  // t_B itself) depends on R_X. Iterating this to a fixed point is unstable
-  // with noisy detections (measured on small_det: 0.2 m), so it stays at two.
-  solve(false);
-  progress.checkStop();
-  information = solve(false);
-  progress.report("motion_calibration", 2, 3);
-
-  // Observability.
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(information);
-  for (Eigen::Index k = 0; k < eig.eigenvalues().size(); ++k) {
-    const double lambda = eig.eigenvalues()[k];
-    eigenvalues.push_back(lambda);
-    Direction d;
-    d.v = eig.eigenvectors().col(k);
-    d.eigenvalue = lambda;
-    d.sigma = lambda > 0 ? 1.0 / std::sqrt(lambda) : std::numeric_limits<double>::infinity();
-    const double t2 = d.v.head<3>().squaredNorm(), r2 = d.v.segment<3>(3).squaredNorm();
-    const double s2 = scale_free ? d.v[6] * d.v[6] : 0.0;
-    if (s2 >= t2 && s2 >= r2) {
-      d.kind = Direction::kScale;
-      if (d.sigma * 1.0 > 0.01 * scale) undetermined.push_back(d);  // 1 % of the scale
-    } else if (t2 >= r2) {
-      d.kind = Direction::kTranslation;
-      if (d.sigma > options.max_translation_sigma_m) undetermined.push_back(d);
-    } else {
-      d.kind = Direction::kRotation;
-      if (d.sigma > options.max_rotation_sigma_deg * kDeg) undetermined.push_back(d);
-    }
-  }
-  for (const Direction& d : undetermined) {
-    if (d.kind == Direction::kScale) {
-      throw Error(
-          "motion_calibration: the detections do not determine the trajectory's scale (sigma " +
-          formatDouble(d.sigma) + "): the robot must move while cameras see its marker");
-    }
   }
 
-  std::array<bool, 6> determined = {true, true, true, true, true, true};
-  std::ostringstream message;
-  if (undetermined.empty()) {
-    message << "The robot's motion determines the scale and every component of "
-               "fisheye_from_marker; no prior was used.";
-  } else {
-    message << "The robot's motion does not determine " << undetermined.size()
-            << (undetermined.size() == 1 ? " direction" : " directions")
-            << " of fisheye_from_marker:";
-    for (const Direction& d : undetermined) {
-      int dominant = 0;
-      Eigen::Matrix<double, 6, 1> v = d.v.head<6>();
-      v.cwiseAbs().maxCoeff(&dominant);
-      for (int c = 0; c < 6; ++c) {
-        if (std::abs(v[c]) > 0.3) determined[c] = false;
-      }
-      // Beyond a metre (or 90 degrees) the motion says nothing at all: a
-      // figure like 176911 m would only distract.
-      const bool rotation = d.kind == Direction::kRotation;
-      const double sigma = rotation ? d.sigma / kDeg : d.sigma;
-      message << " mostly " << componentName(dominant) << " (sigma from the motion alone "
-              << (!std::isfinite(sigma)         ? std::string("infinite")
-                  : sigma > (rotation ? 90 : 1) ? std::string(rotation ? "over 90" : "over 1")
-                                                : formatFixed(sigma, 3))
-              << (rotation ? " deg)" : " m)");
-      message << ";";
-      const bool t = d.kind == Direction::kTranslation;
-      if (t && options.prior_translation_m) {
-        prior_notes.push_back(std::string(componentName(dominant)) +
-                              " from the configured prior_translation_m [" +
-                              formatDouble((*options.prior_translation_m)[0]) + ", " +
-                              formatDouble((*options.prior_translation_m)[1]) + ", " +
-                              formatDouble((*options.prior_translation_m)[2]) + "] m, sigma " +
-                              formatDouble(options.prior_translation_sigma_m) + " m");
-      } else if (!t && options.prior_rotation) {
-        prior_notes.push_back(std::string(componentName(dominant)) +
-                              " from the configured prior_rotation_xyzw, sigma " +
-                              formatDouble(options.prior_rotation_sigma_deg) + " deg");
+  /// The information's eigenvectors: scale, translation or rotation, and
+  /// which the motion leaves undetermined. An undetermined scale is an error.
+  void classifyDirections() {
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(information_);
+    for (Eigen::Index k = 0; k < eig.eigenvalues().size(); ++k) {
+      const double lambda = eig.eigenvalues()[k];
+      eigenvalues_.push_back(lambda);
+      Direction d;
+      d.v = eig.eigenvectors().col(k);
+      d.eigenvalue = lambda;
+      d.sigma = lambda > 0 ? 1.0 / std::sqrt(lambda) : std::numeric_limits<double>::infinity();
+      const double t2 = d.v.head<3>().squaredNorm(), r2 = d.v.segment<3>(3).squaredNorm();
+      const double s2 = scale_free_ ? d.v[6] * d.v[6] : 0.0;
+      if (s2 >= t2 && s2 >= r2) {
+        d.kind = Direction::kScale;
+        if (d.sigma * 1.0 > 0.01 * scale_) undetermined_.push_back(d);  // 1 % of the scale
+      } else if (t2 >= r2) {
+        d.kind = Direction::kTranslation;
+        if (d.sigma > options_.max_translation_sigma_m) undetermined_.push_back(d);
       } else {
-        unfixed.push_back(componentName(dominant));
+        d.kind = Direction::kRotation;
+        if (d.sigma > options_.max_rotation_sigma_deg * kDeg) undetermined_.push_back(d);
       }
     }
-    message << " the robot drives on a (nearly) planar floor, so its rotations are all about the "
-               "vertical and the motion cannot tell where the marker is along that axis.";
-    if (!prior_notes.empty()) {
-      message << " Fixed by priors: ";
-      for (std::size_t k = 0; k < prior_notes.size(); ++k) {
-        message << (k ? "; " : "") << prior_notes[k];
+    for (const Direction& d : undetermined_) {
+      if (d.kind == Direction::kScale) {
+        throw Error(
+            "motion_calibration: the detections do not determine the trajectory's scale (sigma " +
+            formatDouble(d.sigma) + "): the robot must move while cameras see its marker");
       }
-      message << ".";
-      information = solve(true);
     }
-    if (!unfixed.empty()) {
+  }
+
+  /// One undetermined direction in the message ("mostly tz (sigma ...);"),
+  /// and the prior that fixes it or the component left unfixed.
+  void describeDirection(const Direction& d) {
+    int dominant = 0;
+    Eigen::Matrix<double, 6, 1> v = d.v.head<6>();
+    v.cwiseAbs().maxCoeff(&dominant);
+    for (int c = 0; c < 6; ++c) {
+      if (std::abs(v[c]) > 0.3) determined_[c] = false;
+    }
+    // Beyond a metre (or 90 degrees) the motion says nothing at all: a
+    // figure like 176911 m would only distract.
+    const bool rotation = d.kind == Direction::kRotation;
+    const double sigma = rotation ? d.sigma / kDeg : d.sigma;
+    message_ << " mostly " << componentName(dominant) << " (sigma from the motion alone "
+             << (!std::isfinite(sigma)         ? std::string("infinite")
+                 : sigma > (rotation ? 90 : 1) ? std::string(rotation ? "over 90" : "over 1")
+                                               : formatFixed(sigma, 3))
+             << (rotation ? " deg)" : " m)");
+    message_ << ";";
+    const bool t = d.kind == Direction::kTranslation;
+    if (t && options_.prior_translation_m) {
+      prior_notes_.push_back(std::string(componentName(dominant)) +
+                             " from the configured prior_translation_m [" +
+                             formatDouble((*options_.prior_translation_m)[0]) + ", " +
+                             formatDouble((*options_.prior_translation_m)[1]) + ", " +
+                             formatDouble((*options_.prior_translation_m)[2]) + "] m, sigma " +
+                             formatDouble(options_.prior_translation_sigma_m) + " m");
+    } else if (!t && options_.prior_rotation) {
+      prior_notes_.push_back(std::string(componentName(dominant)) +
+                             " from the configured prior_rotation_xyzw, sigma " +
+                             formatDouble(options_.prior_rotation_sigma_deg) + " deg");
+    } else {
+      unfixed_.push_back(componentName(dominant));
+    }
+  }
+
+  /// The observability statement; solves again with the priors when some
+  /// fix what the motion cannot; a warning when nothing fixes a direction.
+  void describeObservability() {
+    if (undetermined_.empty()) {
+      message_ << "The robot's motion determines the scale and every component of "
+                  "fisheye_from_marker; no prior was used.";
+      return;
+    }
+    message_ << "The robot's motion does not determine " << undetermined_.size()
+             << (undetermined_.size() == 1 ? " direction" : " directions")
+             << " of fisheye_from_marker:";
+    for (const Direction& d : undetermined_) describeDirection(d);
+    message_ << " the robot drives on a (nearly) planar floor, so its rotations are all about "
+                "the vertical and the motion cannot tell where the marker is along that axis.";
+    if (!prior_notes_.empty()) {
+      message_ << " Fixed by priors: ";
+      for (std::size_t k = 0; k < prior_notes_.size(); ++k) {
+        message_ << (k ? "; " : "") << prior_notes_[k];
+      }
+      message_ << ".";
+      information_ = solve(true);
+    }
+    if (!unfixed_.empty()) {
       std::string text = "fisheye_from_marker: no prior configured for ";
-      for (std::size_t k = 0; k < unfixed.size(); ++k) text += (k ? ", " : "") + unfixed[k];
+      for (std::size_t k = 0; k < unfixed_.size(); ++k) text += (k ? ", " : "") + unfixed_[k];
       text +=
           ": its value comes from the linear initialisation and is arbitrary; every camera "
           "position shifts with it (set register.motion_calibration.prior_translation_m / "
           "prior_rotation_xyzw to the measured mount)";
-      problem.result.warnings.push_back(text);
-      message << " NOT fixed (no prior configured): ";
-      for (std::size_t k = 0; k < unfixed.size(); ++k) message << (k ? ", " : "") << unfixed[k];
-      message << ".";
+      problem_.result.warnings.push_back(text);
+      message_ << " NOT fixed (no prior configured): ";
+      for (std::size_t k = 0; k < unfixed_.size(); ++k) {
+        message_ << (k ? ", " : "") << unfixed_[k];
+      }
+      message_ << ".";
     }
   }
 
-  // Covariance over [dt; dtheta; ds] (pseudo-inverse when something stayed free).
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig_final(information);
-  Eigen::VectorXd inv = eig_final.eigenvalues();
-  const double largest = inv.maxCoeff();
-  for (Eigen::Index k = 0; k < inv.size(); ++k) {
-    inv[k] = inv[k] > 1e-12 * largest ? 1.0 / inv[k] : 0.0;
-  }
-  const Eigen::MatrixXd covariance =
-      eig_final.eigenvectors() * inv.asDiagonal() * eig_final.eigenvectors().transpose();
+  /// The covariance over [dt; dtheta; ds] (a pseudo-inverse when something
+  /// stayed free), the estimate and the statement into the problem.
+  void writeResults() {
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig_final(information_);
+    Eigen::VectorXd inv = eig_final.eigenvalues();
+    const double largest = inv.maxCoeff();
+    for (Eigen::Index k = 0; k < inv.size(); ++k) {
+      inv[k] = inv[k] > 1e-12 * largest ? 1.0 / inv[k] : 0.0;
+    }
+    const Eigen::MatrixXd covariance =
+        eig_final.eigenvectors() * inv.asDiagonal() * eig_final.eigenvectors().transpose();
 
-  problem.scale = scale;
-  problem.fisheye_from_marker = X;
-  Registration& r = problem.result;
-  r.scale = scale;
-  r.scale_sigma = scale_free ? std::sqrt(std::max(0.0, covariance(6, 6))) : 0.0;
-  r.fisheye_from_marker = X;
-  r.fisheye_from_marker_covariance = covariance.topLeftCorner<6, 6>();
-  r.fisheye_from_marker_determined = determined;
-  r.fisheye_from_marker_prior.clear();
-  for (std::size_t k = 0; k < prior_notes.size(); ++k) {
-    r.fisheye_from_marker_prior += (k ? "; " : "") + prior_notes[k];
+    problem_.scale = scale_;
+    problem_.fisheye_from_marker = X_;
+    Registration& r = problem_.result;
+    r.scale = scale_;
+    r.scale_sigma = scale_free_ ? std::sqrt(std::max(0.0, covariance(6, 6))) : 0.0;
+    r.fisheye_from_marker = X_;
+    r.fisheye_from_marker_covariance = covariance.topLeftCorner<6, 6>();
+    r.fisheye_from_marker_determined = determined_;
+    r.fisheye_from_marker_prior.clear();
+    for (std::size_t k = 0; k < prior_notes_.size(); ++k) {
+      r.fisheye_from_marker_prior += (k ? "; " : "") + prior_notes_[k];
+    }
+    r.observability.message = message_.str() + " (" + std::to_string(pairs_.size()) +
+                              " motion pairs; eigenvalues of the information matrix over [t (m), "
+                              "theta (rad)" +
+                              (scale_free_ ? ", scale" : "") + "])";
+    if (screened_ > 0) {
+      r.observability.message += " motion_calibration: " + std::to_string(screened_) + " of " +
+                                 std::to_string(total_pairs_) +
+                                 " pairs of detections set aside: their rotation or displacement "
+                                 "cannot be the robot's motion seen by a camera (false or "
+                                 "mistimed detections).";
+    }
+    r.observability.eigenvalues = eigenvalues_;
   }
-  r.observability.message = message.str() + " (" + std::to_string(pairs.size()) +
-                            " motion pairs; eigenvalues of the information matrix over [t (m), "
-                            "theta (rad)" +
-                            (scale_free ? ", scale" : "") + "])";
-  if (screened > 0) {
-    r.observability.message += " motion_calibration: " + std::to_string(screened) + " of " +
-                               std::to_string(total_pairs) +
-                               " pairs of detections set aside: their rotation or displacement "
-                               "cannot be the robot's motion seen by a camera (false or "
-                               "mistimed detections).";
+
+  RegistrationProblem& problem_;
+  const MotionCalibrationOptions& options_;
+  const bool scale_free_;
+  std::vector<MotionPair> pairs_;
+  std::vector<std::vector<std::size_t>> detections_of_camera_;
+  std::size_t total_pairs_ = 0, screened_ = 0;
+  Rigid3d X_;  ///< fisheye_from_marker.
+  double scale_ = 1.0;
+  double x_[7] = {};  ///< X_ as Ceres' parameter block.
+  double s_[1] = {1.0};
+  Eigen::MatrixXd information_;
+  std::vector<double> eigenvalues_;
+  std::vector<Direction> undetermined_;
+  std::array<bool, 6> determined_ = {true, true, true, true, true, true};
+  std::vector<std::string> prior_notes_;
+  std::vector<std::string> unfixed_;
+  std::ostringstream message_;
+};
+
+}  // namespace
+
+void runMotionCalibration(RegistrationProblem& problem, const MotionCalibrationOptions& options,
+                          const ProgressReporter& progress) {
+  if (!problem.associated) {
+    throw Error("motion_calibration needs associated detections: put 'associate' before it");
   }
-  r.observability.eigenvalues = eigenvalues;
-  progress.report("motion_calibration", 3, 3);
+  MotionCalibration(problem, options).run(progress);
 }
 
 }  // namespace lookboth

@@ -162,187 +162,228 @@ void comparisonTables(std::ostringstream& out, const PoseComparison& c, const st
   }
 }
 
-}  // namespace
+// writeReport's steps: the inputs and comparisons, the verdict, the
+// pictures, then the page section by section.
+class ReportWriter {
+ public:
+  ReportWriter(const fs::path& dataset, const fs::path& registration_dir,
+               const ReportOptions& options)
+      : dataset_(dataset),
+        registration_dir_(registration_dir),
+        options_(options),
+        registration_(loadRegistration(registration_dir)),
+        view_(viewOfRegistration(registration_, "registration")) {}
 
-ReportSummary writeReport(const fs::path& dataset, const fs::path& registration_dir,
-                          const ReportOptions& options, const ProgressReporter& progress) {
-  if (const std::string why = options.check(); !why.empty()) throw Error(why);
-  progress.report("report: load", 0, 1);
-  const Registration registration = loadRegistration(registration_dir);
-  const RegistrationView view = viewOfRegistration(registration, "registration");
-  const CompareOptions compare{options.with_scale};
-  const CameraPoseSet estimate = poseSetOfRegistration(registration, registration_dir.string());
-
-  std::optional<PoseComparison> ground_truth, against;
-  std::optional<CameraPoseSet> truth_poses;
-  if (!options.ground_truth.empty()) {
-    truth_poses = loadGroundTruthPoses(options.ground_truth);
-    ground_truth = comparePoses(*truth_poses, estimate, compare);
+  ReportSummary write(const ProgressReporter& progress) {
+    compare();
+    judge();
+    renderPictures(progress);
+    progress.report("report: write", 0, 1);
+    writeHeader();
+    writeVerdict();
+    writeCameraTable();
+    writeReprojectionTable();
+    writeComparisons();
+    writeRobot();
+    writePictures();
+    const std::string html = out_.str();
+    writeFileAtomically(options_.out, html);
+    summary_.bytes = html.size();
+    progress.report("report: write", 1, 1);
+    return summary_;
   }
-  std::optional<CameraPoseSet> other_poses;
-  if (!options.against.empty()) {
-    other_poses =
-        poseSetOfRegistration(loadRegistration(options.against), options.against.string());
-    against = comparePoses(*other_poses, estimate, compare);
-  }
-  const ReprojectionTable reprojection = reprojectionTable(view.blob_associations);
 
-  // Fisheye width for the reprojection threshold.
-  int fisheye_width = 1920;
-  {
+ private:
+  /// The comparisons with ground truth and another registration, the
+  /// reprojection table, and the reprojection bound for the fisheye's width.
+  void compare() {
+    const CompareOptions compare{options_.with_scale};
+    const CameraPoseSet estimate = poseSetOfRegistration(registration_, registration_dir_.string());
+    if (!options_.ground_truth.empty()) {
+      truth_poses_ = loadGroundTruthPoses(options_.ground_truth);
+      ground_truth_ = comparePoses(*truth_poses_, estimate, compare);
+    }
+    if (!options_.against.empty()) {
+      other_poses_ =
+          poseSetOfRegistration(loadRegistration(options_.against), options_.against.string());
+      against_ = comparePoses(*other_poses_, estimate, compare);
+    }
+    reprojection_ = reprojectionTable(view_.blob_associations);
+    int fisheye_width = 1920;
     DatasetReadOptions read_options;
     read_options.check_images = false;
-    const auto reader = DatasetReader::open(dataset, read_options);
+    const auto reader = DatasetReader::open(dataset_, read_options);
     if (const CameraSensor* fisheye = reader->manifest().fisheye(); fisheye && fisheye->camera) {
       fisheye_width = fisheye->camera->width();
     }
+    max_reprojection_ = options_.max_reprojection_rms_px > 0
+                            ? options_.max_reprojection_rms_px
+                            : std::max(2.0, 3.0 * fisheye_width / 1920.0);
   }
-  const double max_reprojection = options.max_reprojection_rms_px > 0
-                                      ? options.max_reprojection_rms_px
-                                      : std::max(2.0, 3.0 * fisheye_width / 1920.0);
 
-  // The verdict.
-  ReportSummary summary;
-  std::vector<std::string>& reasons = summary.reasons;
-  const int registered = registration.registeredCount();
-  int suspect = 0, unregistered = 0, uncertain = 0;
-  for (const CameraRegistration& c : registration.cameras) {
-    if (c.status == CameraStatus::kSuspect) ++suspect;
-    if (c.status == CameraStatus::kUnregistered) ++unregistered;
-    if (c.status != CameraStatus::kUnregistered && c.covariance &&
-        worstSigma(c.covariance->topLeftCorner<3, 3>()) > options.max_position_sigma_m) {
-      ++uncertain;
+  /// The verdict and its reasons.
+  void judge() {
+    std::vector<std::string>& reasons = summary_.reasons;
+    const Registration& registration = registration_;
+    const auto& options = options_;
+    const auto& reprojection = reprojection_;
+    const auto& ground_truth = ground_truth_;
+    const double max_reprojection = max_reprojection_;
+    const int registered = registration.registeredCount();
+    int suspect = 0, unregistered = 0, uncertain = 0;
+    for (const CameraRegistration& c : registration.cameras) {
+      if (c.status == CameraStatus::kSuspect) ++suspect;
+      if (c.status == CameraStatus::kUnregistered) ++unregistered;
+      if (c.status != CameraStatus::kUnregistered && c.covariance &&
+          worstSigma(c.covariance->topLeftCorner<3, 3>()) > options.max_position_sigma_m) {
+        ++uncertain;
+      }
     }
-  }
-  if (registered == 0) reasons.push_back("no camera could be registered");
-  if (unregistered) reasons.push_back(std::to_string(unregistered) + " camera(s) not registered");
-  if (suspect) reasons.push_back(std::to_string(suspect) + " camera(s) suspect");
-  if (uncertain) {
-    reasons.push_back(std::to_string(uncertain) + " camera(s) with a position uncertainty above " +
-                      fixed(options.max_position_sigma_m * 1000, 0) + " mm (1 sigma)");
-  }
-  if (reprojection.total.blobs_after > 0 && reprojection.total.rms_px_after > max_reprojection) {
-    reasons.push_back("fisheye reprojection RMS after refinement " +
-                      fixed(reprojection.total.rms_px_after, 2) + " px exceeds " +
-                      fixed(max_reprojection, 2) + " px");
-  }
-  if (reprojection.total.blobs_before > 0 && reprojection.total.blobs_after > 0 &&
-      reprojection.total.rms_px_after > reprojection.total.rms_px_before) {
-    reasons.push_back("the refinement increased the reprojection error");
-  }
-  if (ground_truth && ground_truth->rms.position_m_total > options.max_position_error_m) {
-    reasons.push_back("position RMS against ground truth " +
-                      fixed(ground_truth->rms.position_m_total, 3) + " m exceeds " +
-                      fixed(options.max_position_error_m, 3) + " m");
-  }
-  if (ground_truth && ground_truth->rms.rotation_deg_total > options.max_rotation_error_deg) {
-    reasons.push_back("rotation RMS against ground truth " +
-                      fixed(ground_truth->rms.rotation_deg_total, 2) + " deg exceeds " +
-                      fixed(options.max_rotation_error_deg, 2) + " deg");
-  }
-  if (ground_truth && ground_truth->position_nees_per_dof &&
-      *ground_truth->position_nees_per_dof > options.max_position_nees_per_dof) {
-    reasons.push_back(
-        "the predicted uncertainty is too small: position NEES per degree of "
-        "freedom " +
-        fixed(*ground_truth->position_nees_per_dof, 2) + " against ground truth (above " +
-        fixed(options.max_position_nees_per_dof, 1) + ")");
-  }
-  // Notes (a prior held what a flat floor cannot determine, detections set
-  // aside at the ends) are expected and leave the verdict alone.
-  if (const std::size_t warnings = registration.labelledWarnings().size(); warnings > 0) {
-    reasons.push_back(std::to_string(warnings) + " warning(s) to act on (see Warnings)");
-  }
-  summary.verdict = registered == 0   ? Verdict::kFailed
-                    : reasons.empty() ? Verdict::kOk
-                                      : Verdict::kNeedsChecking;
-
-  // The pictures, in a temporary folder beside the output, embedded, then removed.
-  const fs::path out_dir = fs::absolute(options.out).parent_path();
-  if (!fs::is_directory(out_dir)) {
-    throw Error({options.out.string(), 0, "", ""}, "the output's folder does not exist");
-  }
-  static int counter = 0;
-  removeStaleTemporaries(out_dir);
-  const fs::path pictures_dir = out_dir / (".lookboth-report-" + std::to_string(::getpid()) + "-" +
-                                           std::to_string(counter++));
-  struct RemoveDir {
-    fs::path dir;
-    ~RemoveDir() {
-      std::error_code ec;
-      fs::remove_all(dir, ec);
+    if (registered == 0) reasons.push_back("no camera could be registered");
+    if (unregistered) reasons.push_back(std::to_string(unregistered) + " camera(s) not registered");
+    if (suspect) reasons.push_back(std::to_string(suspect) + " camera(s) suspect");
+    if (uncertain) {
+      reasons.push_back(std::to_string(uncertain) +
+                        " camera(s) with a position uncertainty above " +
+                        fixed(options.max_position_sigma_m * 1000, 0) + " mm (1 sigma)");
     }
-  } remove_dir{pictures_dir};
-  SnapshotOptions snapshot;
-  snapshot.out = pictures_dir;
-  snapshot.frames = options.frames;
-  snapshot.size = options.size;
-  snapshot.auto_frames = options.auto_frames;
-  snapshot.max_env_views = options.max_env_views;
-  snapshot.overview = options.overview;
-  if (truth_poses) snapshot.references.push_back({"ground_truth", *truth_poses});
-  if (other_poses) {
-    const std::string name = fs::path(options.against).lexically_normal().filename().string();
-    snapshot.references.push_back({name.empty() ? "other" : name, *other_poses});
+    if (reprojection.total.blobs_after > 0 && reprojection.total.rms_px_after > max_reprojection) {
+      reasons.push_back("fisheye reprojection RMS after refinement " +
+                        fixed(reprojection.total.rms_px_after, 2) + " px exceeds " +
+                        fixed(max_reprojection, 2) + " px");
+    }
+    if (reprojection.total.blobs_before > 0 && reprojection.total.blobs_after > 0 &&
+        reprojection.total.rms_px_after > reprojection.total.rms_px_before) {
+      reasons.push_back("the refinement increased the reprojection error");
+    }
+    if (ground_truth && ground_truth->rms.position_m_total > options.max_position_error_m) {
+      reasons.push_back("position RMS against ground truth " +
+                        fixed(ground_truth->rms.position_m_total, 3) + " m exceeds " +
+                        fixed(options.max_position_error_m, 3) + " m");
+    }
+    if (ground_truth && ground_truth->rms.rotation_deg_total > options.max_rotation_error_deg) {
+      reasons.push_back("rotation RMS against ground truth " +
+                        fixed(ground_truth->rms.rotation_deg_total, 2) + " deg exceeds " +
+                        fixed(options.max_rotation_error_deg, 2) + " deg");
+    }
+    if (ground_truth && ground_truth->position_nees_per_dof &&
+        *ground_truth->position_nees_per_dof > options.max_position_nees_per_dof) {
+      reasons.push_back(
+          "the predicted uncertainty is too small: position NEES per degree of "
+          "freedom " +
+          fixed(*ground_truth->position_nees_per_dof, 2) + " against ground truth (above " +
+          fixed(options.max_position_nees_per_dof, 1) + ")");
+    }
+    // Notes (a prior held what a flat floor cannot determine, detections set
+    // aside at the ends) are expected and leave the verdict alone.
+    if (const std::size_t warnings = registration.labelledWarnings().size(); warnings > 0) {
+      reasons.push_back(std::to_string(warnings) + " warning(s) to act on (see Warnings)");
+    }
+    summary_.verdict = registered == 0   ? Verdict::kFailed
+                       : reasons.empty() ? Verdict::kOk
+                                         : Verdict::kNeedsChecking;
   }
-  snapshot.reference_with_scale = options.with_scale;
-  const SnapshotResult pictures = writeSnapshots(dataset, view, snapshot, progress);
-  summary.pictures = static_cast<int>(pictures.pictures.size());
 
-  progress.report("report: write", 0, 1);
-  std::ostringstream out;
-  out << "<!DOCTYPE html>\n<html lang=en><head><meta charset=utf-8>\n<title>lookboth registration "
-         "report</title>\n<style>"
-      << kStyle << "</style></head><body>\n";
-  out << "<h1>Camera registration report</h1>\n";
-  out << "<table class=meta>";
-  out << "<tr><td>dataset</td><td>"
-      << escape(registration.dataset.empty() ? dataset.string() : registration.dataset)
-      << "</td></tr>";
-  out << "<tr><td>registration</td><td>" << escape(fs::absolute(registration_dir).string())
-      << " (created " << escape(registration.created) << ")</td></tr>";
-  out << "<tr><td>pipeline</td><td>";
-  for (size_t i = 0; i < registration.pipeline.size(); ++i) {
-    out << (i ? " &rarr; " : "") << escape(registration.pipeline[i]);
+  /// The pictures, in a temporary folder beside the output (embedded, then removed).
+  void renderPictures(const ProgressReporter& progress) {
+    const fs::path out_dir = fs::absolute(options_.out).parent_path();
+    if (!fs::is_directory(out_dir)) {
+      throw Error({options_.out.string(), 0, "", ""}, "the output's folder does not exist");
+    }
+    static int counter = 0;
+    removeStaleTemporaries(out_dir);
+    const fs::path pictures_dir = out_dir / (".lookboth-report-" + std::to_string(::getpid()) +
+                                             "-" + std::to_string(counter++));
+    struct RemoveDir {
+      fs::path dir;
+      ~RemoveDir() {
+        std::error_code ec;
+        fs::remove_all(dir, ec);
+      }
+    } remove_dir{pictures_dir};
+    SnapshotOptions snapshot;
+    snapshot.out = pictures_dir;
+    snapshot.frames = options_.frames;
+    snapshot.size = options_.size;
+    snapshot.auto_frames = options_.auto_frames;
+    snapshot.max_env_views = options_.max_env_views;
+    snapshot.overview = options_.overview;
+    if (truth_poses_) snapshot.references.push_back({"ground_truth", *truth_poses_});
+    if (other_poses_) {
+      const std::string name = fs::path(options_.against).lexically_normal().filename().string();
+      snapshot.references.push_back({name.empty() ? "other" : name, *other_poses_});
+    }
+    snapshot.reference_with_scale = options_.with_scale;
+    pictures_ = writeSnapshots(dataset_, view_, snapshot, progress);
+    // Read now: the folder is removed on return.
+    for (const SnapshotPicture& picture : pictures_.pictures) {
+      std::ifstream in(picture.file, std::ios::binary);
+      picture_bytes_.emplace_back((std::istreambuf_iterator<char>(in)),
+                                  std::istreambuf_iterator<char>());
+    }
+    summary_.pictures = static_cast<int>(pictures_.pictures.size());
   }
-  out << "</td></tr>";
-  out << "<tr><td>trajectory</td><td>" << trajectoryModeName(registration.trajectory_mode) << " ("
-      << escape(registration.trajectory_label) << "), scale " << fixed(registration.scale, 5);
-  if (registration.scale_sigma > 0) out << " &plusmn; " << fixed(registration.scale_sigma, 5);
-  out << "</td></tr>";
-  out << "<tr><td>versions</td><td>lookboth " << escape(versionString());
-  for (const auto& [name, version] : registration.versions) {
-    if (name != "lookboth") out << ", " << escape(name) << " " << escape(version);
-  }
-  out << "</td></tr></table>\n";
 
-  const std::string verdict_class = summary.verdict == Verdict::kOk              ? "ok"
-                                    : summary.verdict == Verdict::kNeedsChecking ? "needs-checking"
-                                                                                 : "failed";
-  out << "<div class=\"verdict " << verdict_class
-      << "\">Verdict: " << escape(verdictName(summary.verdict)) << " &mdash; " << registered
-      << " of " << registration.cameras.size() << " cameras registered";
-  if (reasons.empty()) {
-    out << "<div class=reasons>Every camera registered, no warning, reprojection after refinement "
-           "within "
-        << fixed(max_reprojection, 2) << " px"
-        << (ground_truth ? ", within the ground truth bounds" : "") << ".</div>";
-  } else {
-    out << "<ul class=reasons>";
-    for (const std::string& reason : reasons) out << "<li>" << escape(reason) << "</li>";
-    out << "</ul>";
+  void writeHeader() {
+    std::ostringstream& out = out_;
+    const Registration& registration = registration_;
+    out << "<!DOCTYPE html>\n<html lang=en><head><meta charset=utf-8>\n"
+           "<title>lookboth registration report</title>\n<style>"
+        << kStyle << "</style></head><body>\n";
+    out << "<h1>Camera registration report</h1>\n";
+    out << "<table class=meta>";
+    out << "<tr><td>dataset</td><td>"
+        << escape(registration.dataset.empty() ? dataset_.string() : registration.dataset)
+        << "</td></tr>";
+    out << "<tr><td>registration</td><td>" << escape(fs::absolute(registration_dir_).string())
+        << " (created " << escape(registration.created) << ")</td></tr>";
+    out << "<tr><td>pipeline</td><td>";
+    for (size_t i = 0; i < registration.pipeline.size(); ++i) {
+      out << (i ? " &rarr; " : "") << escape(registration.pipeline[i]);
+    }
+    out << "</td></tr>";
+    out << "<tr><td>trajectory</td><td>" << trajectoryModeName(registration.trajectory_mode) << " ("
+        << escape(registration.trajectory_label) << "), scale " << fixed(registration.scale, 5);
+    if (registration.scale_sigma > 0) out << " &plusmn; " << fixed(registration.scale_sigma, 5);
+    out << "</td></tr>";
+    out << "<tr><td>versions</td><td>lookboth " << escape(versionString());
+    for (const auto& [name, version] : registration.versions) {
+      if (name != "lookboth") out << ", " << escape(name) << " " << escape(version);
+    }
+    out << "</td></tr></table>\n";
   }
-  out << "</div>\n";
 
-  // Per-camera table.
-  out << "<h2>Cameras</h2>\n<table><tr><th class=l>camera</th><th class=l>status</th>"
-         "<th>detections used / total</th><th>rejected</th><th>outside traj.</th>"
-         "<th>residual pos. [mm]</th><th>residual rot. [&deg;]</th><th>blobs</th>"
-         "<th>reproj. before [px]</th><th>reproj. after [px]</th><th>&sigma; pos. [mm]</th>"
-         "<th>&sigma; rot. [&deg;]</th><th>predicted error pos. [mm]</th>";
-  if (ground_truth) out << "<th>error pos. [mm]</th><th>error rot. [&deg;]</th>";
-  out << "<th class=l>reason / warnings</th></tr>\n";
-  for (const CameraRegistration& c : registration.cameras) {
+  void writeVerdict() {
+    std::ostringstream& out = out_;
+    const Registration& registration = registration_;
+    const std::vector<std::string>& reasons = summary_.reasons;
+    const int registered = registration.registeredCount();
+    const std::string verdict_class = summary_.verdict == Verdict::kOk ? "ok"
+                                      : summary_.verdict == Verdict::kNeedsChecking
+                                          ? "needs-checking"
+                                          : "failed";
+    out << "<div class=\"verdict " << verdict_class
+        << "\">Verdict: " << escape(verdictName(summary_.verdict)) << " &mdash; " << registered
+        << " of " << registration.cameras.size() << " cameras registered";
+    if (reasons.empty()) {
+      out << "<div class=reasons>Every camera registered, no warning, reprojection after "
+             "refinement "
+             "within "
+          << fixed(max_reprojection_, 2) << " px"
+          << (ground_truth_ ? ", within the ground truth bounds" : "") << ".</div>";
+    } else {
+      out << "<ul class=reasons>";
+      for (const std::string& reason : reasons) out << "<li>" << escape(reason) << "</li>";
+      out << "</ul>";
+    }
+    out << "</div>\n";
+  }
+
+  /// One row of the per-camera table.
+  void writeCameraRow(const CameraRegistration& c) {
+    std::ostringstream& out = out_;
+    const auto& reprojection = reprojection_;
+    const auto& ground_truth = ground_truth_;
     out << "<tr class=" << cameraStatusName(c.status) << "><td class=l>" << escape(c.label)
         << "</td><td class=l>" << cameraStatusName(c.status) << "</td><td>" << c.detections.used
         << " / " << c.detections.total << "</td><td>" << c.detections.rejected << "</td><td>"
@@ -393,114 +434,156 @@ ReportSummary writeReport(const fs::path& dataset, const fs::path& registration_
     for (const std::string& w : c.warnings) out << (c.reason.empty() ? "" : "; ") << escape(w);
     out << "</td></tr>\n";
   }
-  out << "</table>\n<p class=note>&sigma;: one standard deviation along the worst direction, from "
-         "the registration's covariance. Predicted error: the root of the trace of the camera's "
-         "position covariance once a rigid alignment over the cameras is projected out, what an "
-         "aligned comparison with ground truth should show. Residuals: RMS of the looking-down "
-         "residuals of the used detections.</p>\n";
 
-  // Table I.
-  out << "<h2>Reprojection of the camera positions into the fisheye (paper's Table I)</h2>\n";
-  if (reprojection.total.blobs > 0) {
-    out << "<table><tr><th class=l></th><th>blobs</th><th>RMSE before refinement [px]</th>"
-           "<th>RMSE after refinement [px]</th></tr>\n";
-    out << "<tr><td class=l>recomputed from blob_associations.csv</td><td>"
-        << reprojection.total.blobs << "</td><td>"
-        << (reprojection.total.blobs_before ? fixed(reprojection.total.rms_px_before, 3) : "-")
-        << "</td><td>"
-        << (reprojection.total.blobs_after ? fixed(reprojection.total.rms_px_after, 3) : "-")
-        << "</td></tr>\n";
-    if (registration.reprojection) {
-      out << "<tr><td class=l>reported by the registration</td><td>"
-          << registration.reprojection->blobs << "</td><td>"
-          << fixed(registration.reprojection->rms_px_before, 3) << "</td><td>"
-          << fixed(registration.reprojection->rms_px_after, 3) << "</td></tr>\n";
-    }
-    out << "</table>\n";
-  } else {
-    out << "<p class=note>No blob association: the looking-up stage did not run (no fisheye "
-           "blobs, or a metric trajectory without fisheye frames).</p>\n";
+  void writeCameraTable() {
+    std::ostringstream& out = out_;
+    out << "<h2>Cameras</h2>\n<table><tr><th class=l>camera</th><th class=l>status</th>"
+           "<th>detections used / total</th><th>rejected</th><th>outside traj.</th>"
+           "<th>residual pos. [mm]</th><th>residual rot. [&deg;]</th><th>blobs</th>"
+           "<th>reproj. before [px]</th><th>reproj. after [px]</th><th>&sigma; pos. [mm]</th>"
+           "<th>&sigma; rot. [&deg;]</th><th>predicted error pos. [mm]</th>";
+    if (ground_truth_) out << "<th>error pos. [mm]</th><th>error rot. [&deg;]</th>";
+    out << "<th class=l>reason / warnings</th></tr>\n";
+    for (const CameraRegistration& c : registration_.cameras) writeCameraRow(c);
+    out << "</table>\n<p class=note>&sigma;: one standard deviation along the worst direction, "
+           "from the registration's covariance. Predicted error: the root of the trace of the "
+           "camera's "
+           "position covariance once a rigid alignment over the cameras is projected out, what an "
+           "aligned comparison with ground truth should show. Residuals: RMS of the looking-down "
+           "residuals of the used detections.</p>\n";
   }
 
-  // Table II.
-  if (ground_truth || against) {
-    out << "<h2>Comparison (paper's Table II form: RMS differences per axis)</h2>\n";
-    if (ground_truth)
-      comparisonTables(out, *ground_truth, "Against ground truth " + options.ground_truth.string());
-    if (against)
-      comparisonTables(out, *against, "Against the registration " + options.against.string());
-  }
-
-  // Robot calibration, observability, warnings.
-  out << "<h2>Robot: fisheye_from_marker</h2>\n<p>translation [m] ("
-      << fixed(registration.fisheye_from_marker.translation.x(), 4) << ", "
-      << fixed(registration.fisheye_from_marker.translation.y(), 4) << ", "
-      << fixed(registration.fisheye_from_marker.translation.z(), 4)
-      << "), determined by the data: ";
-  const char* names[6] = {"x", "y", "z", "roll", "pitch", "yaw"};
-  for (int i = 0; i < 6; ++i) {
-    out << names[i] << (registration.fisheye_from_marker_determined[i] ? " yes" : " <b>no</b>")
-        << (i < 5 ? ", " : "");
-  }
-  out << ".";
-  if (!registration.fisheye_from_marker_prior.empty()) {
-    out << " Prior: " << escape(registration.fisheye_from_marker_prior) << ".";
-  }
-  out << "</p>\n";
-  if (!registration.observability.message.empty()) {
-    // One sentence per line: the statement is long.
-    std::string text = escape(wrapSentences(registration.observability.message, "", 100000));
-    for (std::size_t at = text.find('\n'); at != std::string::npos; at = text.find('\n', at))
-      text.replace(at, 1, "<br>");
-    out << "<p>" << text << "</p>\n";
-  }
-  if (registration.observability.aligned_position_rmse_m) {
-    out << "<p>Camera positions: the covariance predicts an RMS error of "
-        << fixed(*registration.observability.aligned_position_rmse_m * 1000, 2)
-        << " mm after a rigid alignment to any reference (a survey, another registration).</p>\n";
-  }
-  writeMessages(out, "Warnings", "What to act on, and how.", registration.labelledWarnings());
-  writeMessages(out, "Notes",
-                "Nothing to act on: what priors held because the data cannot determine it, "
-                "detections set aside, the solver's choices.",
-                registration.labelledNotes());
-
-  // Pictures.
-  out << "<h2>Pictures</h2>\n";
-  const std::pair<const char*, const char*> groups[] = {
-      {"fisheye_check",
-       "Reprojection checks on fisheye frames: detected blobs (green rings), camera positions "
-       "before (red crosses) and after (blue discs) the looking-up refinement."},
-      {"env_view", "Environment cameras' views of the robot's marker."},
-      {"overview_3d", "3-D overview."},
-      {"compare", "Top and side views against the reference."},
-      {"loop_closure", "Trajectory before and after loop closure."}};
-  for (const auto& [kind, heading] : groups) {
-    bool any = false;
-    for (const SnapshotPicture& picture : pictures.pictures) {
-      if (picture.kind != kind) continue;
-      if (!any) out << "<p>" << heading << "</p>\n";
-      any = true;
-      std::ifstream in(picture.file, std::ios::binary);
-      const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
-                                             std::istreambuf_iterator<char>());
-      out << "<figure><img alt=\"" << escape(picture.file.filename().string())
-          << "\" src=\"data:image/png;base64," << base64(bytes) << "\"><figcaption>"
-          << escape(picture.caption) << " <i>(" << escape(picture.file.filename().string())
-          << ")</i></figcaption></figure>\n";
+  /// The paper's Table I.
+  void writeReprojectionTable() {
+    std::ostringstream& out = out_;
+    const Registration& registration = registration_;
+    const auto& reprojection = reprojection_;
+    out << "<h2>Reprojection of the camera positions into the fisheye (paper's Table I)</h2>\n";
+    if (reprojection.total.blobs > 0) {
+      out << "<table><tr><th class=l></th><th>blobs</th><th>RMSE before refinement [px]</th>"
+             "<th>RMSE after refinement [px]</th></tr>\n";
+      out << "<tr><td class=l>recomputed from blob_associations.csv</td><td>"
+          << reprojection.total.blobs << "</td><td>"
+          << (reprojection.total.blobs_before ? fixed(reprojection.total.rms_px_before, 3) : "-")
+          << "</td><td>"
+          << (reprojection.total.blobs_after ? fixed(reprojection.total.rms_px_after, 3) : "-")
+          << "</td></tr>\n";
+      if (registration.reprojection) {
+        out << "<tr><td class=l>reported by the registration</td><td>"
+            << registration.reprojection->blobs << "</td><td>"
+            << fixed(registration.reprojection->rms_px_before, 3) << "</td><td>"
+            << fixed(registration.reprojection->rms_px_after, 3) << "</td></tr>\n";
+      }
+      out << "</table>\n";
+    } else {
+      out << "<p class=note>No blob association: the looking-up stage did not run (no fisheye "
+             "blobs, or a metric trajectory without fisheye frames).</p>\n";
     }
   }
-  for (const std::string& note : pictures.notes)
-    out << "<p class=note>" << escape(note) << "</p>\n";
-  out << "<p class=note>Written by lookboth " << escape(versionString())
-      << " (lookboth report). Self-contained: no script, no external resource.</p>\n";
-  out << "</body></html>\n";
 
-  const std::string html = out.str();
-  writeFileAtomically(options.out, html);
-  summary.bytes = html.size();
-  progress.report("report: write", 1, 1);
-  return summary;
+  /// The paper's Table II form.
+  void writeComparisons() {
+    if (!ground_truth_ && !against_) return;
+    out_ << "<h2>Comparison (paper's Table II form: RMS differences per axis)</h2>\n";
+    if (ground_truth_) {
+      comparisonTables(out_, *ground_truth_,
+                       "Against ground truth " + options_.ground_truth.string());
+    }
+    if (against_) {
+      comparisonTables(out_, *against_, "Against the registration " + options_.against.string());
+    }
+  }
+
+  /// The robot's calibration, observability, warnings and notes.
+  void writeRobot() {
+    std::ostringstream& out = out_;
+    const Registration& registration = registration_;
+    out << "<h2>Robot: fisheye_from_marker</h2>\n<p>translation [m] ("
+        << fixed(registration.fisheye_from_marker.translation.x(), 4) << ", "
+        << fixed(registration.fisheye_from_marker.translation.y(), 4) << ", "
+        << fixed(registration.fisheye_from_marker.translation.z(), 4)
+        << "), determined by the data: ";
+    const char* names[6] = {"x", "y", "z", "roll", "pitch", "yaw"};
+    for (int i = 0; i < 6; ++i) {
+      out << names[i] << (registration.fisheye_from_marker_determined[i] ? " yes" : " <b>no</b>")
+          << (i < 5 ? ", " : "");
+    }
+    out << ".";
+    if (!registration.fisheye_from_marker_prior.empty()) {
+      out << " Prior: " << escape(registration.fisheye_from_marker_prior) << ".";
+    }
+    out << "</p>\n";
+    if (!registration.observability.message.empty()) {
+      // One sentence per line: the statement is long.
+      std::string text = escape(wrapSentences(registration.observability.message, "", 100000));
+      for (std::size_t at = text.find('\n'); at != std::string::npos; at = text.find('\n', at))
+        text.replace(at, 1, "<br>");
+      out << "<p>" << text << "</p>\n";
+    }
+    if (registration.observability.aligned_position_rmse_m) {
+      out << "<p>Camera positions: the covariance predicts an RMS error of "
+          << fixed(*registration.observability.aligned_position_rmse_m * 1000, 2)
+          << " mm after a rigid alignment to any reference (a survey, another registration).</p>\n";
+    }
+    writeMessages(out, "Warnings", "What to act on, and how.", registration.labelledWarnings());
+    writeMessages(out, "Notes",
+                  "Nothing to act on: what priors held because the data cannot determine it, "
+                  "detections set aside, the solver's choices.",
+                  registration.labelledNotes());
+  }
+
+  void writePictures() {
+    std::ostringstream& out = out_;
+    out << "<h2>Pictures</h2>\n";
+    const std::pair<const char*, const char*> groups[] = {
+        {"fisheye_check",
+         "Reprojection checks on fisheye frames: detected blobs (green rings), camera positions "
+         "before (red crosses) and after (blue discs) the looking-up refinement."},
+        {"env_view", "Environment cameras' views of the robot's marker."},
+        {"overview_3d", "3-D overview."},
+        {"compare", "Top and side views against the reference."},
+        {"loop_closure", "Trajectory before and after loop closure."}};
+    for (const auto& [kind, heading] : groups) {
+      bool any = false;
+      for (std::size_t k = 0; k < pictures_.pictures.size(); ++k) {
+        const SnapshotPicture& picture = pictures_.pictures[k];
+        if (picture.kind != kind) continue;
+        if (!any) out << "<p>" << heading << "</p>\n";
+        any = true;
+        out << "<figure><img alt=\"" << escape(picture.file.filename().string())
+            << "\" src=\"data:image/png;base64," << base64(picture_bytes_[k]) << "\"><figcaption>"
+            << escape(picture.caption) << " <i>(" << escape(picture.file.filename().string())
+            << ")</i></figcaption></figure>\n";
+      }
+    }
+    for (const std::string& note : pictures_.notes)
+      out << "<p class=note>" << escape(note) << "</p>\n";
+    out << "<p class=note>Written by lookboth " << escape(versionString())
+        << " (lookboth report). Self-contained: no script, no external resource.</p>\n";
+    out << "</body></html>\n";
+  }
+
+  const fs::path dataset_, registration_dir_;
+  const ReportOptions& options_;
+  const Registration registration_;
+  const RegistrationView view_;
+  std::optional<CameraPoseSet> truth_poses_, other_poses_;
+  std::optional<PoseComparison> ground_truth_, against_;
+  ReprojectionTable reprojection_;
+  double max_reprojection_ = 0;  ///< [px]
+  ReportSummary summary_;
+  SnapshotResult pictures_;
+  std::vector<std::vector<unsigned char>> picture_bytes_;  ///< The PNG files' bytes.
+  std::ostringstream out_;
+};
+
+}  // namespace
+
+ReportSummary writeReport(const fs::path& dataset, const fs::path& registration_dir,
+                          const ReportOptions& options, const ProgressReporter& progress) {
+  if (const std::string why = options.check(); !why.empty()) throw Error(why);
+  progress.report("report: load", 0, 1);
+  return ReportWriter(dataset, registration_dir, options).write(progress);
 }
 
 }  // namespace lookboth::report

@@ -300,41 +300,56 @@ std::vector<std::pair<int, std::string>> chooseFrames(
   return chosen;
 }
 
-}  // namespace
-
-FisheyeCheck makeFisheyeCheck(const RegistrationView& reg, const Camera& fisheye, TimeNs t,
-                              const std::vector<Eigen::Vector2d>& frame_blobs) {
-  std::multimap<TimeNs, const ReprojectionRow*> rows_by_time;
-  for (const ReprojectionRow& row : reg.blob_associations)
-    if (row.t == t) rows_by_time.emplace(row.t, &row);
-  return makeCheck(reg, fisheye, t, frame_blobs, rows_by_time);
-}
-
-SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& reg,
-                              const SnapshotOptions& options, const ProgressReporter& progress) {
-  if (const std::string why = options.check(); !why.empty()) throw Error(why);
-  SnapshotResult result;
-  const DatasetContents data = readDataset(dataset, progress);
-  std::error_code ec;
-  fs::create_directories(options.out, ec);
-  if (!fs::is_directory(options.out)) {
-    throw Error({options.out.string(), 0, "", ""}, "cannot create the output folder");
+// writeSnapshots' pictures, one method per kind, in the order they are made.
+class SnapshotWriter {
+ public:
+  SnapshotWriter(const fs::path& dataset, const RegistrationView& reg,
+                 const SnapshotOptions& options, const ProgressReporter& progress)
+      : reg_(reg), options_(options), progress_(progress), data_(readDataset(dataset, progress)) {
+    std::error_code ec;
+    fs::create_directories(options.out, ec);
+    if (!fs::is_directory(options.out)) {
+      throw Error({options.out.string(), 0, "", ""}, "cannot create the output folder");
+    }
+    plot_size_ = options.size.width > 0 ? options.size : cv::Size(1280, 720);
+    start_ = data_.frame_times.empty() ? 0 : data_.frame_times.front();
+    for (const StampedPose& s : reg.trajectory.samples())
+      trajectory_.push_back(s.world_from_body.translation);
   }
-  const cv::Size plot_size = options.size.width > 0 ? options.size : cv::Size(1280, 720);
-  const TimeNs start = data.frame_times.empty() ? 0 : data.frame_times.front();
-  const auto add = [&](SnapshotPicture picture, const cv::Mat& image) {
+
+  SnapshotResult write() {
+    fisheyeChecks();
+    envViews();
+    if (options_.overview) overview();
+    for (const SnapshotOptions::Reference& ref : options_.references) comparison(ref);
+    loopClosures();
+    return std::move(result_);
+  }
+
+ private:
+  void add(SnapshotPicture picture, const cv::Mat& image) {
     writePng(picture.file, image);
     picture.size = image.size();
-    result.pictures.push_back(std::move(picture));
-  };
+    result_.pictures.push_back(std::move(picture));
+  }
 
-  // 1. Fisheye reprojection checks.
-  const CameraSensor* fisheye_sensor = data.manifest.fisheye();
-  if (!fisheye_sensor || !fisheye_sensor->camera) {
-    result.notes.push_back("the dataset has no calibrated fisheye: fisheye checks skipped");
-  } else if (data.frame_times.empty()) {
-    result.notes.push_back("the dataset has no fisheye frame or blob: fisheye checks skipped");
-  } else {
+  /// 1. Fisheye reprojection checks.
+  void fisheyeChecks() {
+    const CameraSensor* fisheye_sensor = data_.manifest.fisheye();
+    if (!fisheye_sensor || !fisheye_sensor->camera) {
+      result_.notes.push_back("the dataset has no calibrated fisheye: fisheye checks skipped");
+      return;
+    }
+    if (data_.frame_times.empty()) {
+      result_.notes.push_back("the dataset has no fisheye frame or blob: fisheye checks skipped");
+      return;
+    }
+    const DatasetContents& data = data_;
+    const RegistrationView& reg = reg_;
+    const SnapshotOptions& options = options_;
+    const ProgressReporter& progress = progress_;
+    SnapshotResult& result = result_;
+    const TimeNs start = start_;
     const Camera& fisheye = *fisheye_sensor->camera;
     std::multimap<TimeNs, const ReprojectionRow*> rows_by_time;
     for (const ReprojectionRow& row : reg.blob_associations) rows_by_time.emplace(row.t, &row);
@@ -403,39 +418,20 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
     }
   }
 
-  // 2. Environment camera views of the marker.
-  int env_views = 0;
-  for (const CameraSensor& sensor : data.manifest.cameras) {
-    if (env_views >= options.max_env_views) break;
-    if (sensor.role != SensorRole::kEnvCamera || !sensor.camera) continue;
-    const auto pose = reg.world_from_camera.find(sensor.label);
-    if (pose == reg.world_from_camera.end()) continue;
-    progress.checkStop();
-    const Camera& camera = *sensor.camera;
-    const Rigid3d camera_from_world = pose->second.inverse();
-    const auto predicted = [&](TimeNs t) -> std::optional<Rigid3d> {
-      if (!reg.fisheye_from_marker) return std::nullopt;
-      const InterpolationResult robot = reg.trajectory.interpolate(t, 0);
-      if (!robot.ok()) return std::nullopt;
-      return camera_from_world * robot.world_from_body * *reg.fisheye_from_marker;
-    };
-    const Eigen::Vector2d centre(camera.width() / 2.0, camera.height() / 2.0);
-    const auto distance_to_centre = [&](const Rigid3d& camera_from_marker) {
-      const auto uv = camera.project(camera_from_marker.translation);
-      return uv ? (*uv - centre).norm() : 1e300;
-    };
-    const auto frames = data.env_frames.find(sensor.label);
-    const auto markers = data.markers.find(sensor.label);
-    EnvCameraView view;
-    view.camera = sensor.label;
-    view.marker_size_m = data.manifest.marker.size_m;
-    const ImageFrame* image_frame = nullptr;
+  /// The detection of the marker nearest the image centre (with its frame
+  /// when there are images); else the frame where the registration puts the
+  /// marker most centrally. False when there is neither.
+  template <typename Distance, typename Predicted>
+  bool chooseEnvFrame(const CameraSensor& sensor, const Distance& distance_to_centre,
+                      const Predicted& predicted, EnvCameraView& view,
+                      const ImageFrame*& image_frame) const {
+    const auto frames = data_.env_frames.find(sensor.label);
+    const auto markers = data_.markers.find(sensor.label);
     double best = 1e300;
-    if (markers != data.markers.end()) {
-      // The detection nearest the image centre (with its frame when there are images).
+    if (markers != data_.markers.end()) {
       for (const MarkerObservation& m : markers->second) {
         const ImageFrame* frame = nullptr;
-        if (frames != data.env_frames.end()) {
+        if (frames != data_.env_frames.end()) {
           const auto found =
               std::lower_bound(frames->second.begin(), frames->second.end(), m.t,
                                [](const ImageFrame& f, TimeNs t) { return f.t < t; });
@@ -451,8 +447,7 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
         }
       }
     }
-    if (best == 1e300 && frames != data.env_frames.end()) {
-      // No detection: the frame where the registration puts the marker most centrally.
+    if (best == 1e300 && frames != data_.env_frames.end()) {
       for (const ImageFrame& frame : frames->second) {
         const auto p = predicted(frame.t);
         if (!p) continue;
@@ -464,7 +459,32 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
         }
       }
     }
-    if (best == 1e300) continue;
+    return best != 1e300;
+  }
+
+  /// 2. An environment camera's view of the marker; false when it has none.
+  bool envView(const CameraSensor& sensor, const Rigid3d& world_from_camera) {
+    const RegistrationView& reg = reg_;
+    const SnapshotOptions& options = options_;
+    const TimeNs start = start_;
+    const Camera& camera = *sensor.camera;
+    const Rigid3d camera_from_world = world_from_camera.inverse();
+    const auto predicted = [&](TimeNs t) -> std::optional<Rigid3d> {
+      if (!reg.fisheye_from_marker) return std::nullopt;
+      const InterpolationResult robot = reg.trajectory.interpolate(t, 0);
+      if (!robot.ok()) return std::nullopt;
+      return camera_from_world * robot.world_from_body * *reg.fisheye_from_marker;
+    };
+    const Eigen::Vector2d centre(camera.width() / 2.0, camera.height() / 2.0);
+    const auto distance_to_centre = [&](const Rigid3d& camera_from_marker) {
+      const auto uv = camera.project(camera_from_marker.translation);
+      return uv ? (*uv - centre).norm() : 1e300;
+    };
+    EnvCameraView view;
+    view.camera = sensor.label;
+    view.marker_size_m = data_.manifest.marker.size_m;
+    const ImageFrame* image_frame = nullptr;
+    if (!chooseEnvFrame(sensor, distance_to_centre, predicted, view, image_frame)) return false;
     view.predicted_camera_from_marker = predicted(view.t);
     const cv::Mat image = image_frame ? decodeImage(*image_frame) : cv::Mat();
     SnapshotPicture picture;
@@ -479,16 +499,30 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
         "the marker where the registration puts it.";
     const cv::Mat drawn = drawEnvCameraView(view, camera, image, options.size, &picture.marks);
     add(std::move(picture), drawn);
-    ++env_views;
+    return true;
   }
 
-  // Trajectory positions for the plots.
-  std::vector<Eigen::Vector3d> trajectory;
-  for (const StampedPose& s : reg.trajectory.samples())
-    trajectory.push_back(s.world_from_body.translation);
+  void envViews() {
+    int env_views = 0;
+    for (const CameraSensor& sensor : data_.manifest.cameras) {
+      if (env_views >= options_.max_env_views) break;
+      if (sensor.role != SensorRole::kEnvCamera || !sensor.camera) continue;
+      const auto pose = reg_.world_from_camera.find(sensor.label);
+      if (pose == reg_.world_from_camera.end()) continue;
+      progress_.checkStop();
+      if (envView(sensor, pose->second)) ++env_views;
+    }
+  }
 
-  // 3. The 3-D overview.
-  if (options.overview) {
+  /// 3. The 3-D overview.
+  void overview() {
+    const DatasetContents& data = data_;
+    const RegistrationView& reg = reg_;
+    const SnapshotOptions& options = options_;
+    const ProgressReporter& progress = progress_;
+    SnapshotResult& result = result_;
+    const std::vector<Eigen::Vector3d>& trajectory = trajectory_;
+    const cv::Size plot_size = plot_size_;
     progress.checkStop();
     progress.report("snapshot: 3-D overview", 0, 1);
     OverviewInput input;
@@ -521,8 +555,15 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
     progress.report("snapshot: 3-D overview", 1, 1);
   }
 
-  // 4. Comparison with a reference (top and side views), ground truth trajectory.
-  for (const SnapshotOptions::Reference& ref : options.references) {
+  /// 4. Comparison with a reference (top and side views), ground truth trajectory.
+  void comparison(const SnapshotOptions::Reference& ref) {
+    const DatasetContents& data = data_;
+    const RegistrationView& reg = reg_;
+    const SnapshotOptions& options = options_;
+    const ProgressReporter& progress = progress_;
+    SnapshotResult& result = result_;
+    const std::vector<Eigen::Vector3d>& trajectory = trajectory_;
+    const cv::Size plot_size = plot_size_;
     progress.checkStop();
     const PoseComparison comparison =
         comparePoses(ref.poses, reg.poseSet(), CompareOptions{options.reference_with_scale});
@@ -567,32 +608,61 @@ SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& r
     add(std::move(picture), drawn);
   }
 
-  // Trajectories before and after loop closure (figure 8), when the dataset has both.
-  for (const auto& [label, samples] : data.trajectories) {
-    static const std::string kSuffix = "_before_loop_closure";
-    if (label.size() <= kSuffix.size() ||
-        label.compare(label.size() - kSuffix.size(), kSuffix.size(), kSuffix) != 0) {
-      continue;
+  /// Trajectories before and after loop closure (figure 8), when the dataset has both.
+  void loopClosures() {
+    const DatasetContents& data = data_;
+    const SnapshotOptions& options = options_;
+    const cv::Size plot_size = plot_size_;
+    for (const auto& [label, samples] : data.trajectories) {
+      static const std::string kSuffix = "_before_loop_closure";
+      if (label.size() <= kSuffix.size() ||
+          label.compare(label.size() - kSuffix.size(), kSuffix.size(), kSuffix) != 0) {
+        continue;
+      }
+      const std::string closed = label.substr(0, label.size() - kSuffix.size());
+      const auto after = data.trajectories.find(closed);
+      if (after == data.trajectories.end()) continue;
+      PlotTrajectory before_plot{label, colours::kBefore, {}, 2};
+      for (const StampedPose& s : samples)
+        before_plot.positions.push_back(s.world_from_body.translation);
+      PlotTrajectory after_plot{closed + " (after loop closure)", cv::Scalar(0, 160, 0), {}, 2};
+      for (const StampedPose& s : after->second)
+        after_plot.positions.push_back(s.world_from_body.translation);
+      SnapshotPicture picture;
+      picture.kind = "loop_closure";
+      picture.file = options.out / ("trajectory_loop_closure_" + safeName(closed) + ".png");
+      picture.caption =
+          "Trajectory " + closed + " before (red) and after (green) loop closure, top view.";
+      const cv::Mat drawn = drawTopView("Trajectory " + closed + " before and after loop closure",
+                                        {}, {before_plot, after_plot}, plot_size, &picture.marks);
+      add(std::move(picture), drawn);
     }
-    const std::string closed = label.substr(0, label.size() - kSuffix.size());
-    const auto after = data.trajectories.find(closed);
-    if (after == data.trajectories.end()) continue;
-    PlotTrajectory before_plot{label, colours::kBefore, {}, 2};
-    for (const StampedPose& s : samples)
-      before_plot.positions.push_back(s.world_from_body.translation);
-    PlotTrajectory after_plot{closed + " (after loop closure)", cv::Scalar(0, 160, 0), {}, 2};
-    for (const StampedPose& s : after->second)
-      after_plot.positions.push_back(s.world_from_body.translation);
-    SnapshotPicture picture;
-    picture.kind = "loop_closure";
-    picture.file = options.out / ("trajectory_loop_closure_" + safeName(closed) + ".png");
-    picture.caption =
-        "Trajectory " + closed + " before (red) and after (green) loop closure, top view.";
-    const cv::Mat drawn = drawTopView("Trajectory " + closed + " before and after loop closure", {},
-                                      {before_plot, after_plot}, plot_size, &picture.marks);
-    add(std::move(picture), drawn);
   }
-  return result;
+
+  const RegistrationView& reg_;
+  const SnapshotOptions& options_;
+  const ProgressReporter& progress_;
+  const DatasetContents data_;
+  cv::Size plot_size_;
+  TimeNs start_ = 0;
+  std::vector<Eigen::Vector3d> trajectory_;  ///< The registration's, for the plots.
+  SnapshotResult result_;
+};
+
+}  // namespace
+
+FisheyeCheck makeFisheyeCheck(const RegistrationView& reg, const Camera& fisheye, TimeNs t,
+                              const std::vector<Eigen::Vector2d>& frame_blobs) {
+  std::multimap<TimeNs, const ReprojectionRow*> rows_by_time;
+  for (const ReprojectionRow& row : reg.blob_associations)
+    if (row.t == t) rows_by_time.emplace(row.t, &row);
+  return makeCheck(reg, fisheye, t, frame_blobs, rows_by_time);
+}
+
+SnapshotResult writeSnapshots(const fs::path& dataset, const RegistrationView& reg,
+                              const SnapshotOptions& options, const ProgressReporter& progress) {
+  if (const std::string why = options.check(); !why.empty()) throw Error(why);
+  return SnapshotWriter(dataset, reg, options, progress).write();
 }
 
 }  // namespace lookboth::report

@@ -372,15 +372,12 @@ double blurAt(const Scenario& sc, double t) {
   return blur;
 }
 
-/// Every event of the run, in writing order, with the faults applied.
-std::vector<Event> buildEvents(const Setup& setup, const SimulateOptions& options,
-                               std::map<std::string, std::int64_t>& fault_counts) {
+/// The fisheye's frames and the ground truth at each.
+void addFisheyeEvents(const Setup& setup, std::vector<Event>& events,
+                      std::map<std::string, std::int64_t>& fault_counts) {
   const Scenario& sc = setup.scenario;
   const std::uint32_t seed = setup.seed;
   const double duration = setup.duration;
-  std::vector<Event> events;
-
-  // Fisheye frames and ground truth.
   const double fisheye_period = 1 / sc.robot.fisheye.rate_hz;
   for (std::int64_t k = 0;; ++k) {
     const double t = setup.fisheye_phase + static_cast<double>(k) * fisheye_period;
@@ -405,8 +402,11 @@ std::vector<Event> buildEvents(const Setup& setup, const SimulateOptions& option
     }
     events.push_back(frame);
   }
+}
 
-  // A replayed estimate, where it lies within the simulated time.
+/// A replayed estimate, where it lies within the simulated time.
+void addReplayedOdometry(const Setup& setup, std::vector<Event>& events) {
+  const double duration = setup.duration;
   for (size_t j = 0; j < setup.replayed_odometry.size(); ++j) {
     const ReplayedPose& pose = setup.replayed_odometry[j];
     if (pose.t > duration) break;
@@ -418,61 +418,119 @@ std::vector<Event> buildEvents(const Setup& setup, const SimulateOptions& option
     e.pose = pose.world_from_base * setup.base_from_fisheye;
     events.push_back(e);
   }
+}
 
-  // Wheel odometry: dead reckoning on the true planar increments.
-  if (setup.replayed_odometry.empty()) {
-    const OdometrySpec& o = sc.robot.odometry;
-    std::mt19937 rng(streamSeed(seed, "odometry"));
-    const double scale_error = o.scale_error_sigma * gaussian(rng);
-    const double yaw_bias = o.yaw_bias_sigma_deg_per_s * kDegree * gaussian(rng);
-    const double period = 1 / o.rate_hz;
-    Rigid3d previous_true;
-    double x = 0, y = 0, yaw = 0, z = 0, previous_t = 0;
-    for (std::int64_t j = 0;; ++j) {
-      const double t = setup.odometry_phase + static_cast<double>(j) * period;
-      if (t > duration) break;
-      const Rigid3d world_from_base = setup.motion->worldFromBase(t);
-      if (j == 0) {
-        x = world_from_base.translation.x();
-        y = world_from_base.translation.y();
-        z = world_from_base.translation.z();
-        yaw = yawOf(world_from_base);
-      } else {
-        const double previous_yaw = yawOf(previous_true);
-        const Eigen::Vector2d delta =
-            (world_from_base.translation - previous_true.translation).head<2>();
-        const double c = std::cos(previous_yaw), s = std::sin(previous_yaw);
-        const double dx = c * delta.x() + s * delta.y();
-        const double dy = -s * delta.x() + c * delta.y();
-        const double dyaw = wrapAngle(yawOf(world_from_base) - previous_yaw);
-        const double distance = delta.norm();
-        const double n_distance = gaussian(rng), n_yaw = gaussian(rng);
-        const double mdx = dx * (1 + scale_error) +
-                           o.distance_noise_m_per_sqrt_m * std::sqrt(distance) * n_distance;
-        const double mdy = dy * (1 + scale_error);
-        const double mdyaw = dyaw + yaw_bias * (t - previous_t) +
-                             o.yaw_noise_deg_per_sqrt_m * kDegree * std::sqrt(distance) * n_yaw;
-        x += std::cos(yaw) * mdx - std::sin(yaw) * mdy;
-        y += std::sin(yaw) * mdx + std::cos(yaw) * mdy;
-        yaw = wrapAngle(yaw + mdyaw);
+/// Wheel odometry: dead reckoning on the true planar increments.
+void addWheelOdometry(const Setup& setup, std::vector<Event>& events) {
+  const Scenario& sc = setup.scenario;
+  const std::uint32_t seed = setup.seed;
+  const double duration = setup.duration;
+  const OdometrySpec& o = sc.robot.odometry;
+  std::mt19937 rng(streamSeed(seed, "odometry"));
+  const double scale_error = o.scale_error_sigma * gaussian(rng);
+  const double yaw_bias = o.yaw_bias_sigma_deg_per_s * kDegree * gaussian(rng);
+  const double period = 1 / o.rate_hz;
+  Rigid3d previous_true;
+  double x = 0, y = 0, yaw = 0, z = 0, previous_t = 0;
+  for (std::int64_t j = 0;; ++j) {
+    const double t = setup.odometry_phase + static_cast<double>(j) * period;
+    if (t > duration) break;
+    const Rigid3d world_from_base = setup.motion->worldFromBase(t);
+    if (j == 0) {
+      x = world_from_base.translation.x();
+      y = world_from_base.translation.y();
+      z = world_from_base.translation.z();
+      yaw = yawOf(world_from_base);
+    } else {
+      const double previous_yaw = yawOf(previous_true);
+      const Eigen::Vector2d delta =
+          (world_from_base.translation - previous_true.translation).head<2>();
+      const double c = std::cos(previous_yaw), s = std::sin(previous_yaw);
+      const double dx = c * delta.x() + s * delta.y();
+      const double dy = -s * delta.x() + c * delta.y();
+      const double dyaw = wrapAngle(yawOf(world_from_base) - previous_yaw);
+      const double distance = delta.norm();
+      const double n_distance = gaussian(rng), n_yaw = gaussian(rng);
+      const double mdx =
+          dx * (1 + scale_error) + o.distance_noise_m_per_sqrt_m * std::sqrt(distance) * n_distance;
+      const double mdy = dy * (1 + scale_error);
+      const double mdyaw = dyaw + yaw_bias * (t - previous_t) +
+                           o.yaw_noise_deg_per_sqrt_m * kDegree * std::sqrt(distance) * n_yaw;
+      x += std::cos(yaw) * mdx - std::sin(yaw) * mdy;
+      y += std::sin(yaw) * mdx + std::cos(yaw) * mdy;
+      yaw = wrapAngle(yaw + mdyaw);
+    }
+    previous_true = world_from_base;
+    previous_t = t;
+    Event e;
+    e.kind = EventKind::kOdometry;
+    e.t = t;
+    e.index = j;
+    e.stamp = setup.stamp(t, setup.robot_offset);
+    e.pose = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ())),
+                     Eigen::Vector3d(x, y, z)) *
+             setup.base_from_fisheye;
+    events.push_back(e);
+  }
+}
+
+/// In detections-only mode, what camera c's frame k detects (into
+/// e.marker): the marker, a decoy, or nothing. False when nothing.
+bool simulateDetection(const Setup& setup, std::size_t c, std::int64_t k,
+                       const Rigid3d& world_from_base, Event& e,
+                       std::map<std::string, std::int64_t>& fault_counts) {
+  const Scenario& sc = setup.scenario;
+  const std::uint32_t seed = setup.seed;
+  const EnvCameraPlacement& placement = setup.placements[c];
+  const Rigid3d camera_from_world = placement.world_from_camera.inverse();
+  const Rigid3d camera_from_marker =
+      camera_from_world * (world_from_base * setup.base_from_fisheye * setup.fisheye_from_marker);
+  const auto side = detectableSide(*setup.env_camera, camera_from_marker, sc.marker, sc.noise);
+  std::mt19937 noise(itemSeed(seed, "detect/" + placement.label, k));
+  // noise.marker_corners: the pose from noisy corners, drawn from a
+  // stream of their own so that every other draw stays as without them.
+  auto observe = [&](const Rigid3d& camera_from_seen, double side_px) {
+    if (!sc.noise.marker_corners) {
+      return std::optional<MarkerObservation>(
+          noisyMarker(camera_from_seen, side_px, sc.marker, sc.noise, noise));
+    }
+    std::mt19937 corner_noise(itemSeed(seed, "corners/" + placement.label, k));
+    return markerFromNoisyCorners(*setup.env_camera, camera_from_seen, sc.marker,
+                                  sc.noise.marker_corner_sigma_px, corner_noise);
+  };
+  if (side && !e.occluded) {
+    e.marker = observe(camera_from_marker, *side);
+  } else if (e.false_marker) {
+    // A false detection only where the real marker is not seen (a
+    // reader keeps one detection of an id per frame).
+    if (const auto decoy =
+            decoyWorldFromMarker(*setup.env_camera, placement.world_from_camera, noise)) {
+      const Rigid3d camera_from_decoy = camera_from_world * *decoy;
+      if (const auto decoy_side =
+              detectableSide(*setup.env_camera, camera_from_decoy, sc.marker, sc.noise)) {
+        e.marker = observe(camera_from_decoy, *decoy_side);
+        if (e.marker) ++fault_counts["false marker detections"];
       }
-      previous_true = world_from_base;
-      previous_t = t;
-      Event e;
-      e.kind = EventKind::kOdometry;
-      e.t = t;
-      e.index = j;
-      e.stamp = setup.stamp(t, setup.robot_offset);
-      e.pose = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ())),
-                       Eigen::Vector3d(x, y, z)) *
-               setup.base_from_fisheye;
-      events.push_back(e);
     }
   }
+  if (side && e.occluded) ++fault_counts["occluded marker detections"];
+  if (e.marker) {
+    e.marker->t = e.stamp;
+    e.marker->camera = placement.label;
+  }
+  return e.marker.has_value();
+}
 
-  // Environment-camera frames while the robot is near.
-  // Environment-camera frames only between the first and the last fisheye
-  // frame, so that the ground truth covers every detection.
+/// Environment-camera frames while the robot is near, only between the
+/// first and the last fisheye frame, so that the ground truth covers every
+/// detection.
+void addEnvCameraEvents(const Setup& setup, const SimulateOptions& options,
+                        std::vector<Event>& events,
+                        std::map<std::string, std::int64_t>& fault_counts) {
+  const Scenario& sc = setup.scenario;
+  const std::uint32_t seed = setup.seed;
+  const double duration = setup.duration;
+  const double fisheye_period = 1 / sc.robot.fisheye.rate_hz;
   const double first_fisheye = setup.fisheye_phase;
   const double last_fisheye =
       first_fisheye + std::floor((duration - first_fisheye) / fisheye_period) * fisheye_period;
@@ -481,7 +539,6 @@ std::vector<Event> buildEvents(const Setup& setup, const SimulateOptions& option
   for (size_t c = 0; c < setup.placements.size(); ++c) {
     const EnvCameraPlacement& placement = setup.placements[c];
     const Eigen::Vector2d nadir = placement.world_from_camera.translation.head<2>();
-    const Rigid3d camera_from_world = placement.world_from_camera.inverse();
     const std::size_t first_event = events.size();
     for (std::int64_t k = 0;; ++k) {
       const double t = setup.camera_phase[c] + static_cast<double>(k) * camera_period;
@@ -505,44 +562,9 @@ std::vector<Event> buildEvents(const Setup& setup, const SimulateOptions& option
         continue;
       }
       if (options.detections_only) {
-        const Rigid3d camera_from_marker =
-            camera_from_world *
-            (world_from_base * setup.base_from_fisheye * setup.fisheye_from_marker);
-        const auto side =
-            detectableSide(*setup.env_camera, camera_from_marker, sc.marker, sc.noise);
-        std::mt19937 noise(itemSeed(seed, "detect/" + placement.label, k));
-        // noise.marker_corners: the pose from noisy corners, drawn from a
-        // stream of their own so that every other draw stays as without them.
-        auto observe = [&](const Rigid3d& camera_from_seen, double side_px) {
-          if (!sc.noise.marker_corners) {
-            return std::optional<MarkerObservation>(
-                noisyMarker(camera_from_seen, side_px, sc.marker, sc.noise, noise));
-          }
-          std::mt19937 corner_noise(itemSeed(seed, "corners/" + placement.label, k));
-          return markerFromNoisyCorners(*setup.env_camera, camera_from_seen, sc.marker,
-                                        sc.noise.marker_corner_sigma_px, corner_noise);
-        };
-        if (side && !e.occluded) {
-          e.marker = observe(camera_from_marker, *side);
-        } else if (e.false_marker) {
-          // A false detection only where the real marker is not seen (a
-          // reader keeps one detection of an id per frame).
-          if (const auto decoy =
-                  decoyWorldFromMarker(*setup.env_camera, placement.world_from_camera, noise)) {
-            const Rigid3d camera_from_decoy = camera_from_world * *decoy;
-            if (const auto decoy_side =
-                    detectableSide(*setup.env_camera, camera_from_decoy, sc.marker, sc.noise)) {
-              e.marker = observe(camera_from_decoy, *decoy_side);
-              if (e.marker) ++fault_counts["false marker detections"];
-            }
-          }
+        if (!simulateDetection(setup, c, k, world_from_base, e, fault_counts)) {
+          continue;  // nothing to write for this frame
         }
-        if (side && e.occluded) ++fault_counts["occluded marker detections"];
-        if (e.marker) {
-          e.marker->t = e.stamp;
-          e.marker->camera = placement.label;
-        }
-        if (!e.marker) continue;  // nothing to write for this frame
       } else {
         if (e.occluded) ++fault_counts["occluded marker frames"];
       }
@@ -552,7 +574,57 @@ std::vector<Event> buildEvents(const Setup& setup, const SimulateOptions& option
       sharePassErrors(events, first_event, *setup.env_camera, sc, seed, placement.label);
     }
   }
+}
 
+/// Duplicated timestamps: a record takes the stamp of the previous record
+/// of its stream (a driver that stamps two frames alike). Image streams
+/// only in the folder format (a rawlog cannot hold two frames of one camera
+/// at one time: its image files are named by time).
+void duplicateTimestamps(const Setup& setup, const SimulateOptions& options,
+                         std::vector<Event>& events,
+                         std::map<std::string, std::int64_t>& fault_counts) {
+  const Scenario& sc = setup.scenario;
+  const std::uint32_t seed = setup.seed;
+  std::map<std::pair<int, int>, std::vector<size_t>> streams;  // (kind, camera) -> indices
+  for (size_t i = 0; i < events.size(); ++i) {
+    const Event& e = events[i];
+    const bool image =
+        !options.detections_only && (e.kind == EventKind::kFisheye || e.kind == EventKind::kEnv);
+    if (e.kind == EventKind::kGroundTruth) continue;
+    if (image && options.kind == DatasetKind::kRawlog) continue;
+    streams[{static_cast<int>(e.kind), e.camera}].push_back(i);
+  }
+  std::vector<std::pair<size_t, size_t>> candidates;  // (event, previous event of the stream)
+  for (const auto& [key, indices] : streams) {
+    for (size_t j = 1; j < indices.size(); ++j) candidates.emplace_back(indices[j], indices[j - 1]);
+  }
+  std::mt19937 rng(streamSeed(seed, "faults/duplicates"));
+  std::shuffle(candidates.begin(), candidates.end(), rng);
+  std::set<size_t> used;
+  int done = 0;
+  for (const auto& [i, previous] : candidates) {
+    if (done >= sc.faults.duplicated_timestamps) break;
+    if (used.count(i) || used.count(previous)) continue;
+    used.insert(i);
+    used.insert(previous);
+    events[i].stamp = events[previous].stamp;
+    events[i].duplicated = true;
+    if (events[i].marker) events[i].marker->t = events[i].stamp;
+    ++done;
+  }
+  fault_counts["duplicated timestamps"] += done;
+  std::stable_sort(events.begin(), events.end(),
+                   [](const Event& a, const Event& b) { return a.stamp < b.stamp; });
+}
+
+/// Every event of the run, in writing order, with the faults applied.
+std::vector<Event> buildEvents(const Setup& setup, const SimulateOptions& options,
+                               std::map<std::string, std::int64_t>& fault_counts) {
+  std::vector<Event> events;
+  addFisheyeEvents(setup, events, fault_counts);
+  addReplayedOdometry(setup, events);
+  if (setup.replayed_odometry.empty()) addWheelOdometry(setup, events);
+  addEnvCameraEvents(setup, options, events, fault_counts);
   auto order = [](const Event& a, const Event& b) {
     if (a.stamp != b.stamp) return a.stamp < b.stamp;
     if (a.kind != b.kind) return a.kind < b.kind;
@@ -560,43 +632,8 @@ std::vector<Event> buildEvents(const Setup& setup, const SimulateOptions& option
     return a.index < b.index;
   };
   std::sort(events.begin(), events.end(), order);
-
-  // Duplicated timestamps: a record takes the stamp of the previous record
-  // of its stream (a driver that stamps two frames alike). Image streams
-  // only in the folder format (a rawlog cannot hold two frames of one camera
-  // at one time: its image files are named by time).
-  if (sc.faults.duplicated_timestamps > 0) {
-    std::map<std::pair<int, int>, std::vector<size_t>> streams;  // (kind, camera) -> indices
-    for (size_t i = 0; i < events.size(); ++i) {
-      const Event& e = events[i];
-      const bool image =
-          !options.detections_only && (e.kind == EventKind::kFisheye || e.kind == EventKind::kEnv);
-      if (e.kind == EventKind::kGroundTruth) continue;
-      if (image && options.kind == DatasetKind::kRawlog) continue;
-      streams[{static_cast<int>(e.kind), e.camera}].push_back(i);
-    }
-    std::vector<std::pair<size_t, size_t>> candidates;  // (event, previous event of the stream)
-    for (const auto& [key, indices] : streams) {
-      for (size_t j = 1; j < indices.size(); ++j)
-        candidates.emplace_back(indices[j], indices[j - 1]);
-    }
-    std::mt19937 rng(streamSeed(seed, "faults/duplicates"));
-    std::shuffle(candidates.begin(), candidates.end(), rng);
-    std::set<size_t> used;
-    int done = 0;
-    for (const auto& [i, previous] : candidates) {
-      if (done >= sc.faults.duplicated_timestamps) break;
-      if (used.count(i) || used.count(previous)) continue;
-      used.insert(i);
-      used.insert(previous);
-      events[i].stamp = events[previous].stamp;
-      events[i].duplicated = true;
-      if (events[i].marker) events[i].marker->t = events[i].stamp;
-      ++done;
-    }
-    fault_counts["duplicated timestamps"] += done;
-    std::stable_sort(events.begin(), events.end(),
-                     [](const Event& a, const Event& b) { return a.stamp < b.stamp; });
+  if (setup.scenario.faults.duplicated_timestamps > 0) {
+    duplicateTimestamps(setup, options, events, fault_counts);
   }
   return events;
 }
@@ -654,6 +691,131 @@ void drawDecoy(cv::Mat& image, const Camera& camera, const Rigid3d& camera_from_
   blended.convertTo(image, CV_8U);
 }
 
+/// The rendered frame of one event, PNG-encoded (called from several
+/// threads); `decoys` counts the false markers drawn.
+std::shared_ptr<const std::vector<std::uint8_t>> renderEventImage(
+    const Setup& setup, const Event& e, std::atomic<std::int64_t>& decoys) {
+  const Scenario& sc = setup.scenario;
+  const std::uint32_t seed = setup.seed;
+  const Camera& fisheye = *setup.fisheye;
+  const Camera& env = *setup.env_camera;
+  const World& world = *setup.world;
+  const std::string& fisheye_label = sc.robot.fisheye.label;
+  RenderOptions render;
+  render.noise_sigma = sc.render.noise_sigma;
+  render.exposure = e.exposure;
+  cv::Mat image;
+  if (e.kind == EventKind::kFisheye) {
+    std::mt19937 rng(itemSeed(seed, "render/" + fisheye_label, e.index));
+    render.supersampling = sc.render.fisheye_supersampling;
+    render.motion_blur_px = e.blur_px;
+    image = renderFisheye(world, fisheye, setup.worldFromFisheye(e.t), render, rng);
+  } else {
+    const EnvCameraPlacement& placement = setup.placements[static_cast<size_t>(e.camera)];
+    std::mt19937 rng(itemSeed(seed, "render/" + placement.label, e.index));
+    render.supersampling = sc.render.env_supersampling;
+    RobotAppearance robot;
+    robot.world_from_base = setup.motion->worldFromBase(e.t);
+    robot.world_from_marker =
+        robot.world_from_base * setup.base_from_fisheye * setup.fisheye_from_marker;
+    robot.body_length_m = sc.robot.body_length_m;
+    robot.body_width_m = sc.robot.body_width_m;
+    robot.body_height_m = sc.robot.body_height_m;
+    robot.marker = sc.marker;
+    robot.marker_brightness = e.occluded ? 0.0 : 1.0;
+    image = renderEnvCamera(world, env, placement.world_from_camera, robot, render, rng);
+    if (e.false_marker) {
+      std::mt19937 decoy_rng(itemSeed(seed, "detect/" + placement.label, e.index));
+      if (const auto decoy = decoyWorldFromMarker(env, placement.world_from_camera, decoy_rng)) {
+        const Rigid3d camera_from_decoy = placement.world_from_camera.inverse() * *decoy;
+        // Only where it does not cover the robot.
+        if ((decoy->translation - robot.world_from_base.translation).head<2>().norm() > 1.0 &&
+            detectableSide(env, camera_from_decoy, sc.marker, sc.noise)) {
+          drawDecoy(image, env, camera_from_decoy, sc.marker);
+          ++decoys;
+        }
+      }
+    }
+  }
+  return encodePng(image, sc.render.png_compression);
+}
+
+/// What the fisheye's blob detector finds in one frame: every housing in
+/// view and not hidden, with noise (the detections-only mode).
+BlobObservation simulatedBlobs(const Setup& setup, const Event& e) {
+  const Scenario& sc = setup.scenario;
+  const Camera& fisheye = *setup.fisheye;
+  const World& world = *setup.world;
+  const std::string& fisheye_label = sc.robot.fisheye.label;
+  BlobObservation obs;
+  obs.t = e.stamp;
+  obs.camera = fisheye_label;
+  obs.image_width = fisheye.width();
+  obs.image_height = fisheye.height();
+  const Rigid3d world_from_fisheye = setup.worldFromFisheye(e.t);
+  const Rigid3d fisheye_from_world = world_from_fisheye.inverse();
+  std::mt19937 rng(itemSeed(setup.seed, "detect/" + fisheye_label, e.index));
+  const double sigma =
+      std::sqrt(sc.noise.blob_sigma_px * sc.noise.blob_sigma_px + e.blur_px * e.blur_px / 12.0);
+  for (size_t i = 0; i < world.housings().size(); ++i) {
+    const Housing& housing = world.housings()[i];
+    const Eigen::Vector3d p = fisheye_from_world * housing.centre_in_world;
+    const double n_u = gaussian(rng), n_v = gaussian(rng);  // drawn for every housing
+    const auto pixel = fisheye.project(p);
+    if (!pixel || !fisheye.isInImage(*pixel, sc.noise.image_margin_px)) continue;
+    const Eigen::Vector3d direction =
+        (housing.centre_in_world - world_from_fisheye.translation).normalized();
+    const Hit hit = world.intersect(world_from_fisheye.translation, direction);
+    if (hit.housing != static_cast<int>(i)) continue;  // hidden behind something
+    Eigen::Vector3d side = p.cross(Eigen::Vector3d::UnitZ());
+    if (side.norm() < 1e-9) side = Eigen::Vector3d::UnitX();
+    const auto edge = fisheye.project(p + housing.radius_m * side.normalized());
+    Blob blob;
+    blob.u = pixel->x() + sigma * n_u;
+    blob.v = pixel->y() + sigma * n_v;
+    blob.diameter_px = edge ? 2 * (*edge - *pixel).norm() : 0.0;
+    blob.response = 1.0;
+    obs.blobs.push_back(blob);
+  }
+  std::sort(obs.blobs.begin(), obs.blobs.end(),
+            [](const Blob& a, const Blob& b) { return a.v != b.v ? a.v < b.v : a.u < b.u; });
+  return obs;
+}
+
+/// The frames of `jobs` (indices into `events`) rendered on up to `threads`
+/// threads, by event index.
+std::map<size_t, std::shared_ptr<const std::vector<std::uint8_t>>> renderFrames(
+    const Setup& setup, const std::vector<Event>& events, const std::vector<size_t>& jobs,
+    int threads, const ProgressReporter& progress, std::atomic<std::int64_t>& decoys) {
+  std::map<size_t, std::shared_ptr<const std::vector<std::uint8_t>>> images;
+  if (jobs.empty()) return images;
+  std::vector<std::shared_ptr<const std::vector<std::uint8_t>>> results(jobs.size());
+  std::atomic<size_t> next_job{0};
+  std::exception_ptr failure;
+  std::mutex failure_mutex;
+  auto worker = [&]() {
+    for (size_t j = next_job++; j < jobs.size(); j = next_job++) {
+      try {
+        if (progress.stopRequested()) return;
+        results[j] = renderEventImage(setup, events[jobs[j]], decoys);
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(failure_mutex);
+        if (!failure) failure = std::current_exception();
+        return;
+      }
+    }
+  };
+  const int n = std::min<int>(threads, static_cast<int>(jobs.size()));
+  std::vector<std::thread> pool;
+  for (int i = 1; i < n; ++i) pool.emplace_back(worker);
+  worker();
+  for (std::thread& thread : pool) thread.join();
+  if (failure) std::rethrow_exception(failure);
+  progress.checkStop();
+  for (size_t j = 0; j < jobs.size(); ++j) images[jobs[j]] = results[j];
+  return images;
+}
+
 }  // namespace
 
 std::string SimulateOptions::check() const {
@@ -694,92 +856,8 @@ SimulateSummary simulate(const SimulateOptions& options, const ProgressReporter&
   summary.path_length_m = setup.motion->arcLengthAt(setup.duration);
   summary.seed = setup.seed;
   summary.scenario = sc.name;
-
-  const Camera& fisheye = *setup.fisheye;
-  const Camera& env = *setup.env_camera;
-  const World& world = *setup.world;
   const std::string& fisheye_label = sc.robot.fisheye.label;
-  const std::uint32_t seed = setup.seed;
-
   std::atomic<std::int64_t> decoys{0};  // false markers drawn into frames
-
-  // Renders the frame of one event (called from several threads).
-  auto renderImage = [&](const Event& e) -> std::shared_ptr<const std::vector<std::uint8_t>> {
-    RenderOptions render;
-    render.noise_sigma = sc.render.noise_sigma;
-    render.exposure = e.exposure;
-    cv::Mat image;
-    if (e.kind == EventKind::kFisheye) {
-      std::mt19937 rng(itemSeed(seed, "render/" + fisheye_label, e.index));
-      render.supersampling = sc.render.fisheye_supersampling;
-      render.motion_blur_px = e.blur_px;
-      image = renderFisheye(world, fisheye, setup.worldFromFisheye(e.t), render, rng);
-    } else {
-      const EnvCameraPlacement& placement = setup.placements[static_cast<size_t>(e.camera)];
-      std::mt19937 rng(itemSeed(seed, "render/" + placement.label, e.index));
-      render.supersampling = sc.render.env_supersampling;
-      RobotAppearance robot;
-      robot.world_from_base = setup.motion->worldFromBase(e.t);
-      robot.world_from_marker =
-          robot.world_from_base * setup.base_from_fisheye * setup.fisheye_from_marker;
-      robot.body_length_m = sc.robot.body_length_m;
-      robot.body_width_m = sc.robot.body_width_m;
-      robot.body_height_m = sc.robot.body_height_m;
-      robot.marker = sc.marker;
-      robot.marker_brightness = e.occluded ? 0.0 : 1.0;
-      image = renderEnvCamera(world, env, placement.world_from_camera, robot, render, rng);
-      if (e.false_marker) {
-        std::mt19937 decoy_rng(itemSeed(seed, "detect/" + placement.label, e.index));
-        if (const auto decoy = decoyWorldFromMarker(env, placement.world_from_camera, decoy_rng)) {
-          const Rigid3d camera_from_decoy = placement.world_from_camera.inverse() * *decoy;
-          // Only where it does not cover the robot.
-          if ((decoy->translation - robot.world_from_base.translation).head<2>().norm() > 1.0 &&
-              detectableSide(env, camera_from_decoy, sc.marker, sc.noise)) {
-            drawDecoy(image, env, camera_from_decoy, sc.marker);
-            ++decoys;
-          }
-        }
-      }
-    }
-    return encodePng(image, sc.render.png_compression);
-  };
-
-  auto blobsOf = [&](const Event& e) {
-    BlobObservation obs;
-    obs.t = e.stamp;
-    obs.camera = fisheye_label;
-    obs.image_width = fisheye.width();
-    obs.image_height = fisheye.height();
-    const Rigid3d world_from_fisheye = setup.worldFromFisheye(e.t);
-    const Rigid3d fisheye_from_world = world_from_fisheye.inverse();
-    std::mt19937 rng(itemSeed(seed, "detect/" + fisheye_label, e.index));
-    const double sigma =
-        std::sqrt(sc.noise.blob_sigma_px * sc.noise.blob_sigma_px + e.blur_px * e.blur_px / 12.0);
-    for (size_t i = 0; i < world.housings().size(); ++i) {
-      const Housing& housing = world.housings()[i];
-      const Eigen::Vector3d p = fisheye_from_world * housing.centre_in_world;
-      const double n_u = gaussian(rng), n_v = gaussian(rng);  // drawn for every housing
-      const auto pixel = fisheye.project(p);
-      if (!pixel || !fisheye.isInImage(*pixel, sc.noise.image_margin_px)) continue;
-      const Eigen::Vector3d direction =
-          (housing.centre_in_world - world_from_fisheye.translation).normalized();
-      const Hit hit = world.intersect(world_from_fisheye.translation, direction);
-      if (hit.housing != static_cast<int>(i)) continue;  // hidden behind something
-      Eigen::Vector3d side = p.cross(Eigen::Vector3d::UnitZ());
-      if (side.norm() < 1e-9) side = Eigen::Vector3d::UnitX();
-      const auto edge = fisheye.project(p + housing.radius_m * side.normalized());
-      Blob blob;
-      blob.u = pixel->x() + sigma * n_u;
-      blob.v = pixel->y() + sigma * n_v;
-      blob.diameter_px = edge ? 2 * (*edge - *pixel).norm() : 0.0;
-      blob.response = 1.0;
-      obs.blobs.push_back(blob);
-    }
-    std::sort(obs.blobs.begin(), obs.blobs.end(),
-              [](const Blob& a, const Blob& b) { return a.v != b.v ? a.v < b.v : a.u < b.u; });
-    return obs;
-  };
-
   auto count = [&](const Record& record) {
     writer->write(record);
     ++summary.records[recordKindName(record)];
@@ -801,33 +879,7 @@ SimulateSummary simulate(const SimulateOptions& options, const ProgressReporter&
         jobs.push_back(end);
       ++end;
     }
-    std::map<size_t, std::shared_ptr<const std::vector<std::uint8_t>>> images;
-    if (!jobs.empty()) {
-      std::vector<std::shared_ptr<const std::vector<std::uint8_t>>> results(jobs.size());
-      std::atomic<size_t> next_job{0};
-      std::exception_ptr failure;
-      std::mutex failure_mutex;
-      auto worker = [&]() {
-        for (size_t j = next_job++; j < jobs.size(); j = next_job++) {
-          try {
-            if (progress.stopRequested()) return;
-            results[j] = renderImage(events[jobs[j]]);
-          } catch (...) {
-            const std::lock_guard<std::mutex> lock(failure_mutex);
-            if (!failure) failure = std::current_exception();
-            return;
-          }
-        }
-      };
-      const int n = std::min<int>(threads, static_cast<int>(jobs.size()));
-      std::vector<std::thread> pool;
-      for (int i = 1; i < n; ++i) pool.emplace_back(worker);
-      worker();
-      for (std::thread& thread : pool) thread.join();
-      if (failure) std::rethrow_exception(failure);
-      progress.checkStop();
-      for (size_t j = 0; j < jobs.size(); ++j) images[jobs[j]] = results[j];
-    }
+    const auto images = renderFrames(setup, events, jobs, threads, progress, decoys);
     for (size_t i = next_event; i < end; ++i) {
       const Event& e = events[i];
       switch (e.kind) {
@@ -839,7 +891,7 @@ SimulateSummary simulate(const SimulateOptions& options, const ProgressReporter&
           break;
         case EventKind::kFisheye:
           if (options.detections_only) {
-            count(blobsOf(e));
+            count(simulatedBlobs(setup, e));
           } else {
             ImageFrame frame;
             frame.t = e.stamp;

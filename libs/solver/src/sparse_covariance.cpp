@@ -121,183 +121,217 @@ class SelectedInverse {
   std::vector<double> values_;
 };
 
-}  // namespace
+using BlockPairs = std::vector<std::pair<const double*, const double*>>;
 
-bool SparseCovariance::compute(const std::vector<std::pair<const double*, const double*>>& pairs,
-                               ceres::Problem* problem, int threads, Method method) {
-  blocks_.clear();
-  message_.clear();
-  stats_ = Stats();
-  // Columns: the problem's free blocks in its order.
-  std::vector<double*> all;
-  problem->GetParameterBlocks(&all);
-  ceres::Problem::EvaluateOptions evaluate;
-  std::map<const double*, int> index;  // block -> position in evaluate.parameter_blocks
-  std::vector<int> first, size;        // per block: first column, tangent size
-  int n = 0;
-  for (double* p : all) {
-    if (problem->IsParameterBlockConstant(p)) continue;
-    index[p] = static_cast<int>(first.size());
-    evaluate.parameter_blocks.push_back(p);
-    first.push_back(n);
-    size.push_back(problem->ParameterBlockTangentSize(p));
-    n += size.back();
+// SparseCovariance::compute's steps over one problem, in the order run()
+// calls them; the members are what the steps hand each other.
+class CovarianceComputation {
+ public:
+  CovarianceComputation(ceres::Problem* problem, SparseCovariance::Stats& stats,
+                        std::string& message)
+      : problem_(problem), stats_(stats), message_(message) {}
+
+  bool run(const BlockPairs& pairs, int threads, SparseCovariance::Method method,
+           std::size_t max_dense_entries,
+           std::map<std::pair<const double*, const double*>, Eigen::MatrixXd>& blocks) {
+    if (!collectColumns(pairs)) return false;
+    if (pairs.empty()) return true;
+    start_ = std::clock();
+    if (!evaluateJacobian(threads)) return false;
+    buildBlockGraph();
+    chooseDenseGroup(pairs, method);
+    orderColumns();
+    const std::clock_t product_start = std::clock();
+    indexLowerBlocks();
+    if (!accumulateNormalEquations()) return false;
+    splitNormalEquations();
+    stats_.evaluate_cpu_s += static_cast<double>(std::clock() - product_start) / CLOCKS_PER_SEC;
+    if (!factorSparsePart()) return false;
+    keepRequestedRows();
+    if (!denseSizeWithin(max_dense_entries)) return false;
+    if (!invertDenseGroup()) return false;
+    if (!assemble(pairs, blocks)) return false;
+    stats_.rest_cpu_s =
+        static_cast<double>(std::clock() - start_) / CLOCKS_PER_SEC - stats_.evaluate_cpu_s;
+    return true;
   }
-  for (const auto& [a, b] : pairs) {
-    if (!index.count(a) || !index.count(b)) {
-      message_ = "a requested block is constant or not in the problem";
+
+ private:
+  /// Columns: the problem's free blocks in its order. False when a requested
+  /// block is not among them.
+  bool collectColumns(const BlockPairs& pairs) {
+    std::vector<double*> all;
+    problem_->GetParameterBlocks(&all);
+    for (double* p : all) {
+      if (problem_->IsParameterBlockConstant(p)) continue;
+      index_[p] = static_cast<int>(first_.size());
+      evaluate_.parameter_blocks.push_back(p);
+      first_.push_back(n_);
+      size_.push_back(problem_->ParameterBlockTangentSize(p));
+      n_ += size_.back();
+    }
+    for (const auto& [a, b] : pairs) {
+      if (!index_.count(a) || !index_.count(b)) {
+        message_ = "a requested block is constant or not in the problem";
+        return false;
+      }
+    }
+    return true;
+  }
+
+  bool evaluateJacobian(int threads) {
+    evaluate_.num_threads = std::max(1, threads);
+    if (!problem_->Evaluate(evaluate_, nullptr, nullptr, nullptr, &crs_)) {
+      message_ = "the Jacobian could not be evaluated";
       return false;
     }
+    stats_.evaluate_cpu_s = static_cast<double>(std::clock() - start_) / CLOCKS_PER_SEC;
+    return true;
   }
-  if (pairs.empty()) return true;
-  const std::clock_t start = std::clock();
-  evaluate.num_threads = std::max(1, threads);
-  ceres::CRSMatrix crs;
-  if (!problem->Evaluate(evaluate, nullptr, nullptr, nullptr, &crs)) {
-    message_ = "the Jacobian could not be evaluated";
-    return false;
-  }
-  stats_.evaluate_cpu_s = static_cast<double>(std::clock() - start) / CLOCKS_PER_SEC;
 
-  // The block graph of H = J^T J: blocks that share a row of J. The rows of
-  // one residual block name the same blocks: a row like the one before adds
-  // nothing.
-  const int blocks = static_cast<int>(first.size());
-  std::vector<int> block_of(static_cast<std::size_t>(n));
-  for (int b = 0; b < blocks; ++b) {
-    std::fill_n(block_of.begin() + first[b], size[b], b);
-  }
-  std::vector<std::vector<int>> neighbours(static_cast<std::size_t>(blocks));
-  {
+  /// The block graph of H = J^T J: blocks that share a row of J. The rows of
+  /// one residual block name the same blocks: a row like the one before adds
+  /// nothing.
+  void buildBlockGraph() {
+    blocks_ = static_cast<int>(first_.size());
+    block_of_.assign(static_cast<std::size_t>(n_), 0);
+    for (int b = 0; b < blocks_; ++b) {
+      std::fill_n(block_of_.begin() + first_[b], size_[b], b);
+    }
+    neighbours_.assign(static_cast<std::size_t>(blocks_), {});
     std::vector<int> row_blocks, previous;
-    for (int r = 0; r < crs.num_rows; ++r) {
+    for (int r = 0; r < crs_.num_rows; ++r) {
       row_blocks.clear();
-      for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) {
-        row_blocks.push_back(block_of[static_cast<std::size_t>(crs.cols[k])]);
+      for (int k = crs_.rows[r]; k < crs_.rows[r + 1]; ++k) {
+        row_blocks.push_back(block_of_[static_cast<std::size_t>(crs_.cols[k])]);
       }
       std::sort(row_blocks.begin(), row_blocks.end());
       row_blocks.erase(std::unique(row_blocks.begin(), row_blocks.end()), row_blocks.end());
       if (row_blocks == previous) continue;
       for (const int u : row_blocks) {
         for (const int v : row_blocks) {
-          if (u != v) neighbours[u].push_back(v);
+          if (u != v) neighbours_[u].push_back(v);
         }
       }
       previous = row_blocks;
     }
-    for (auto& list : neighbours) {
+    for (auto& list : neighbours_) {
       std::sort(list.begin(), list.end());
       list.erase(std::unique(list.begin(), list.end()), list.end());
     }
   }
-  auto coupled = [&](int a, int b) {
-    return a == b || std::binary_search(neighbours[a].begin(), neighbours[a].end(), b);
-  };
 
-  // The dense group G.
-  std::vector<bool> wanted(static_cast<std::size_t>(blocks), false);
-  for (const auto& [a, b] : pairs) {
-    for (const int k : {index[a], index[b]}) {
-      wanted[k] = true;
-    }
+  bool coupled(int a, int b) const {
+    return a == b || std::binary_search(neighbours_[a].begin(), neighbours_[a].end(), b);
   }
-  std::vector<bool> dense(static_cast<std::size_t>(blocks), false);
-  if (method == Method::kSchur) {
-    dense = wanted;
-  } else {
-    // A block touching many others fills its factor rows: dense anyway (the
-    // threshold of approximate minimum degree's dense rows).
-    const std::size_t crowded =
-        static_cast<std::size_t>(std::max(16.0, 10.0 * std::sqrt(static_cast<double>(blocks))));
-    for (int b = 0; b < blocks; ++b) {
-      if (wanted[b] && neighbours[b].size() > crowded) dense[b] = true;
-    }
+
+  /// The dense group G: every requested block with kSchur; else the
+  /// requested blocks touching many others, and both blocks of every
+  /// requested pair H does not couple.
+  void chooseDenseGroup(const BlockPairs& pairs, SparseCovariance::Method method) {
+    wanted_.assign(static_cast<std::size_t>(blocks_), false);
     for (const auto& [a, b] : pairs) {
-      if (!coupled(index[a], index[b])) dense[index[a]] = dense[index[b]] = true;
+      for (const int k : {index_[a], index_[b]}) wanted_[k] = true;
     }
-  }
-  stats_.method = method;
-
-  // Order A by approximate minimum degree on its block graph, then G.
-  std::vector<int> sparse_blocks, dense_blocks, place(static_cast<std::size_t>(blocks), -1);
-  for (int b = 0; b < blocks; ++b) {
-    if (dense[b]) {
-      dense_blocks.push_back(b);
+    dense_.assign(static_cast<std::size_t>(blocks_), false);
+    if (method == SparseCovariance::Method::kSchur) {
+      dense_ = wanted_;
     } else {
-      place[b] = static_cast<int>(sparse_blocks.size());
-      sparse_blocks.push_back(b);
-    }
-  }
-  std::vector<int> order = sparse_blocks;  // new position -> block
-  if (!sparse_blocks.empty()) {
-    std::vector<Eigen::Triplet<double>> graph;
-    for (const int b : sparse_blocks) {
-      graph.emplace_back(place[b], place[b], 1.0);
-      for (const int o : neighbours[b]) {
-        if (!dense[o]) graph.emplace_back(place[o], place[b], 1.0);
+      // A block touching many others fills its factor rows: dense anyway (the
+      // threshold of approximate minimum degree's dense rows).
+      const std::size_t crowded =
+          static_cast<std::size_t>(std::max(16.0, 10.0 * std::sqrt(static_cast<double>(blocks_))));
+      for (int b = 0; b < blocks_; ++b) {
+        if (wanted_[b] && neighbours_[b].size() > crowded) dense_[b] = true;
+      }
+      for (const auto& [a, b] : pairs) {
+        if (!coupled(index_[a], index_[b])) dense_[index_[a]] = dense_[index_[b]] = true;
       }
     }
-    const int m = static_cast<int>(sparse_blocks.size());
-    Sparse pattern(m, m);
-    pattern.setFromTriplets(graph.begin(), graph.end());
-    Eigen::AMDOrdering<int> amd;
-    Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> permutation;
-    amd(pattern, permutation);  // indices()[new] = old
-    for (int k = 0; k < m; ++k) order[k] = sparse_blocks[permutation.indices()[k]];
+    stats_.method = method;
   }
-  order.insert(order.end(), dense_blocks.begin(), dense_blocks.end());
-  std::vector<int> renumber(static_cast<std::size_t>(n));  // problem column -> new column
-  std::vector<int> new_first(static_cast<std::size_t>(blocks));
-  {
-    int next = 0;
-    for (const int b : order) {
-      new_first[b] = next;
-      for (int k = 0; k < size[b]; ++k) renumber[first[b] + k] = next++;
-    }
-  }
-  int na = 0;
-  for (const int b : sparse_blocks) na += size[b];
-  const int ng = n - na;
-  stats_.sparse_columns = na;
-  stats_.dense_columns = ng;
 
-  // H = [A B; B^T C] in the new order, accumulated by blocks: the rows of
-  // one residual block are consecutive in J, name the same columns and make
-  // a dense m x k matrix J_g (its parameter blocks' columns side by side), so
-  // H gains the dense J_g^T J_g, cut into its parameter blocks' pairs and
-  // added to each pair's dense block of H's lower triangle (in the new
-  // order). Then A's lower triangle in compressed columns, B's entries and
-  // the dense C. (Formed whole as a sparse product, J^T J took as long as
-  // the rest of this function on `paper_det`.)
-  const std::clock_t product_start = std::clock();
-  // Per block column V: the blocks U at or after it in the new order that H
-  // couples with it, sorted by position, and where their dense block
-  // (size[U] x size[V], column-major) starts in `values`.
-  std::vector<std::vector<std::pair<int, std::size_t>>> lower(static_cast<std::size_t>(blocks));
-  std::size_t total = 0;
-  for (int v = 0; v < blocks; ++v) {
-    auto& list = lower[static_cast<std::size_t>(v)];
-    list.emplace_back(v, 0);
-    for (const int u : neighbours[v]) {
-      if (new_first[u] > new_first[v]) list.emplace_back(u, 0);
+  /// A's blocks by approximate minimum degree on its block graph, then G's.
+  void orderColumns() {
+    std::vector<int> place(static_cast<std::size_t>(blocks_), -1);
+    for (int b = 0; b < blocks_; ++b) {
+      if (dense_[b]) {
+        dense_blocks_.push_back(b);
+      } else {
+        place[b] = static_cast<int>(sparse_blocks_.size());
+        sparse_blocks_.push_back(b);
+      }
     }
-    std::sort(list.begin(), list.end(), [&](const auto& x, const auto& y) {
-      return new_first[x.first] < new_first[y.first];
-    });
-    for (auto& [u, offset] : list) {
-      offset = total;
-      total += static_cast<std::size_t>(size[u]) * static_cast<std::size_t>(size[v]);
+    order_ = sparse_blocks_;  // new position -> block
+    if (!sparse_blocks_.empty()) {
+      std::vector<Eigen::Triplet<double>> graph;
+      for (const int b : sparse_blocks_) {
+        graph.emplace_back(place[b], place[b], 1.0);
+        for (const int o : neighbours_[b]) {
+          if (!dense_[o]) graph.emplace_back(place[o], place[b], 1.0);
+        }
+      }
+      const int m = static_cast<int>(sparse_blocks_.size());
+      Sparse pattern(m, m);
+      pattern.setFromTriplets(graph.begin(), graph.end());
+      Eigen::AMDOrdering<int> amd;
+      Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> permutation;
+      amd(pattern, permutation);  // indices()[new] = old
+      for (int k = 0; k < m; ++k) order_[k] = sparse_blocks_[permutation.indices()[k]];
     }
+    order_.insert(order_.end(), dense_blocks_.begin(), dense_blocks_.end());
+    new_first_.assign(static_cast<std::size_t>(blocks_), 0);
+    int next = 0;
+    for (const int b : order_) {
+      new_first_[b] = next;
+      next += size_[b];
+    }
+    na_ = 0;
+    for (const int b : sparse_blocks_) na_ += size_[b];
+    ng_ = n_ - na_;
+    stats_.sparse_columns = na_;
+    stats_.dense_columns = ng_;
   }
-  std::vector<double> values(total, 0.0);
-  auto blockAt = [&](int u, int v) -> double* {  // new_first[u] >= new_first[v]
-    const auto& list = lower[static_cast<std::size_t>(v)];
+
+  /// Per block column V: the blocks U at or after it in the new order that H
+  /// couples with it, sorted by position, and where their dense block
+  /// (size[U] x size[V], column-major) starts in values_.
+  void indexLowerBlocks() {
+    lower_.assign(static_cast<std::size_t>(blocks_), {});
+    std::size_t total = 0;
+    for (int v = 0; v < blocks_; ++v) {
+      auto& list = lower_[static_cast<std::size_t>(v)];
+      list.emplace_back(v, 0);
+      for (const int u : neighbours_[v]) {
+        if (new_first_[u] > new_first_[v]) list.emplace_back(u, 0);
+      }
+      std::sort(list.begin(), list.end(), [&](const auto& x, const auto& y) {
+        return new_first_[x.first] < new_first_[y.first];
+      });
+      for (auto& [u, offset] : list) {
+        offset = total;
+        total += static_cast<std::size_t>(size_[u]) * static_cast<std::size_t>(size_[v]);
+      }
+    }
+    values_.assign(total, 0.0);
+  }
+
+  double* blockAt(int u, int v) {  // new_first_[u] >= new_first_[v]
+    const auto& list = lower_[static_cast<std::size_t>(v)];
     const auto it = std::lower_bound(
-        list.begin(), list.end(), new_first[u],
-        [&](const std::pair<int, std::size_t>& x, int at) { return new_first[x.first] < at; });
-    return values.data() + it->second;
-  };
-  {
+        list.begin(), list.end(), new_first_[u],
+        [&](const std::pair<int, std::size_t>& x, int at) { return new_first_[x.first] < at; });
+    return values_.data() + it->second;
+  }
+
+  /// H in the new order, accumulated by blocks: the rows of one residual
+  /// block are consecutive in J, name the same columns and make a dense
+  /// m x k matrix J_g (its parameter blocks' columns side by side), so H
+  /// gains the dense J_g^T J_g, cut into its parameter blocks' pairs and
+  /// added to each pair's dense block of H's lower triangle. (Formed whole
+  /// as a sparse product, J^T J took as long as the rest of compute() on
+  /// `paper_det`.)
+  bool accumulateNormalEquations() {
     struct Run {
       int block, column;  // its first column within J_g
     };
@@ -305,175 +339,232 @@ bool SparseCovariance::compute(const std::vector<std::pair<const double*, const 
     using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
     Eigen::MatrixXd product;
     int r = 0;
-    while (r < crs.num_rows) {
-      const int begin = crs.rows[r], k = crs.rows[r + 1] - begin;
+    while (r < crs_.num_rows) {
+      const int begin = crs_.rows[r], k = crs_.rows[r + 1] - begin;
       int end_row = r + 1;  // the rows naming the same columns
-      while (end_row < crs.num_rows && crs.rows[end_row + 1] - crs.rows[end_row] == k &&
-             std::equal(crs.cols.begin() + begin, crs.cols.begin() + begin + k,
-                        crs.cols.begin() + crs.rows[end_row])) {
+      while (end_row < crs_.num_rows && crs_.rows[end_row + 1] - crs_.rows[end_row] == k &&
+             std::equal(crs_.cols.begin() + begin, crs_.cols.begin() + begin + k,
+                        crs_.cols.begin() + crs_.rows[end_row])) {
         ++end_row;
       }
       // A parameter block's columns side by side and in order (Ceres writes
       // a residual block's Jacobian by dense cells); checked, not assumed.
       runs.clear();
       for (int q = 0; q < k;) {
-        const int b = block_of[static_cast<std::size_t>(crs.cols[begin + q])];
-        for (int i = 0; i < size[b]; ++i) {
-          if (q + i >= k || crs.cols[begin + q + i] != first[b] + i) {
+        const int b = block_of_[static_cast<std::size_t>(crs_.cols[begin + q])];
+        for (int i = 0; i < size_[b]; ++i) {
+          if (q + i >= k || crs_.cols[begin + q + i] != first_[b] + i) {
             message_ = "internal: a parameter block's Jacobian columns are not contiguous";
             return false;
           }
         }
         runs.push_back({b, q});
-        q += size[b];
+        q += size_[b];
       }
-      const Eigen::Map<const RowMajor> jg(crs.values.data() + begin, end_row - r, k);
+      const Eigen::Map<const RowMajor> jg(crs_.values.data() + begin, end_row - r, k);
       product.noalias() = jg.transpose() * jg;
       for (const Run& x : runs) {
         for (const Run& y : runs) {
-          if (new_first[x.block] < new_first[y.block]) continue;  // x at or after y
-          Eigen::Map<Eigen::MatrixXd> target(blockAt(x.block, y.block), size[x.block],
-                                             size[y.block]);
-          target += product.block(x.column, y.column, size[x.block], size[y.block]);
+          if (new_first_[x.block] < new_first_[y.block]) continue;  // x at or after y
+          Eigen::Map<Eigen::MatrixXd> target(blockAt(x.block, y.block), size_[x.block],
+                                             size_[y.block]);
+          target += product.block(x.column, y.column, size_[x.block], size_[y.block]);
         }
       }
       r = end_row;
     }
+    return true;
   }
-  std::vector<int> a_start(static_cast<std::size_t>(na) + 1, 0), a_rows;
-  std::vector<double> a_values;
-  std::vector<Eigen::Triplet<double>> b_entries;
-  Eigen::MatrixXd s = Eigen::MatrixXd::Zero(ng, ng);
-  for (const int v : order) {
-    for (int j = 0; j < size[v]; ++j) {
-      const int c = new_first[v] + j;
-      for (const auto& [u, offset] : lower[static_cast<std::size_t>(v)]) {
-        const double* block = values.data() + offset;  // size[u] x size[v], column-major
-        for (int i = u == v ? j : 0; i < size[u]; ++i) {
-          const int row = new_first[u] + i;
-          const double value = block[static_cast<std::size_t>(j) * size[u] + i];
-          if (c < na && row < na) {
-            a_rows.push_back(row);
-            a_values.push_back(value);
-          } else if (c < na) {
-            b_entries.emplace_back(c, row - na, value);
-          } else {
-            s(row - na, c - na) = value;
-            s(c - na, row - na) = value;
+
+  /// H = [A B; B^T C]: A's lower triangle in compressed columns, B's
+  /// entries and the dense C (in s_, which the Schur complement updates).
+  void splitNormalEquations() {
+    a_start_.assign(static_cast<std::size_t>(na_) + 1, 0);
+    s_ = Eigen::MatrixXd::Zero(ng_, ng_);
+    for (const int v : order_) {
+      for (int j = 0; j < size_[v]; ++j) {
+        const int c = new_first_[v] + j;
+        for (const auto& [u, offset] : lower_[static_cast<std::size_t>(v)]) {
+          const double* block = values_.data() + offset;  // size[u] x size[v], column-major
+          for (int i = u == v ? j : 0; i < size_[u]; ++i) {
+            const int row = new_first_[u] + i;
+            const double value = block[static_cast<std::size_t>(j) * size_[u] + i];
+            if (c < na_ && row < na_) {
+              a_rows_.push_back(row);
+              a_values_.push_back(value);
+            } else if (c < na_) {
+              b_entries_.emplace_back(c, row - na_, value);
+            } else {
+              s_(row - na_, c - na_) = value;
+              s_(c - na_, row - na_) = value;
+            }
           }
         }
+        if (c < na_) a_start_[static_cast<std::size_t>(c) + 1] = static_cast<int>(a_rows_.size());
       }
-      if (c < na) a_start[static_cast<std::size_t>(c) + 1] = static_cast<int>(a_rows.size());
     }
   }
-  stats_.evaluate_cpu_s += static_cast<double>(std::clock() - product_start) / CLOCKS_PER_SEC;
 
-  Eigen::SimplicialLDLT<Sparse, Eigen::Lower, Eigen::NaturalOrdering<int>> ldlt;
-  if (na > 0) {
-    const Sparse h_aa = Eigen::Map<const Sparse>(na, na, static_cast<Eigen::Index>(a_rows.size()),
-                                                 a_start.data(), a_rows.data(), a_values.data());
-    ldlt.compute(h_aa);
-    if (ldlt.info() != Eigen::Success || !definite(ldlt.vectorD())) {
+  /// A = L D L^T (the columns already in their elimination order).
+  bool factorSparsePart() {
+    if (na_ == 0) return true;
+    const Sparse h_aa =
+        Eigen::Map<const Sparse>(na_, na_, static_cast<Eigen::Index>(a_rows_.size()),
+                                 a_start_.data(), a_rows_.data(), a_values_.data());
+    ldlt_.compute(h_aa);
+    if (ldlt_.info() != Eigen::Success || !definite(ldlt_.vectorD())) {
       message_ = kSingular;
       return false;
     }
-    stats_.factor_nonzeros = ldlt.matrixL().nestedExpression().nonZeros();
+    stats_.factor_nonzeros = ldlt_.matrixL().nestedExpression().nonZeros();
+    return true;
   }
 
-  // Rows of W = A^-1 B kept: the requested blocks in A.
-  std::vector<int> kept_row(static_cast<std::size_t>(na), -1);
-  std::vector<int> kept;
-  for (const int b : sparse_blocks) {
-    if (!wanted[b]) continue;
-    for (int k = 0; k < size[b]; ++k) {
-      kept_row[new_first[b] + k] = static_cast<int>(kept.size());
-      kept.push_back(new_first[b] + k);
+  /// Rows of W = A^-1 B kept: the requested blocks in A.
+  void keepRequestedRows() {
+    kept_row_.assign(static_cast<std::size_t>(na_), -1);
+    for (const int b : sparse_blocks_) {
+      if (!wanted_[b]) continue;
+      for (int k = 0; k < size_[b]; ++k) {
+        kept_row_[new_first_[b] + k] = static_cast<int>(kept_.size());
+        kept_.push_back(new_first_[b] + k);
+      }
     }
   }
-  // W and W S^-1 are dense: the requested sparse rows by the dense columns.
-  const double dense_entries =
-      2.0 * static_cast<double>(kept.size()) * ng + static_cast<double>(ng) * ng;
-  if (dense_entries > static_cast<double>(max_dense_entries_)) {
+
+  /// W and W S^-1 are dense: the requested sparse rows by the dense columns.
+  bool denseSizeWithin(std::size_t max_dense_entries) {
+    const double dense_entries =
+        2.0 * static_cast<double>(kept_.size()) * ng_ + static_cast<double>(ng_) * ng_;
+    if (dense_entries <= static_cast<double>(max_dense_entries)) return true;
     std::ostringstream why;
     why << "the dense part would take " << std::llround(dense_entries * 8 / (1 << 20)) << " MiB ("
-        << kept.size() << " requested sparse columns x " << ng
+        << kept_.size() << " requested sparse columns x " << ng_
         << " dense ones), more than the limit of "
-        << std::llround(static_cast<double>(max_dense_entries_) * 8 / (1 << 20)) << " MiB";
+        << std::llround(static_cast<double>(max_dense_entries) * 8 / (1 << 20)) << " MiB";
     message_ = why.str();
     return false;
   }
-  Eigen::MatrixXd cov_gg, w, w_cov;  // S^-1; W and W S^-1 (kept rows)
-  if (ng > 0) {
-    w.setZero(static_cast<Eigen::Index>(kept.size()), ng);
-    if (na > 0) {
-      Sparse h_ag(na, ng);
-      h_ag.setFromTriplets(b_entries.begin(), b_entries.end());
-      b_entries = {};
-      // S = C - B^T (A^-1 B), by batches of columns.
-      constexpr int kBatch = 64;
-      for (int f = 0; f < ng; f += kBatch) {
-        const int width = std::min(kBatch, ng - f);
-        const Eigen::MatrixXd y = ldlt.solve(Eigen::MatrixXd(h_ag.middleCols(f, width)));
-        // Row-major: each nonzero of B^T reads a contiguous row of y (1.7x
-        // faster on `paper_det`, where this product is half the time) and
-        // adds it to a contiguous row of the product, which the column-major
-        // S would have taken with a stride (most of this function's own time
-        // on `paper_det`'s final covariance, 264-280 dense columns).
-        using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-        const RowMatrix y_rows = y;
-        RowMatrix product(ng, width);
-        product.noalias() = h_ag.transpose() * y_rows;
-        s.middleCols(f, width) -= product;
-        for (std::size_t k = 0; k < kept.size(); ++k) {
-          w.row(static_cast<Eigen::Index>(k)).segment(f, width) = y_rows.row(kept[k]);
-        }
+
+  /// S = C - B^T (A^-1 B) by batches of columns, keeping W's requested rows.
+  void schurComplement() {
+    Sparse h_ag(na_, ng_);
+    h_ag.setFromTriplets(b_entries_.begin(), b_entries_.end());
+    b_entries_ = {};
+    constexpr int kBatch = 64;
+    for (int f = 0; f < ng_; f += kBatch) {
+      const int width = std::min(kBatch, ng_ - f);
+      const Eigen::MatrixXd y = ldlt_.solve(Eigen::MatrixXd(h_ag.middleCols(f, width)));
+      // Row-major: each nonzero of B^T reads a contiguous row of y (1.7x
+      // faster on `paper_det`, where this product is half the time) and
+      // adds it to a contiguous row of the product, which the column-major
+      // S would have taken with a stride (most of compute()'s own time on
+      // `paper_det`'s final covariance, 264-280 dense columns).
+      using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+      const RowMatrix y_rows = y;
+      RowMatrix product(ng_, width);
+      product.noalias() = h_ag.transpose() * y_rows;
+      s_.middleCols(f, width) -= product;
+      for (std::size_t k = 0; k < kept_.size(); ++k) {
+        w_.row(static_cast<Eigen::Index>(k)).segment(f, width) = y_rows.row(kept_[k]);
       }
     }
-    s = 0.5 * (s + s.transpose());
-    const Eigen::LDLT<Eigen::MatrixXd> s_ldlt(s);
+  }
+
+  /// cov_GG = S^-1 and W S^-1.
+  bool invertDenseGroup() {
+    if (ng_ == 0) return true;
+    w_.setZero(static_cast<Eigen::Index>(kept_.size()), ng_);
+    if (na_ > 0) schurComplement();
+    s_ = 0.5 * (s_ + s_.transpose());
+    const Eigen::LDLT<Eigen::MatrixXd> s_ldlt(s_);
     if (s_ldlt.info() != Eigen::Success || !definite(s_ldlt.vectorD())) {
       message_ = kSingular;
       return false;
     }
-    cov_gg = s_ldlt.solve(Eigen::MatrixXd::Identity(ng, ng));
-    w_cov = w * cov_gg;
+    cov_gg_ = s_ldlt.solve(Eigen::MatrixXd::Identity(ng_, ng_));
+    w_cov_ = w_ * cov_gg_;
+    return true;
   }
 
-  bool selected = false;
-  for (const auto& [a, b] : pairs) selected |= !dense[index[a]] && !dense[index[b]];
-  std::unique_ptr<SelectedInverse> z;
-  if (selected)
-    z = std::make_unique<SelectedInverse>(ldlt.matrixL().nestedExpression(), ldlt.vectorD());
-
-  for (const auto& [pa, pb] : pairs) {
-    const int a = index[pa], b = index[pb];
-    Eigen::MatrixXd out(size[a], size[b]);
-    for (int u = 0; u < size[a]; ++u) {
-      for (int v = 0; v < size[b]; ++v) {
-        const int r = new_first[a] + u, c = new_first[b] + v;
-        double value = 0;
-        if (r >= na && c >= na) {
-          value = cov_gg(r - na, c - na);
-        } else if (r >= na) {
-          value = -w_cov(kept_row[c], r - na);
-        } else if (c >= na) {
-          value = -w_cov(kept_row[r], c - na);
-        } else {
-          if (!z->at(r, c, &value)) {
-            message_ = "internal: a requested entry is not on the factor's pattern";
-            blocks_.clear();
-            return false;
+  /// Each requested pair's block from cov_GG, -W S^-1 and the selected
+  /// inverse of A plus W S^-1 W^T.
+  bool assemble(const BlockPairs& pairs,
+                std::map<std::pair<const double*, const double*>, Eigen::MatrixXd>& blocks) {
+    bool selected = false;
+    for (const auto& [a, b] : pairs) selected |= !dense_[index_[a]] && !dense_[index_[b]];
+    std::unique_ptr<SelectedInverse> z;
+    if (selected)
+      z = std::make_unique<SelectedInverse>(ldlt_.matrixL().nestedExpression(), ldlt_.vectorD());
+    for (const auto& [pa, pb] : pairs) {
+      const int a = index_[pa], b = index_[pb];
+      Eigen::MatrixXd out(size_[a], size_[b]);
+      for (int u = 0; u < size_[a]; ++u) {
+        for (int v = 0; v < size_[b]; ++v) {
+          const int r = new_first_[a] + u, c = new_first_[b] + v;
+          double value = 0;
+          if (r >= na_ && c >= na_) {
+            value = cov_gg_(r - na_, c - na_);
+          } else if (r >= na_) {
+            value = -w_cov_(kept_row_[c], r - na_);
+          } else if (c >= na_) {
+            value = -w_cov_(kept_row_[r], c - na_);
+          } else {
+            if (!z->at(r, c, &value)) {
+              message_ = "internal: a requested entry is not on the factor's pattern";
+              blocks.clear();
+              return false;
+            }
+            if (ng_ > 0) value += w_cov_.row(kept_row_[r]).dot(w_.row(kept_row_[c]));
           }
-          if (ng > 0) value += w_cov.row(kept_row[r]).dot(w.row(kept_row[c]));
+          out(u, v) = value;
         }
-        out(u, v) = value;
       }
+      blocks[{pa, pb}] = out;
     }
-    blocks_[{pa, pb}] = out;
+    return true;
   }
-  stats_.rest_cpu_s =
-      static_cast<double>(std::clock() - start) / CLOCKS_PER_SEC - stats_.evaluate_cpu_s;
-  return true;
+
+  ceres::Problem* problem_;
+  SparseCovariance::Stats& stats_;
+  std::string& message_;
+  std::clock_t start_ = 0;
+  // Columns: per free block its position, first column and tangent size.
+  ceres::Problem::EvaluateOptions evaluate_;
+  std::map<const double*, int> index_;  // block -> position in evaluate_.parameter_blocks
+  std::vector<int> first_, size_;
+  int n_ = 0;
+  ceres::CRSMatrix crs_;
+  // The block graph.
+  int blocks_ = 0;
+  std::vector<int> block_of_;
+  std::vector<std::vector<int>> neighbours_;
+  // The split and the order.
+  std::vector<bool> wanted_, dense_;
+  std::vector<int> sparse_blocks_, dense_blocks_, order_, new_first_;
+  int na_ = 0, ng_ = 0;
+  // H's lower triangle by blocks, then as A, B and C.
+  std::vector<std::vector<std::pair<int, std::size_t>>> lower_;
+  std::vector<double> values_;
+  std::vector<int> a_start_, a_rows_;
+  std::vector<double> a_values_;
+  std::vector<Eigen::Triplet<double>> b_entries_;
+  Eigen::MatrixXd s_;
+  // The factor and the inverses.
+  Eigen::SimplicialLDLT<Sparse, Eigen::Lower, Eigen::NaturalOrdering<int>> ldlt_;
+  std::vector<int> kept_row_, kept_;
+  Eigen::MatrixXd cov_gg_, w_, w_cov_;  // S^-1; W and W S^-1 (kept rows)
+};
+
+}  // namespace
+
+bool SparseCovariance::compute(const BlockPairs& pairs, ceres::Problem* problem, int threads,
+                               Method method) {
+  blocks_.clear();
+  message_.clear();
+  stats_ = Stats();
+  return CovarianceComputation(problem, stats_, message_)
+      .run(pairs, threads, method, max_dense_entries_, blocks_);
 }
 
 std::string SparseCovariance::describe() const {

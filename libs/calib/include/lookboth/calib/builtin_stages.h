@@ -6,7 +6,7 @@
 //   motion_calibration  scale s and fisheye_from_marker from relative motions (eq. 1-2)
 //   look_down           world_from_camera per camera from its detections (eq. 3)
 //   look_up             camera positions refined by fisheye reprojection of blobs (eq. 4-5)
-//   joint               beyond the paper (issue #10): one adjustment of trajectory, scale,
+//   joint               beyond the paper: one adjustment of trajectory, scale,
 //                       fisheye_from_marker, cameras and clock offsets (joint.h)
 #pragma once
 #include "lookboth/calib/associate.h"
