@@ -883,24 +883,12 @@ void MainFrame::refreshSteps() {
   }
 }
 
-bool MainFrame::writeSettingsFile(fs::path* file) {
-  // The settings of the panel, as a configuration file over the defaults.
-  const fs::path dataset(index_->path());
-  *file = dataset.parent_path() / (dataset.stem().string() + "_studio.yaml");
-  const std::string yaml =
-      "register:\n  look_down:\n    huber: " + huber_->GetValue().ToStdString() +
-      "\n  look_up:\n    cauchy_px: " + cauchy_->GetValue().ToStdString() +
-      "\n    gate_px: " + gate_->GetValue().ToStdString() + "\n";
-  try {
-    writeFileAtomically(*file, yaml);
-  } catch (const Error& e) {
-    wxMessageBox(wxString::FromUTF8(e.what()) +
-                     "\n\nThe settings are written beside the dataset: copy the dataset to a "
-                     "folder you can write to and open the copy.",
-                 "Cannot write the settings", wxOK | wxICON_ERROR, this);
-    return false;
-  }
-  return true;
+std::string MainFrame::settingsYaml() const {
+  // The settings of the panel, as a configuration over the defaults (and the
+  // startup's --config), handed to the controller in memory.
+  return "register:\n  look_down:\n    huber: " + huber_->GetValue().ToStdString() +
+         "\n  look_up:\n    cauchy_px: " + cauchy_->GetValue().ToStdString() +
+         "\n    gate_px: " + gate_->GetValue().ToStdString() + "\n";
 }
 
 void MainFrame::selectTrajectory() {
@@ -998,10 +986,8 @@ void MainFrame::runStep(int step, Then then) {
     if (actions_.exit) CallAfter([this] { continueStartup(); });
     return;
   }
-  fs::path config;
-  if (!writeSettingsFile(&config)) return;
   FullPipelineOptions options = pipelineOptions();
-  options.config_file = config;
+  options.config_overrides = settingsYaml();
   if (step >= 2 && !session_) session_ = std::make_shared<Session>();
 
   // What the job hands back to the window.
@@ -1027,8 +1013,8 @@ void MainFrame::runStep(int step, Then then) {
       return;
     }
     if (!session->session) {
-      session->controller =
-          std::make_shared<RegistrationController>(loadRegistrationConfig(options.config_file));
+      session->controller = std::make_shared<RegistrationController>(
+          loadRegistrationConfig(options.config_file, options.config_overrides));
       RegisterOptions input_options;
       input_options.dataset = options.dataset;
       input_options.mode = options.mode;

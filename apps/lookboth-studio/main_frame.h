@@ -95,7 +95,8 @@ class MainFrame : public wxFrame {
   /// Sets the trajectory controls as `lookboth register` would choose.
   void selectTrajectory();
   FullPipelineOptions pipelineOptions() const;
-  bool writeSettingsFile(std::filesystem::path* file);
+  /// The panel's settings as the YAML text of a configuration.
+  std::string settingsYaml() const;
   void exportReport(const std::string& path, Then then);
   void chooseAndExportReport();
   void exportRegistration(const std::string& dir);

@@ -9,7 +9,7 @@
 #include "lookboth/core/progress.h"
 #include "lookboth/core/text.h"
 #include "lookboth/detect/detect_dataset.h"
-#include "lookboth/detect/evaluate.h"
+#include "lookboth/detect/detection_evaluation.h"
 #include "signals.h"
 
 namespace lookboth::app {

@@ -10,7 +10,7 @@
 #include "lookboth/core/output_path.h"
 #include "lookboth/core/text.h"
 #include "lookboth/dataset/dataset_io.h"
-#include "lookboth/report/evaluate.h"
+#include "lookboth/report/pose_comparison.h"
 
 namespace lookboth::app {
 namespace {

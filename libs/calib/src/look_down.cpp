@@ -28,6 +28,12 @@ constexpr double kDeg = M_PI / 180.0;
 struct LookDownCost {
   LookDownCost(const Rigid3d& world_from_marker, const Rigid3d& measured, const Matrix6d& sqrt_info)
       : world_from_marker(world_from_marker), measured(measured), sqrt_info(sqrt_info) {}
+  /// Parameter block: world_from_camera [tx ty tz qx qy qz qw]; 6 residuals.
+  static ceres::CostFunction* Create(const Rigid3d& world_from_marker, const Rigid3d& measured,
+                                     const Matrix6d& sqrt_info) {
+    return new ceres::AutoDiffCostFunction<LookDownCost, 6, 7>(
+        new LookDownCost(world_from_marker, measured, sqrt_info));
+  }
   template <typename T>
   bool operator()(const T* world_from_camera_params, T* residual) const {
     const Rigid3<T> world_from_camera = poseFromParams(world_from_camera_params);
@@ -152,9 +158,9 @@ void runLookDown(RegistrationProblem& problem, const LookDownOptions& options,
       for (int k = 0; k < n; ++k) {
         if (!inlier[k]) continue;
         ceres_problem.AddResidualBlock(
-            new ceres::AutoDiffCostFunction<LookDownCost, 6, 7>(new LookDownCost(
+            LookDownCost::Create(
                 world_from_marker[k],
-                problem.marker(problem.associations[indices[k]]).camera_from_marker, sqrt_info[k])),
+                problem.marker(problem.associations[indices[k]]).camera_from_marker, sqrt_info[k]),
             new ceres::HuberLoss(options.huber), params);
       }
       ceres_problem.SetManifold(params, newPoseManifold());

@@ -32,6 +32,13 @@ struct BlobReprojectionCost {
         fisheye_from_world(fisheye_from_world),
         offset_in_world(offset_in_world),
         observed(observed) {}
+  /// Parameter block: the camera's position in the world [m]; 2 residuals [px].
+  static ceres::CostFunction* Create(const Camera* fisheye, const Rigid3d& fisheye_from_world,
+                                     const Eigen::Vector3d& offset_in_world,
+                                     const Eigen::Vector2d& observed) {
+    return new ceres::AutoDiffCostFunction<BlobReprojectionCost, 2, 3>(
+        new BlobReprojectionCost(fisheye, fisheye_from_world, offset_in_world, observed));
+  }
   template <typename T>
   bool operator()(const T* position, T* residual) const {
     const Eigen::Matrix<T, 3, 1> p_in_world =
@@ -227,8 +234,8 @@ class LookUp {
       const Frame& f = frames_[m.frame];
       const Blob& blob = f.blobs->blobs[m.blob];
       ceres_problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<BlobReprojectionCost, 2, 3>(new BlobReprojectionCost(
-              &fisheye_, f.fisheye_from_world, c.offset_in_world, Eigen::Vector2d(blob.u, blob.v))),
+          BlobReprojectionCost::Create(&fisheye_, f.fisheye_from_world, c.offset_in_world,
+                                       Eigen::Vector2d(blob.u, blob.v)),
           loss, p);
     }
     ceres::Solver::Options solver;

@@ -83,6 +83,12 @@ Matrix6d relativeCovariance(const Rigid3d& mi, const Rigid3d& b, const Matrix6d&
 struct MotionPairCost {
   MotionPairCost(const MotionPair& pair, const Matrix6d& sqrt_info)
       : a(pair.a_unscaled), b(pair.b), sqrt_info(sqrt_info) {}
+  /// Parameter blocks: X = fisheye_from_marker [tx ty tz qx qy qz qw], the
+  /// scale s; 6 residuals.
+  static ceres::CostFunction* Create(const MotionPair& pair, const Matrix6d& sqrt_info) {
+    return new ceres::AutoDiffCostFunction<MotionPairCost, 6, 7, 1>(
+        new MotionPairCost(pair, sqrt_info));
+  }
   template <typename T>
   bool operator()(const T* x, const T* s, T* residual) const {
     const Rigid3<T> X = poseFromParams(x);
@@ -102,6 +108,16 @@ struct MotionPairCost {
 
 // Prior along one direction v of the tangent space [dt; dtheta] of X.
 struct DirectionPriorCost {
+  /// Parameter block: X [tx ty tz qx qy qz qw]; 1 residual.
+  static ceres::CostFunction* Create(const Rigid3d& prior, const Eigen::Vector3d& direction,
+                                     bool translation, double sigma) {
+    auto* cost = new DirectionPriorCost;
+    cost->prior = prior;
+    cost->direction = direction;
+    cost->translation = translation;
+    cost->sigma = sigma;
+    return new ceres::AutoDiffCostFunction<DirectionPriorCost, 1, 7>(cost);
+  }
   template <typename T>
   bool operator()(const T* x, T* residual) const {
     const Rigid3<T> X = poseFromParams(x);
@@ -520,8 +536,7 @@ class MotionCalibration {
       cov.topLeftCorner<3, 3>().diagonal().array() += sigma_t * sigma_t;
       cov.bottomRightCorner<3, 3>().diagonal().array() += sigma_r * sigma_r;
       const Matrix6d sqrt_info = sqrtInformation(cov.inverse());
-      ceres_problem.AddResidualBlock(new ceres::AutoDiffCostFunction<MotionPairCost, 6, 7, 1>(
-                                         new MotionPairCost(p, sqrt_info)),
+      ceres_problem.AddResidualBlock(MotionPairCost::Create(p, sqrt_info),
                                      new ceres::HuberLoss(options_.huber), x_, s_);
     }
   }
@@ -533,15 +548,13 @@ class MotionCalibration {
       const bool t = d.kind == Direction::kTranslation;
       if (t && !options_.prior_translation_m) continue;
       if (!t && !options_.prior_rotation) continue;
-      auto* cost = new DirectionPriorCost;
-      cost->prior = Rigid3d(options_.prior_rotation.value_or(X_.rotation),
-                            options_.prior_translation_m.value_or(X_.translation));
-      cost->direction = (t ? d.v.head<3>() : d.v.segment<3>(3)).normalized();
-      cost->translation = t;
-      cost->sigma =
+      const Rigid3d prior(options_.prior_rotation.value_or(X_.rotation),
+                          options_.prior_translation_m.value_or(X_.translation));
+      const Eigen::Vector3d direction = (t ? d.v.head<3>() : d.v.segment<3>(3)).normalized();
+      const double sigma =
           t ? options_.prior_translation_sigma_m : options_.prior_rotation_sigma_deg * kDeg;
-      ceres_problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<DirectionPriorCost, 1, 7>(cost), nullptr, x_);
+      ceres_problem.AddResidualBlock(DirectionPriorCost::Create(prior, direction, t, sigma),
+                                     nullptr, x_);
     }
   }
 

@@ -1,62 +1,169 @@
-// Options of the paper's stages: reading from a configuration section (each
-// layer sets the keys it has; unknown keys are errors) and checks.
+// Options of the paper's stages: their keys, listed once in a fields()
+// function that reads and writes them (lookboth/core/option_fields.h), and
+// their checks.
 #include <cmath>
+#include <set>
+#include <vector>
 
 #include "lookboth/calib/builtin_stages.h"
+#include "lookboth/core/option_fields.h"
 #include "lookboth/core/text.h"
 #include "lookboth/solver/fill_reducing_ordering.h"
 
 namespace lookboth {
 namespace {
 
-// Sets `target` from node[key] when present.
-struct Section {
-  const YamlReader& r;
-  const YAML::Node& node;
-  const std::string& field;
+// Eigen values as lists of numbers in a configuration section.
+void vector3(OptionFields& f, const char* key, Eigen::Vector3d& target) {
+  std::vector<double> v{target.x(), target.y(), target.z()};
+  if (f.numbers(key, v, "[x, y, z]") && f.isReading()) target = Eigen::Vector3d(v[0], v[1], v[2]);
+}
 
-  std::string path(const char* key) const { return field + "." + key; }
-  void number(const char* key, double& target) const {
-    if (node[key]) target = r.number(node[key], path(key));
+/// Null (~) clears it.
+void optionalVector3(OptionFields& f, const char* key, std::optional<Eigen::Vector3d>& target) {
+  const Eigen::Vector3d current = target.value_or(Eigen::Vector3d::Zero());
+  std::vector<double> v{current.x(), current.y(), current.z()};
+  bool present = target.has_value();
+  if (!f.numbers(key, v, "[x, y, z]", &present) || !f.isReading()) return;
+  if (present) {
+    target = Eigen::Vector3d(v[0], v[1], v[2]);
+  } else {
+    target.reset();
   }
-  void integer(const char* key, int& target) const {
-    if (node[key]) target = r.int32(node[key], path(key));
+}
+
+/// [qx, qy, qz, qw] of norm 1; null (~) clears it.
+void optionalQuaternion(OptionFields& f, const char* key,
+                        std::optional<Eigen::Quaterniond>& target) {
+  const Eigen::Quaterniond current = target.value_or(Eigen::Quaterniond::Identity());
+  std::vector<double> v{current.x(), current.y(), current.z(), current.w()};
+  bool present = target.has_value();
+  if (!f.numbers(key, v, "[qx, qy, qz, qw]", &present) || !f.isReading()) return;
+  if (!present) {
+    target.reset();
+    return;
   }
-  void vector3(const char* key, Eigen::Vector3d& target) const {
-    const YAML::Node n = node[key];
-    if (!n) return;
-    if (!n.IsSequence() || n.size() != 3) throw Error(r.at(n, path(key)), "expected [x, y, z]");
-    for (int i = 0; i < 3; ++i) target[i] = r.number(n[i], path(key));
+  const Eigen::Quaterniond q(v[3], v[0], v[1], v[2]);
+  if (std::abs(q.norm() - 1.0) > 1e-3) {
+    throw Error(f.reader().at(f.node(key), f.path(key)), "quaternion norm is not 1");
   }
-  void optionalVector3(const char* key, std::optional<Eigen::Vector3d>& target) const {
-    const YAML::Node n = node[key];
-    if (!n) return;
-    if (n.IsNull()) {
-      target.reset();
-      return;
-    }
-    Eigen::Vector3d v;
-    vector3(key, v);
-    target = v;
-  }
-  void optionalQuaternion(const char* key, std::optional<Eigen::Quaterniond>& target) const {
-    const YAML::Node n = node[key];
-    if (!n) return;
-    if (n.IsNull()) {
-      target.reset();
-      return;
-    }
-    if (!n.IsSequence() || n.size() != 4) {
-      throw Error(r.at(n, path(key)), "expected [qx, qy, qz, qw]");
-    }
-    double v[4];
-    for (int i = 0; i < 4; ++i) v[i] = r.number(n[i], path(key));
-    Eigen::Quaterniond q(v[3], v[0], v[1], v[2]);
-    if (std::abs(q.norm() - 1.0) > 1e-3)
-      throw Error(r.at(n, path(key)), "quaternion norm is not 1");
-    target = q.normalized();
-  }
-};
+  target = q.normalized();
+}
+
+}  // namespace
+
+// The keys of each stage's options, in one list that reads and writes them
+// (found by readOptions and writeOptions through argument-dependent lookup:
+// in namespace lookboth, not in an unnamed one).
+static void fields(AssociateOptions& o, OptionFields& s) {
+  s.number("max_gap_s", o.max_gap_s);
+  s.integers("clock_offsets_ns", o.clock_offsets_ns);
+}
+
+static void fields(MotionCalibrationOptions& o, OptionFields& s) {
+  s.number("min_pair_interval_s", o.min_pair_interval_s);
+  s.number("max_pair_interval_s", o.max_pair_interval_s);
+  s.number("sigma_translation_m", o.sigma_translation_m);
+  s.number("sigma_rotation_deg", o.sigma_rotation_deg);
+  s.number("huber", o.huber);
+  s.number("min_rotation_for_axis_deg", o.min_rotation_for_axis_deg);
+  s.number("max_translation_sigma_m", o.max_translation_sigma_m);
+  s.number("max_rotation_sigma_deg", o.max_rotation_sigma_deg);
+  optionalVector3(s, "prior_translation_m", o.prior_translation_m);
+  s.number("prior_translation_sigma_m", o.prior_translation_sigma_m);
+  optionalQuaternion(s, "prior_rotation_xyzw", o.prior_rotation);
+  s.number("prior_rotation_sigma_deg", o.prior_rotation_sigma_deg);
+  s.integer("max_iterations", o.max_iterations);
+  s.flag("translation_from_camera_orientation", o.translation_from_camera_orientation);
+}
+
+static void fields(LookDownOptions& o, OptionFields& s) {
+  s.integer("min_detections", o.min_detections);
+  s.integer("suspect_min_detections", o.suspect_min_detections);
+  s.number("suspect_rejected_fraction", o.suspect_rejected_fraction);
+  s.number("huber", o.huber);
+  s.number("reject_chi2", o.reject_chi2);
+  s.number("robot_position_sigma_m", o.robot_position_sigma_m);
+  s.number("robot_rotation_sigma_deg", o.robot_rotation_sigma_deg);
+  s.number("default_translation_sigma_m", o.default_translation_sigma_m);
+  s.number("default_rotation_sigma_deg", o.default_rotation_sigma_deg);
+  s.number("consensus_radius_m", o.consensus_radius_m);
+}
+
+static void fields(LookUpOptions& o, OptionFields& s) {
+  s.number("gate_px", o.gate_px);
+  s.number("min_gate_px", o.min_gate_px);
+  s.number("ambiguity_ratio", o.ambiguity_ratio);
+  s.number("cauchy_px", o.cauchy_px);
+  s.integer("rounds", o.rounds);
+  s.integer("max_blobs_per_camera", o.max_blobs_per_camera);
+  s.integer("association_frame_step", o.association_frame_step);
+  s.integer("min_blobs", o.min_blobs);
+  s.number("max_shift_m", o.max_shift_m);
+  vector3(s, "blob_offset_in_camera_m", o.blob_offset_in_camera_m);
+  s.number("max_gap_s", o.max_gap_s);
+}
+
+static void fields(JointOptions& o, OptionFields& s) {
+  s.number("node_interval_s", o.node_interval_s);
+  s.number("smooth_input_s", o.smooth_input_s);
+  s.number("smooth_input_min_rms_m", o.smooth_input_min_rms_m);
+  s.number("drift_m_per_sqrt_m", o.drift_m_per_sqrt_m);
+  s.number("drift_deg_per_sqrt_m", o.drift_deg_per_sqrt_m);
+  s.number("drift_vertical_ratio", o.drift_vertical_ratio);
+  s.number("drift_tilt_ratio", o.drift_tilt_ratio);
+  s.flag("estimate_drift_model", o.estimate_drift_model);
+  s.integer("drift_model_updates", o.drift_model_updates);
+  s.integer("drift_round_max_blobs_per_camera", o.drift_round_max_blobs_per_camera);
+  s.integer("drift_round_max_iterations", o.drift_round_max_iterations);
+  s.number("min_sigma_m", o.min_sigma_m);
+  s.number("min_sigma_deg", o.min_sigma_deg);
+  s.number("scale_segment_m", o.scale_segment_m);
+  s.number("scale_walk_sigma", o.scale_walk_sigma);
+  s.number("metric_scale_sigma", o.metric_scale_sigma);
+  s.flag("fix_trajectory", o.fix_trajectory);
+  s.flag("fix_fisheye_from_marker", o.fix_fisheye_from_marker);
+  s.flag("fisheye_from_marker_from_ground_truth", o.fisheye_from_marker_from_ground_truth);
+  s.number("prior_translation_sigma_m", o.prior_translation_sigma_m);
+  s.number("prior_rotation_sigma_deg", o.prior_rotation_sigma_deg);
+  s.number("max_translation_sigma_m", o.max_translation_sigma_m);
+  s.number("max_rotation_sigma_deg", o.max_rotation_sigma_deg);
+  s.flag("estimate_clock_offsets", o.estimate_clock_offsets);
+  s.number("clock_prior_sigma_s", o.clock_prior_sigma_s);
+  s.number("max_clock_sigma_ms", o.max_clock_sigma_ms);
+  s.flag("use_corners", o.use_corners);
+  s.number("huber", o.huber);
+  s.number("reject_chi2_pose", o.reject_chi2_pose);
+  s.number("reject_chi2_corners", o.reject_chi2_corners);
+  s.flag("estimate_variance_factor", o.estimate_variance_factor);
+  s.number("pass_error_share", o.pass_error_share);
+  s.number("blob_pass_error_share", o.blob_pass_error_share);
+  s.number("pass_gap_s", o.pass_gap_s);
+  s.number("default_translation_sigma_m", o.default_translation_sigma_m);
+  s.number("default_rotation_sigma_deg", o.default_rotation_sigma_deg);
+  s.integer("min_detections", o.min_detections);
+  s.flag("use_blobs", o.use_blobs);
+  s.number("blob_sigma_px", o.blob_sigma_px);
+  s.number("cauchy", o.cauchy);
+  s.number("gate_px", o.gate_px);
+  s.number("ambiguity_ratio", o.ambiguity_ratio);
+  s.integer("association_frame_step", o.association_frame_step);
+  s.integer("max_blobs_per_camera", o.max_blobs_per_camera);
+  s.integer("min_blobs", o.min_blobs);
+  vector3(s, "blob_offset_in_camera_m", o.blob_offset_in_camera_m);
+  s.integer("rounds", o.rounds);
+  s.integer("max_iterations", o.max_iterations);
+  s.integer("early_round_max_iterations", o.early_round_max_iterations);
+  s.number("function_tolerance", o.function_tolerance);
+  s.number("initial_trust_region_radius", o.initial_trust_region_radius);
+  s.text("linear_solver", o.linear_solver);
+  s.text("fill_reducing_ordering", o.fill_reducing_ordering);
+  s.flag("covariance", o.covariance);
+  s.integer("aligned_uncertainty_max_cameras", o.aligned_uncertainty_max_cameras);
+  s.integer("threads", o.threads);
+}
+
+namespace {
 
 std::string positive(const char* name, double value) {
   if (!(value > 0) || !std::isfinite(value)) {
@@ -68,50 +175,19 @@ std::string positive(const char* name, double value) {
 }  // namespace
 
 void AssociateOptions::read(const YamlReader& r, const YAML::Node& node, const std::string& field) {
-  r.rejectUnknownKeys(node, {"max_gap_s", "clock_offsets_ns"}, field);
-  const Section s{r, node, field};
-  s.number("max_gap_s", max_gap_s);
-  if (const YAML::Node offsets = node["clock_offsets_ns"]; offsets && !offsets.IsNull()) {
-    if (!offsets.IsMap()) {
-      throw Error(r.at(offsets, field + ".clock_offsets_ns"), "expected a mapping label: ns");
-    }
-    for (const auto& entry : offsets) {
-      const std::string label = r.key(entry.first, field + ".clock_offsets_ns");
-      clock_offsets_ns[label] = r.integer(entry.second, field + ".clock_offsets_ns." + label);
-    }
-  }
+  readOptions(*this, r, node, field);
 }
+
+void AssociateOptions::write(YAML::Node& node) const { writeOptions(*this, node); }
 
 std::string AssociateOptions::check() const { return positive("max_gap_s", max_gap_s); }
 
 void MotionCalibrationOptions::read(const YamlReader& r, const YAML::Node& node,
                                     const std::string& field) {
-  r.rejectUnknownKeys(
-      node,
-      {"min_pair_interval_s", "max_pair_interval_s", "sigma_translation_m", "sigma_rotation_deg",
-       "huber", "min_rotation_for_axis_deg", "max_translation_sigma_m", "max_rotation_sigma_deg",
-       "prior_translation_m", "prior_translation_sigma_m", "prior_rotation_xyzw",
-       "prior_rotation_sigma_deg", "max_iterations", "translation_from_camera_orientation"},
-      field);
-  const Section s{r, node, field};
-  s.number("min_pair_interval_s", min_pair_interval_s);
-  s.number("max_pair_interval_s", max_pair_interval_s);
-  s.number("sigma_translation_m", sigma_translation_m);
-  s.number("sigma_rotation_deg", sigma_rotation_deg);
-  s.number("huber", huber);
-  s.number("min_rotation_for_axis_deg", min_rotation_for_axis_deg);
-  s.number("max_translation_sigma_m", max_translation_sigma_m);
-  s.number("max_rotation_sigma_deg", max_rotation_sigma_deg);
-  s.optionalVector3("prior_translation_m", prior_translation_m);
-  s.number("prior_translation_sigma_m", prior_translation_sigma_m);
-  s.optionalQuaternion("prior_rotation_xyzw", prior_rotation);
-  s.number("prior_rotation_sigma_deg", prior_rotation_sigma_deg);
-  s.integer("max_iterations", max_iterations);
-  if (node["translation_from_camera_orientation"]) {
-    translation_from_camera_orientation = r.boolean(node["translation_from_camera_orientation"],
-                                                    field + ".translation_from_camera_orientation");
-  }
+  readOptions(*this, r, node, field);
 }
+
+void MotionCalibrationOptions::write(YAML::Node& node) const { writeOptions(*this, node); }
 
 std::string MotionCalibrationOptions::check() const {
   for (const auto& [name, value] : std::initializer_list<std::pair<const char*, double>>{
@@ -135,24 +211,10 @@ std::string MotionCalibrationOptions::check() const {
 }
 
 void LookDownOptions::read(const YamlReader& r, const YAML::Node& node, const std::string& field) {
-  r.rejectUnknownKeys(
-      node,
-      {"min_detections", "suspect_min_detections", "suspect_rejected_fraction", "huber",
-       "reject_chi2", "robot_position_sigma_m", "robot_rotation_sigma_deg",
-       "default_translation_sigma_m", "default_rotation_sigma_deg", "consensus_radius_m"},
-      field);
-  const Section s{r, node, field};
-  s.integer("min_detections", min_detections);
-  s.integer("suspect_min_detections", suspect_min_detections);
-  s.number("suspect_rejected_fraction", suspect_rejected_fraction);
-  s.number("huber", huber);
-  s.number("reject_chi2", reject_chi2);
-  s.number("robot_position_sigma_m", robot_position_sigma_m);
-  s.number("robot_rotation_sigma_deg", robot_rotation_sigma_deg);
-  s.number("default_translation_sigma_m", default_translation_sigma_m);
-  s.number("default_rotation_sigma_deg", default_rotation_sigma_deg);
-  s.number("consensus_radius_m", consensus_radius_m);
+  readOptions(*this, r, node, field);
 }
+
+void LookDownOptions::write(YAML::Node& node) const { writeOptions(*this, node); }
 
 std::string LookDownOptions::check() const {
   if (min_detections < 1) return "'min_detections': must be at least 1";
@@ -176,24 +238,10 @@ std::string LookDownOptions::check() const {
 }
 
 void LookUpOptions::read(const YamlReader& r, const YAML::Node& node, const std::string& field) {
-  r.rejectUnknownKeys(node,
-                      {"gate_px", "min_gate_px", "ambiguity_ratio", "cauchy_px", "rounds",
-                       "max_blobs_per_camera", "association_frame_step", "min_blobs", "max_shift_m",
-                       "blob_offset_in_camera_m", "max_gap_s"},
-                      field);
-  const Section s{r, node, field};
-  s.number("gate_px", gate_px);
-  s.number("min_gate_px", min_gate_px);
-  s.number("ambiguity_ratio", ambiguity_ratio);
-  s.number("cauchy_px", cauchy_px);
-  s.integer("rounds", rounds);
-  s.integer("max_blobs_per_camera", max_blobs_per_camera);
-  s.integer("association_frame_step", association_frame_step);
-  s.integer("min_blobs", min_blobs);
-  s.number("max_shift_m", max_shift_m);
-  s.vector3("blob_offset_in_camera_m", blob_offset_in_camera_m);
-  s.number("max_gap_s", max_gap_s);
+  readOptions(*this, r, node, field);
 }
+
+void LookUpOptions::write(YAML::Node& node) const { writeOptions(*this, node); }
 
 std::string LookUpOptions::check() const {
   for (const auto& [name, value] :
@@ -217,128 +265,10 @@ std::string LookUpOptions::check() const {
 }
 
 void JointOptions::read(const YamlReader& r, const YAML::Node& node, const std::string& field) {
-  r.rejectUnknownKeys(node,
-                      {"node_interval_s",
-                       "smooth_input_s",
-                       "smooth_input_min_rms_m",
-                       "drift_m_per_sqrt_m",
-                       "drift_deg_per_sqrt_m",
-                       "min_sigma_m",
-                       "min_sigma_deg",
-                       "drift_vertical_ratio",
-                       "drift_tilt_ratio",
-                       "estimate_drift_model",
-                       "drift_model_updates",
-                       "drift_round_max_blobs_per_camera",
-                       "drift_round_max_iterations",
-                       "scale_segment_m",
-                       "scale_walk_sigma",
-                       "metric_scale_sigma",
-                       "fix_trajectory",
-                       "fix_fisheye_from_marker",
-                       "fisheye_from_marker_from_ground_truth",
-                       "prior_translation_sigma_m",
-                       "prior_rotation_sigma_deg",
-                       "max_translation_sigma_m",
-                       "max_rotation_sigma_deg",
-                       "estimate_clock_offsets",
-                       "clock_prior_sigma_s",
-                       "max_clock_sigma_ms",
-                       "use_corners",
-                       "huber",
-                       "reject_chi2_pose",
-                       "reject_chi2_corners",
-                       "estimate_variance_factor",
-                       "pass_error_share",
-                       "blob_pass_error_share",
-                       "pass_gap_s",
-                       "default_translation_sigma_m",
-                       "default_rotation_sigma_deg",
-                       "min_detections",
-                       "use_blobs",
-                       "blob_sigma_px",
-                       "cauchy",
-                       "gate_px",
-                       "ambiguity_ratio",
-                       "association_frame_step",
-                       "max_blobs_per_camera",
-                       "min_blobs",
-                       "blob_offset_in_camera_m",
-                       "rounds",
-                       "max_iterations",
-                       "early_round_max_iterations",
-                       "function_tolerance",
-                       "initial_trust_region_radius",
-                       "linear_solver",
-                       "fill_reducing_ordering",
-                       "covariance",
-                       "aligned_uncertainty_max_cameras",
-                       "threads"},
-                      field);
-  const Section s{r, node, field};
-  auto flag = [&](const char* key, bool& target) {
-    if (node[key]) target = r.boolean(node[key], s.path(key));
-  };
-  s.number("node_interval_s", node_interval_s);
-  s.number("smooth_input_s", smooth_input_s);
-  s.number("smooth_input_min_rms_m", smooth_input_min_rms_m);
-  s.number("drift_m_per_sqrt_m", drift_m_per_sqrt_m);
-  s.number("drift_deg_per_sqrt_m", drift_deg_per_sqrt_m);
-  s.number("drift_vertical_ratio", drift_vertical_ratio);
-  s.number("drift_tilt_ratio", drift_tilt_ratio);
-  flag("estimate_drift_model", estimate_drift_model);
-  s.integer("drift_model_updates", drift_model_updates);
-  s.integer("drift_round_max_blobs_per_camera", drift_round_max_blobs_per_camera);
-  s.integer("drift_round_max_iterations", drift_round_max_iterations);
-  s.number("min_sigma_m", min_sigma_m);
-  s.number("min_sigma_deg", min_sigma_deg);
-  s.number("scale_segment_m", scale_segment_m);
-  s.number("scale_walk_sigma", scale_walk_sigma);
-  s.number("metric_scale_sigma", metric_scale_sigma);
-  flag("fix_trajectory", fix_trajectory);
-  flag("fix_fisheye_from_marker", fix_fisheye_from_marker);
-  flag("fisheye_from_marker_from_ground_truth", fisheye_from_marker_from_ground_truth);
-  s.number("prior_translation_sigma_m", prior_translation_sigma_m);
-  s.number("prior_rotation_sigma_deg", prior_rotation_sigma_deg);
-  s.number("max_translation_sigma_m", max_translation_sigma_m);
-  s.number("max_rotation_sigma_deg", max_rotation_sigma_deg);
-  flag("estimate_clock_offsets", estimate_clock_offsets);
-  s.number("clock_prior_sigma_s", clock_prior_sigma_s);
-  s.number("max_clock_sigma_ms", max_clock_sigma_ms);
-  flag("use_corners", use_corners);
-  s.number("huber", huber);
-  s.number("reject_chi2_pose", reject_chi2_pose);
-  s.number("reject_chi2_corners", reject_chi2_corners);
-  flag("estimate_variance_factor", estimate_variance_factor);
-  s.number("pass_error_share", pass_error_share);
-  s.number("blob_pass_error_share", blob_pass_error_share);
-  s.number("pass_gap_s", pass_gap_s);
-  s.number("default_translation_sigma_m", default_translation_sigma_m);
-  s.number("default_rotation_sigma_deg", default_rotation_sigma_deg);
-  s.integer("min_detections", min_detections);
-  flag("use_blobs", use_blobs);
-  s.number("blob_sigma_px", blob_sigma_px);
-  s.number("cauchy", cauchy);
-  s.number("gate_px", gate_px);
-  s.number("ambiguity_ratio", ambiguity_ratio);
-  s.integer("association_frame_step", association_frame_step);
-  s.integer("max_blobs_per_camera", max_blobs_per_camera);
-  s.integer("min_blobs", min_blobs);
-  s.vector3("blob_offset_in_camera_m", blob_offset_in_camera_m);
-  s.integer("rounds", rounds);
-  s.integer("max_iterations", max_iterations);
-  s.integer("early_round_max_iterations", early_round_max_iterations);
-  s.number("function_tolerance", function_tolerance);
-  s.number("initial_trust_region_radius", initial_trust_region_radius);
-  if (node["linear_solver"]) linear_solver = r.text(node["linear_solver"], s.path("linear_solver"));
-  if (node["fill_reducing_ordering"]) {
-    fill_reducing_ordering =
-        r.text(node["fill_reducing_ordering"], s.path("fill_reducing_ordering"));
-  }
-  flag("covariance", covariance);
-  s.integer("aligned_uncertainty_max_cameras", aligned_uncertainty_max_cameras);
-  s.integer("threads", threads);
+  readOptions(*this, r, node, field);
 }
+
+void JointOptions::write(YAML::Node& node) const { writeOptions(*this, node); }
 
 std::string JointOptions::check() const {
   for (const auto& [name, value] : std::initializer_list<std::pair<const char*, double>>{

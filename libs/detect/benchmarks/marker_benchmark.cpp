@@ -28,7 +28,7 @@
 #include "lookboth/core/error.h"
 #include "lookboth/dataset/dataset_io.h"
 #include "lookboth/dataset/marker_dictionary.h"
-#include "lookboth/detect/evaluate.h"
+#include "lookboth/detect/detection_evaluation.h"
 #include "lookboth/detect/marker_detector.h"
 
 namespace {

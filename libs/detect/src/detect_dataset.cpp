@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "lookboth/core/error.h"
+#include "lookboth/core/option_fields.h"
 #include "lookboth/core/paths.h"
 #include "lookboth/core/yaml_reader.h"
 #include "lookboth/dataset/image_header.h"
@@ -25,62 +26,47 @@ std::string DetectConfig::check() const {
   return "";
 }
 
-namespace {
-
-void readMarkerOptions(const YamlReader& r, const YAML::Node& node, MarkerDetectorOptions& o) {
-  r.rejectUnknownKeys(node,
-                      {"detect_scale", "track_roi", "roi_margin", "refine_edges", "corner_sigma_px",
-                       "min_corner_sigma_px", "fallback_corner_sigma_px", "min_side_px",
-                       "max_reprojection_px", "ambiguity_ratio", "max_speed_mps", "track_window_s"},
-                      "detect.markers");
-  const std::string f = "detect.markers.";
-  if (node["detect_scale"]) o.detect_scale = r.int32(node["detect_scale"], f + "detect_scale");
-  if (node["track_roi"]) o.track_roi = r.boolean(node["track_roi"], f + "track_roi");
-  if (node["roi_margin"]) o.roi_margin = r.number(node["roi_margin"], f + "roi_margin");
-  if (node["refine_edges"]) o.refine_edges = r.boolean(node["refine_edges"], f + "refine_edges");
-  if (node["corner_sigma_px"])
-    o.corner_sigma_px = r.number(node["corner_sigma_px"], f + "corner_sigma_px");
-  if (node["min_corner_sigma_px"])
-    o.min_corner_sigma_px = r.number(node["min_corner_sigma_px"], f + "min_corner_sigma_px");
-  if (node["fallback_corner_sigma_px"])
-    o.fallback_corner_sigma_px =
-        r.number(node["fallback_corner_sigma_px"], f + "fallback_corner_sigma_px");
-  if (node["min_side_px"]) o.min_side_px = r.number(node["min_side_px"], f + "min_side_px");
-  if (node["max_reprojection_px"])
-    o.max_reprojection_px = r.number(node["max_reprojection_px"], f + "max_reprojection_px");
-  if (node["max_speed_mps"]) o.max_speed_mps = r.number(node["max_speed_mps"], f + "max_speed_mps");
-  if (node["track_window_s"])
-    o.track_window_s = r.number(node["track_window_s"], f + "track_window_s");
-  if (node["ambiguity_ratio"])
-    o.ambiguity_ratio = r.number(node["ambiguity_ratio"], f + "ambiguity_ratio");
-  if (const std::string why = o.check(); !why.empty())
-    throw Error(r.at(node, "detect.markers"), why);
+// The keys of `detect.markers` and `detect.blobs`, in one list that reads
+// and writes them (lookboth/core/option_fields.h; found by readOptions and
+// writeOptions through argument-dependent lookup).
+static void fields(MarkerDetectorOptions& o, OptionFields& f) {
+  f.integer("detect_scale", o.detect_scale);
+  f.flag("track_roi", o.track_roi);
+  f.number("roi_margin", o.roi_margin);
+  f.flag("refine_edges", o.refine_edges);
+  f.number("corner_sigma_px", o.corner_sigma_px);
+  f.number("min_corner_sigma_px", o.min_corner_sigma_px);
+  f.number("fallback_corner_sigma_px", o.fallback_corner_sigma_px);
+  f.number("min_side_px", o.min_side_px);
+  f.number("max_reprojection_px", o.max_reprojection_px);
+  f.number("ambiguity_ratio", o.ambiguity_ratio);
+  f.number("max_speed_mps", o.max_speed_mps);
+  f.number("track_window_s", o.track_window_s);
 }
 
-void readBlobOptions(const YamlReader& r, const YAML::Node& node, BlobDetectorOptions& o) {
-  r.rejectUnknownKeys(node,
-                      {"min_threshold", "max_threshold", "threshold_step", "min_repeatability",
-                       "min_dist_between_blobs_px", "dark", "min_area_px", "max_area_px",
-                       "min_circularity", "min_convexity", "min_inertia_ratio", "min_contrast"},
-                      "detect.blobs");
-  const std::string f = "detect.blobs.";
-  auto number = [&](const char* key, double& value) {
-    if (node[key]) value = r.number(node[key], f + key);
-  };
-  number("min_threshold", o.min_threshold);
-  number("max_threshold", o.max_threshold);
-  number("threshold_step", o.threshold_step);
-  if (node["min_repeatability"])
-    o.min_repeatability = r.int32(node["min_repeatability"], f + "min_repeatability");
-  number("min_dist_between_blobs_px", o.min_dist_between_blobs_px);
-  if (node["dark"]) o.dark = r.boolean(node["dark"], f + "dark");
-  number("min_area_px", o.min_area_px);
-  number("max_area_px", o.max_area_px);
-  number("min_circularity", o.min_circularity);
-  number("min_convexity", o.min_convexity);
-  number("min_inertia_ratio", o.min_inertia_ratio);
-  number("min_contrast", o.min_contrast);
-  if (const std::string why = o.check(); !why.empty()) throw Error(r.at(node, "detect.blobs"), why);
+static void fields(BlobDetectorOptions& o, OptionFields& f) {
+  f.number("min_threshold", o.min_threshold);
+  f.number("max_threshold", o.max_threshold);
+  f.number("threshold_step", o.threshold_step);
+  f.integer("min_repeatability", o.min_repeatability);
+  f.number("min_dist_between_blobs_px", o.min_dist_between_blobs_px);
+  f.flag("dark", o.dark);
+  f.number("min_area_px", o.min_area_px);
+  f.number("max_area_px", o.max_area_px);
+  f.number("min_circularity", o.min_circularity);
+  f.number("min_convexity", o.min_convexity);
+  f.number("min_inertia_ratio", o.min_inertia_ratio);
+  f.number("min_contrast", o.min_contrast);
+}
+
+namespace {
+
+/// Reads one section over `options`, then its check (naming the section's line).
+template <typename Options>
+void readSection(const YamlReader& r, const YAML::Node& node, const std::string& field,
+                 Options& options) {
+  readOptions(options, r, node, field);
+  if (const std::string why = options.check(); !why.empty()) throw Error(r.at(node, field), why);
 }
 
 }  // namespace
@@ -98,10 +84,19 @@ DetectConfig loadDetectConfig(const fs::path& yaml, const DetectConfig& base) {
   if (!detect || detect.IsNull()) return config;
   reader.rejectUnknownKeys(detect, {"markers", "blobs"}, "detect");
   if (detect["markers"] && !detect["markers"].IsNull())
-    readMarkerOptions(reader, detect["markers"], config.markers);
+    readSection(reader, detect["markers"], "detect.markers", config.markers);
   if (detect["blobs"] && !detect["blobs"].IsNull())
-    readBlobOptions(reader, detect["blobs"], config.blobs);
+    readSection(reader, detect["blobs"], "detect.blobs", config.blobs);
   return config;
+}
+
+YAML::Node detectConfigYaml(const DetectConfig& config) {
+  YAML::Node node, markers, blobs;
+  writeOptions(config.markers, markers);
+  writeOptions(config.blobs, blobs);
+  node["markers"] = markers;
+  node["blobs"] = blobs;
+  return node;
 }
 
 DetectConfig defaultDetectConfig() {

@@ -7,8 +7,9 @@
 #include <sstream>
 
 #include "lookboth/core/error.h"
+#include "lookboth/core/option_fields.h"
 #include "lookboth/core/scoped_environment.h"
-#include "lookboth/detect/evaluate.h"
+#include "lookboth/detect/detection_evaluation.h"
 #include "lookboth/sim/scenario.h"
 #include "lookboth/sim/simulate.h"
 
@@ -209,6 +210,26 @@ TEST_F(DetectDatasetTest, WritesInPlaceReplacesOnRerunAndSkipsCorruptImages) {
   options.cameras = {"cam04"};
   EXPECT_THROW(detectDataset(options, stopped), StopRequested);
   EXPECT_EQ(readAll(copy).size(), after.size());
+}
+
+// default.yaml says what the compiled defaults say, every key of markers
+// and blobs (a library user or a test that builds the options in code runs
+// what `lookboth detect` runs).
+TEST(DetectConfig, DefaultYamlSaysWhatTheCompiledDefaultsSay) {
+  const DetectConfig loaded =
+      loadDetectConfig(std::filesystem::path(LOOKBOTH_SHARE_DIR) / "config" / "default.yaml");
+  const std::vector<std::string> found =
+      optionDifferences(detectConfigYaml(loaded), detectConfigYaml(DetectConfig()), "detect");
+  std::string listed;
+  for (const std::string& line : found) listed += "\n  " + line;
+  EXPECT_TRUE(found.empty()) << "default.yaml's value against the compiled one:" << listed;
+  // A changed value is named with both.
+  DetectConfig changed;
+  changed.markers.max_speed_mps = 2.0;
+  const std::vector<std::string> one =
+      optionDifferences(detectConfigYaml(changed), detectConfigYaml(DetectConfig()), "detect");
+  ASSERT_EQ(one.size(), 1u);
+  EXPECT_EQ(one[0], "detect.markers.max_speed_mps: 2 against 1.5");
 }
 
 TEST(DetectConfig, ReadsTheDetectSectionStrictly) {

@@ -15,7 +15,7 @@
 #include "lookboth/cameras/camera_io.h"
 #include "lookboth/core/error.h"
 #include "lookboth/dataset/marker_dictionary.h"
-#include "lookboth/detect/evaluate.h"
+#include "lookboth/detect/detection_evaluation.h"
 #include "lookboth/geometry/lie.h"
 #include "lookboth/sim/render.h"
 #include "lookboth/sim/world.h"

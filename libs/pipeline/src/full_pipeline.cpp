@@ -228,51 +228,136 @@ StepOutcome runOdometryStep(const FullPipelineOptions& options, const DatasetCon
   return outcome;
 }
 
+struct RegistrationPipeline::State {
+  explicit State(const FullPipelineOptions& options)
+      : controller(loadRegistrationConfig(options.config_file, options.config_overrides)) {}
+  RegistrationController controller;
+  DatasetContents contents;
+  FullPipelineOptions working;  ///< The options with the trajectory chosen, the dataset read.
+  std::optional<ScratchDataset> scratch;
+  std::optional<RegistrationSession> session;
+};
+
+RegistrationPipeline::RegistrationPipeline(FullPipelineOptions options)
+    : options_(std::move(options)) {
+  if (const std::string problem = options_.check(); !problem.empty()) throw Error(problem);
+  // The registration configuration first: a typo fails in a second, not after detection.
+  state_ = std::make_unique<State>(options_);
+  steps_ = {"detect", "odometry"};
+  for (const std::string& stage : state_->controller.config().pipeline) steps_.push_back(stage);
+  steps_.push_back("output");
+}
+
+RegistrationPipeline::~RegistrationPipeline() = default;
+RegistrationPipeline::RegistrationPipeline(RegistrationPipeline&&) noexcept = default;
+
+void RegistrationPipeline::prepare(const ProgressReporter& progress) {
+  State& st = *state_;
+  st.contents = inspectDataset(options_.dataset, progress);
+  st.working = options_;
+  if (options_.choose_trajectory && options_.trajectory_file.empty()) {
+    const TrajectoryChoice choice = chooseTrajectory(options_.dataset, st.contents);
+    st.working.mode = choice.mode;
+    st.working.trajectory_label = choice.label;
+    lines_.push_back("trajectory: " + choice.reason);
+  }
+  // Without write-back, detection and odometry write a scratch copy that the stages read.
+  if (!options_.write_back) st.scratch.emplace(options_);
+  prepared_ = true;
+}
+
+StepOutcome RegistrationPipeline::detect(const ProgressReporter& progress) {
+  State& st = *state_;
+  const std::filesystem::path out = st.scratch ? st.scratch->path : std::filesystem::path();
+  const StepOutcome outcome = runDetectStep(st.working, st.contents, progress, out);
+  if (outcome.ran && st.scratch) st.working.dataset = st.scratch->path;
+  return outcome;
+}
+
+StepOutcome RegistrationPipeline::odometry(const ProgressReporter& progress) {
+  // On the contents before detection: detection adds no trajectory. A
+  // scratch copy that detection made is extended in place.
+  State& st = *state_;
+  const bool in_scratch = st.scratch && st.working.dataset == st.scratch->path;
+  const std::filesystem::path out =
+      st.scratch && !in_scratch ? st.scratch->path : std::filesystem::path();
+  const StepOutcome outcome = runOdometryStep(st.working, st.contents, progress, out);
+  if (outcome.ran && st.scratch) st.working.dataset = st.scratch->path;
+  return outcome;
+}
+
+StepOutcome RegistrationPipeline::stage(const ProgressReporter& progress) {
+  State& st = *state_;
+  if (!st.session) {
+    RegisterOptions register_options;
+    register_options.dataset = st.working.dataset;
+    register_options.on_issue = options_.on_issue;
+    register_options.mode = st.working.mode;
+    register_options.trajectory_label = st.working.trajectory_label;
+    register_options.trajectory_file = st.working.trajectory_file;
+    st.session.emplace(st.controller.prepare(loadRegistrationInput(register_options, progress)));
+  }
+  st.session->runNext(progress);
+  StepOutcome outcome;
+  outcome.ran = true;
+  outcome.summary = steps_[next_] + ": done";
+  return outcome;
+}
+
+StepOutcome RegistrationPipeline::output(const ProgressReporter& progress) {
+  progress.checkStop();
+  const RegistrationRun run = state_->session->current();
+  writeRegistrationOutput(run, options_.out, options_.overwrite);
+  StepOutcome outcome;
+  outcome.ran = true;
+  outcome.summary = "register: " + std::to_string(run.registration.registeredCount()) + " of " +
+                    std::to_string(run.registration.cameras.size()) +
+                    " cameras registered, written to " + options_.out.string();
+  return outcome;
+}
+
+StepOutcome RegistrationPipeline::runNext(const ProgressReporter& progress) {
+  if (finished()) throw Error("the pipeline has run every step");
+  if (!prepared_) prepare(progress);
+  const std::string& name = steps_[next_];
+  StepOutcome outcome;
+  if (next_ == 0) {
+    outcome = detect(progress);
+  } else if (next_ == 1) {
+    outcome = odometry(progress);
+  } else if (next_ + 1 == steps_.size()) {
+    outcome = output(progress);
+  } else {
+    outcome = stage(progress);
+  }
+  // The stages' lines are the summary's business; detection, odometry and
+  // the output say what they did or why they were skipped.
+  if (name == "detect" || name == "odometry" || next_ + 1 == steps_.size()) {
+    lines_.push_back(outcome.summary);
+  }
+  ++next_;
+  return outcome;
+}
+
+const RegistrationSession* RegistrationPipeline::session() const {
+  return state_->session ? &*state_->session : nullptr;
+}
+
+const std::filesystem::path& RegistrationPipeline::dataset() const {
+  return state_->working.dataset.empty() ? options_.dataset : state_->working.dataset;
+}
+
+FullPipelineResult RegistrationPipeline::run(const ProgressReporter& progress) {
+  while (!finished()) runNext(progress);
+  FullPipelineResult result;
+  result.steps = lines_;
+  result.run = state_->session->current();
+  return result;
+}
+
 FullPipelineResult runFullPipeline(const FullPipelineOptions& options,
                                    const ProgressReporter& progress) {
-  if (const std::string problem = options.check(); !problem.empty()) throw Error(problem);
-  FullPipelineResult result;
-  // Check the registration configuration first: a typo fails in a second, not after detection.
-  RegistrationController controller(loadRegistrationConfig(options.config_file));
-
-  DatasetContents contents = inspectDataset(options.dataset, progress);
-  FullPipelineOptions working = options;
-  if (options.choose_trajectory && options.trajectory_file.empty()) {
-    const TrajectoryChoice choice = chooseTrajectory(options.dataset, contents);
-    working.mode = choice.mode;
-    working.trajectory_label = choice.label;
-    result.steps.push_back("trajectory: " + choice.reason);
-  }
-  // Without write-back, steps 1-2 write a scratch copy that the stages read.
-  const std::optional<ScratchDataset> scratch =
-      options.write_back ? std::nullopt : std::optional<ScratchDataset>(ScratchDataset(options));
-  const std::filesystem::path step_out = scratch ? scratch->path : std::filesystem::path();
-  // 1. Detection.
-  const StepOutcome detected = runDetectStep(working, contents, progress, step_out);
-  result.steps.push_back(detected.summary);
-  if (detected.ran && scratch) working.dataset = scratch->path;
-  // 2. Visual odometry (on the contents before detection: detection adds no trajectory).
-  const bool in_scratch = scratch && working.dataset == scratch->path;
-  const StepOutcome odometry =
-      runOdometryStep(working, contents, progress, in_scratch ? std::filesystem::path() : step_out);
-  result.steps.push_back(odometry.summary);
-  if (odometry.ran && scratch) working.dataset = scratch->path;
-
-  // 3-4. Registration and its output.
-  RegisterOptions register_options;
-  register_options.dataset = working.dataset;
-  register_options.on_issue = options.on_issue;
-  register_options.mode = working.mode;
-  register_options.trajectory_label = working.trajectory_label;
-  register_options.trajectory_file = working.trajectory_file;
-  RegistrationInput input = loadRegistrationInput(register_options, progress);
-  result.run = controller.run(std::move(input), progress);
-  progress.checkStop();
-  writeRegistrationOutput(result.run, options.out, options.overwrite);
-  result.steps.push_back("register: " + std::to_string(result.run.registration.registeredCount()) +
-                         " of " + std::to_string(result.run.registration.cameras.size()) +
-                         " cameras registered, written to " + options.out.string());
-  return result;
+  return RegistrationPipeline(options).run(progress);
 }
 
 }  // namespace lookboth

@@ -201,6 +201,61 @@ TEST_F(PipelineTest, StepsBeforeRegistrationSayWhyTheyAreSkipped) {
   }
 }
 
+// RegistrationPipeline one step at a time (as the desktop app runs it):
+// detect, odometry, each configured stage, output; the same cameras as
+// run(), and settings handed over in memory (over default.yaml) take effect.
+TEST_F(PipelineTest, ThePipelineRunsOneStepAtATimeLikeRun) {
+  FullPipelineOptions options;
+  options.dataset = dataset("small");
+  options.mode = TrajectoryMode::kMetric;
+  options.trajectory_label = "odometry";
+  options.out = *dir_ / "stepped_registration";
+  options.overwrite = true;
+  options.config_overrides = "register:\n  pipeline: [associate, motion_calibration, look_down]\n";
+  RegistrationPipeline stepped(options);
+  EXPECT_EQ(stepped.steps(),
+            (std::vector<std::string>{"detect", "odometry", "associate", "motion_calibration",
+                                      "look_down", "output"}));
+  EXPECT_EQ(stepped.session(), nullptr);
+  std::vector<std::string> lines;
+  while (!stepped.finished()) {
+    const std::string name = stepped.steps()[stepped.stepsRun()];
+    const StepOutcome outcome = stepped.runNext(ProgressReporter());
+    lines.push_back(name + ": " + (outcome.ran ? "ran" : "skipped"));
+    if (name == "associate") {
+      ASSERT_NE(stepped.session(), nullptr);
+      EXPECT_EQ(stepped.session()->stagesRun(), 1u);
+    }
+  }
+  EXPECT_EQ(lines,
+            (std::vector<std::string>{"detect: skipped", "odometry: skipped", "associate: ran",
+                                      "motion_calibration: ran", "look_down: ran", "output: ran"}));
+  EXPECT_THROW(stepped.runNext(ProgressReporter()), Error);
+  const Registration written = loadRegistration(options.out);
+  EXPECT_EQ(written.pipeline,
+            (std::vector<std::string>{"associate", "motion_calibration", "look_down"}));
+
+  options.out = *dir_ / "run_registration";
+  const FullPipelineResult all = runFullPipeline(options, ProgressReporter());
+  ASSERT_EQ(all.run.registration.cameras.size(), written.cameras.size());
+  for (std::size_t i = 0; i < written.cameras.size(); ++i) {
+    EXPECT_LT((all.run.registration.cameras[i].world_from_camera.translation -
+               written.cameras[i].world_from_camera.translation)
+                  .norm(),
+              1e-9)
+        << written.cameras[i].label;
+  }
+  // A mistyped in-memory setting is an error that names it before any work.
+  options.config_overrides = "register:\n  look_down: {huberr: 0.1}\n";
+  try {
+    RegistrationPipeline bad(options);
+    ADD_FAILURE() << "an unknown key in the settings did not fail";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(kInMemorySettings), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("huberr"), std::string::npos) << e.what();
+  }
+}
+
 // `faults` with seed 6: false detections (markers lying on the floor) and a
 // camera whose clock jumps by 250 ms make motion pairs that no rigid motion
 // explains. Before they were set aside, the motion calibration's linear

@@ -3,7 +3,7 @@
 
 #include "lookboth/core/error.h"
 #include "lookboth/registration/registration.h"
-#include "lookboth/report/evaluate.h"
+#include "lookboth/report/pose_comparison.h"
 #include "lookboth/report/snapshot.h"
 
 namespace lookboth::report {

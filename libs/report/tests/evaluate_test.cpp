@@ -1,4 +1,4 @@
-#include "lookboth/report/evaluate.h"
+#include "lookboth/report/pose_comparison.h"
 
 #include <gtest/gtest.h>
 

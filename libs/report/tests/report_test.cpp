@@ -10,7 +10,7 @@
 
 #include "lookboth/core/error.h"
 #include "lookboth/geometry/lie.h"
-#include "lookboth/report/evaluate.h"
+#include "lookboth/report/pose_comparison.h"
 #include "lookboth/report/report.h"
 #include "lookboth/sim/simulate.h"
 #include "truth_registration.h"

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "lookboth/core/error.h"
+#include "lookboth/core/option_fields.h"
 #include "lookboth/core/paths.h"
 #include "lookboth/core/yaml_reader.h"
 
@@ -74,6 +75,53 @@ std::string OdometryOptions::check() const {
   return "";
 }
 
+// The keys of `odometry:`, in one list that reads and writes them
+// (lookboth/core/option_fields.h; found by readOptions and writeOptions
+// through argument-dependent lookup).
+static void fields(OdometryOptions& o, OptionFields& f) {
+  f.integer("working_width", o.working_width);
+  f.number("max_incidence_deg", o.max_incidence_deg);
+  f.number("border_px", o.border_px);
+  f.integer("max_features", o.max_features);
+  f.integer("grid_cols", o.grid_cols);
+  f.integer("grid_rows", o.grid_rows);
+  f.number("min_feature_distance_px", o.min_feature_distance_px);
+  f.number("fast_threshold", o.fast_threshold);
+  f.integer("klt_window_px", o.klt_window_px);
+  f.integer("klt_levels", o.klt_levels);
+  f.number("klt_max_fb_error_px", o.klt_max_fb_error_px);
+  f.number("ransac_threshold_px", o.ransac_threshold_px);
+  f.integer("ransac_max_iterations", o.ransac_max_iterations);
+  f.number("init_min_parallax_deg", o.init_min_parallax_deg);
+  f.integer("init_min_inliers", o.init_min_inliers);
+  f.integer("min_tracking_inliers", o.min_tracking_inliers);
+  f.number("triangulation_min_angle_deg", o.triangulation_min_angle_deg);
+  f.number("keyframe_translation_ratio", o.keyframe_translation_ratio);
+  f.number("keyframe_tracked_ratio", o.keyframe_tracked_ratio);
+  f.number("keyframe_rotation_deg", o.keyframe_rotation_deg);
+  f.integer("max_frames_between_keyframes", o.max_frames_between_keyframes);
+  f.integer("local_window", o.local_window);
+  f.integer("local_iterations", o.local_iterations);
+  f.number("huber_px", o.huber_px);
+  f.flag("loop_closure", o.loop_closure);
+  f.integer("loop_min_keyframe_gap", o.loop_min_keyframe_gap);
+  f.integer("loop_min_inliers", o.loop_min_inliers);
+  f.integer("vocabulary_words", o.vocabulary_words);
+  f.integer("vocabulary_training_keyframes", o.vocabulary_training_keyframes);
+  f.integer("loop_candidates", o.loop_candidates);
+  f.integer("loop_features", o.loop_features);
+  f.integer("global_iterations", o.global_iterations);
+  f.integer("global_window", o.global_window);
+  f.integer("global_sweeps", o.global_sweeps);
+  f.integer("global_max_observations", o.global_max_observations);
+  f.integer("global_min_observations_per_keyframe", o.global_min_observations_per_keyframe);
+  f.integer("relocalisation_keyframes", o.relocalisation_keyframes);
+  f.integer("max_lost_frames", o.max_lost_frames);
+  f.flag("all_frames", o.all_frames);
+  f.integer("threads", o.threads);
+  f.unsigned32("seed", o.seed);
+}
+
 OdometryOptions loadOdometryOptions(const std::filesystem::path& yaml,
                                     const OdometryOptions& defaults) {
   std::ifstream in(yaml);
@@ -88,78 +136,16 @@ OdometryOptions loadOdometryOptions(const std::filesystem::path& yaml,
   const YAML::Node node = root["odometry"];
   if (!node.IsMap()) throw Error(reader.at(node, "odometry"), "expected a mapping");
 
-  std::map<std::string, std::function<void(const YAML::Node&, const std::string&)>> fields;
-  auto integer = [&](const char* name, int* target) {
-    fields[name] = [&reader, target](const YAML::Node& n, const std::string& f) {
-      *target = reader.int32(n, f);
-    };
-  };
-  auto number = [&](const char* name, double* target) {
-    fields[name] = [&reader, target](const YAML::Node& n, const std::string& f) {
-      *target = reader.number(n, f);
-    };
-  };
-  auto boolean = [&](const char* name, bool* target) {
-    fields[name] = [&reader, target](const YAML::Node& n, const std::string& f) {
-      *target = reader.boolean(n, f);
-    };
-  };
-  integer("working_width", &o.working_width);
-  number("max_incidence_deg", &o.max_incidence_deg);
-  number("border_px", &o.border_px);
-  integer("max_features", &o.max_features);
-  integer("grid_cols", &o.grid_cols);
-  integer("grid_rows", &o.grid_rows);
-  number("min_feature_distance_px", &o.min_feature_distance_px);
-  number("fast_threshold", &o.fast_threshold);
-  integer("klt_window_px", &o.klt_window_px);
-  integer("klt_levels", &o.klt_levels);
-  number("klt_max_fb_error_px", &o.klt_max_fb_error_px);
-  number("ransac_threshold_px", &o.ransac_threshold_px);
-  integer("ransac_max_iterations", &o.ransac_max_iterations);
-  number("init_min_parallax_deg", &o.init_min_parallax_deg);
-  integer("init_min_inliers", &o.init_min_inliers);
-  integer("min_tracking_inliers", &o.min_tracking_inliers);
-  number("triangulation_min_angle_deg", &o.triangulation_min_angle_deg);
-  number("keyframe_translation_ratio", &o.keyframe_translation_ratio);
-  number("keyframe_tracked_ratio", &o.keyframe_tracked_ratio);
-  number("keyframe_rotation_deg", &o.keyframe_rotation_deg);
-  integer("max_frames_between_keyframes", &o.max_frames_between_keyframes);
-  integer("local_window", &o.local_window);
-  integer("local_iterations", &o.local_iterations);
-  number("huber_px", &o.huber_px);
-  boolean("loop_closure", &o.loop_closure);
-  integer("loop_min_keyframe_gap", &o.loop_min_keyframe_gap);
-  integer("loop_min_inliers", &o.loop_min_inliers);
-  integer("vocabulary_words", &o.vocabulary_words);
-  integer("vocabulary_training_keyframes", &o.vocabulary_training_keyframes);
-  integer("loop_candidates", &o.loop_candidates);
-  integer("loop_features", &o.loop_features);
-  integer("global_iterations", &o.global_iterations);
-  integer("global_window", &o.global_window);
-  integer("global_sweeps", &o.global_sweeps);
-  integer("global_max_observations", &o.global_max_observations);
-  integer("global_min_observations_per_keyframe", &o.global_min_observations_per_keyframe);
-  integer("relocalisation_keyframes", &o.relocalisation_keyframes);
-  integer("max_lost_frames", &o.max_lost_frames);
-  boolean("all_frames", &o.all_frames);
-  integer("threads", &o.threads);
-  fields["seed"] = [&reader, &o](const YAML::Node& n, const std::string& f) {
-    const long long seed = reader.integer(n, f);
-    if (seed < 0 || seed > 4294967295LL) throw Error(reader.at(n, f), "must be in [0, 4294967295]");
-    o.seed = static_cast<std::uint32_t>(seed);
-  };
-
-  std::set<std::string> known;
-  for (const auto& entry : fields) known.insert(entry.first);
-  reader.rejectUnknownKeys(node, known, "odometry");
-  for (const auto& entry : node) {
-    const std::string key = reader.key(entry.first, "odometry");
-    fields.at(key)(entry.second, "odometry." + key);
-  }
+  readOptions(o, reader, node, "odometry");
   if (const std::string why = o.check(); !why.empty())
     throw Error(yaml.string() + ": 'odometry." + why.substr(1));
   return o;
+}
+
+YAML::Node odometryOptionsYaml(const OdometryOptions& options) {
+  YAML::Node node;
+  writeOptions(options, node);
+  return node;
 }
 
 OdometryOptions odometryOptionsFor(const std::optional<std::filesystem::path>& user_file) {

@@ -19,7 +19,11 @@ struct AssociateOptions {
   /// Known clock offsets, node clock minus robot clock, by camera label [ns]
   /// (0 when absent: NTP-synchronised nodes, as in the paper).
   std::map<std::string, TimeNs> clock_offsets_ns;
+  /// Sets the options `node` (the configuration's "register.<stage>" section,
+  /// named `field` in errors) has; an unknown key is an error.
   void read(const YamlReader& reader, const YAML::Node& node, const std::string& field);
+  /// Every option under its key, as read() reads them.
+  void write(YAML::Node& node) const;
   std::string check() const;
 };
 

@@ -190,7 +190,11 @@ struct JointOptions {
   /// matrix, its cost grows like the cube of the cameras.
   int aligned_uncertainty_max_cameras = 200;
   int threads = 1;
+  /// Sets the options `node` (the configuration's "register.<stage>" section,
+  /// named `field` in errors) has; an unknown key is an error.
   void read(const YamlReader& reader, const YAML::Node& node, const std::string& field);
+  /// Every option under its key, as read() reads them.
+  void write(YAML::Node& node) const;
   std::string check() const;
 };
 

@@ -33,7 +33,11 @@ struct LookDownOptions {
   /// Initial guess: the detection whose camera pose agrees with most others
   /// within this distance [m].
   double consensus_radius_m = 0.25;
+  /// Sets the options `node` (the configuration's "register.<stage>" section,
+  /// named `field` in errors) has; an unknown key is an error.
   void read(const YamlReader& reader, const YAML::Node& node, const std::string& field);
+  /// Every option under its key, as read() reads them.
+  void write(YAML::Node& node) const;
   std::string check() const;
 };
 

@@ -44,7 +44,11 @@ struct MotionCalibrationOptions {
   /// the bias that one detection's tilt noise puts on the scale); false: the
   /// paper's B = M_i^-1 M_j.
   bool translation_from_camera_orientation = true;
+  /// Sets the options `node` (the configuration's "register.<stage>" section,
+  /// named `field` in errors) has; an unknown key is an error.
   void read(const YamlReader& reader, const YAML::Node& node, const std::string& field);
+  /// Every option under its key, as read() reads them.
+  void write(YAML::Node& node) const;
   std::string check() const;
 };
 

@@ -14,19 +14,19 @@ namespace lookboth {
 /// cv::SimpleBlobDetector::Params with lookboth's defaults for housings seen
 /// from 2-4 m below (names follow OpenCV's).
 struct BlobDetectorOptions {
-  double min_threshold = 20;             ///< First binarisation threshold [grey level].
-  double max_threshold = 160;            ///< Last one [grey level].
+  double min_threshold = 10;             ///< First binarisation threshold [grey level].
+  double max_threshold = 110;            ///< Last one [grey level].
   double threshold_step = 10;            ///< Between thresholds [grey levels].
   int min_repeatability = 2;             ///< Thresholds at which a blob must be found.
   double min_dist_between_blobs_px = 4;  ///< [px].
   bool dark = true;                ///< Look for dark blobs (the housings) rather than bright ones.
-  double min_area_px = 3;          ///< [px^2].
-  double max_area_px = 400;        ///< [px^2].
-  double min_circularity = 0.6;    ///< 4 pi area / perimeter^2, in [0, 1].
+  double min_area_px = 6;          ///< [px^2].
+  double max_area_px = 5000;       ///< [px^2].
+  double min_circularity = 0.7;    ///< 4 pi area / perimeter^2, in [0, 1].
   double min_convexity = 0.8;      ///< Area / convex hull area, in [0, 1].
   double min_inertia_ratio = 0.3;  ///< Minor / major inertia, in [0, 1].
   /// Blobs whose contrast with their surroundings is below this are dropped [grey levels].
-  double min_contrast = 15;
+  double min_contrast = 30;
   std::string check() const;
 };
 

@@ -8,6 +8,7 @@
 // ambiguity) and one job per chunk of fisheye frames. The output does not
 // depend on the number of threads.
 #pragma once
+#include <yaml-cpp/yaml.h>
 
 #include <filesystem>
 #include <functional>
@@ -37,6 +38,9 @@ struct DetectConfig {
 DetectConfig loadDetectConfig(const std::filesystem::path& yaml, const DetectConfig& base = {});
 /// share/lookboth/config/default.yaml's section over the compiled defaults.
 DetectConfig defaultDetectConfig();
+/// The `detect:` section that loadDetectConfig reads back as `config`
+/// ({markers: {...}, blobs: {...}}, every key).
+YAML::Node detectConfigYaml(const DetectConfig& config);
 /// The configuration a command uses: default.yaml, then the user's file
 /// (when given) over it, as `register:` is layered.
 DetectConfig detectConfigFor(const std::optional<std::filesystem::path>& user_file);

@@ -16,6 +16,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -37,7 +38,10 @@ struct FullPipelineOptions {
   std::string trajectory_label;           ///< "" = "vo" (visual) or "odometry" (metric).
   std::filesystem::path trajectory_file;  ///< A TUM file instead of a dataset trajectory.
   std::optional<std::filesystem::path> config_file;  ///< Over share/lookboth/config/default.yaml.
-  bool auto_detect = true;                           ///< Run detection when detections are missing.
+  /// YAML text of a configuration over config_file (loadRegistrationConfig's
+  /// `overrides`: the desktop app's settings, edited in memory).
+  std::string config_overrides;
+  bool auto_detect = true;    ///< Run detection when detections are missing.
   bool auto_odometry = true;  ///< Run odometry when the visual trajectory is missing.
   int threads = 0;            ///< Detection threads (0 = one per core).
   bool write_back = true;     ///< Add detections and odometry to the dataset (see above).
@@ -100,9 +104,51 @@ struct FullPipelineResult {
   RegistrationRun run;
 };
 
-/// Runs the steps above. Throws lookboth::Error on bad input (naming the
-/// file or camera), StopRequested when stopped (the dataset stays complete:
-/// either as it was or with the finished steps' additions).
+/// The steps above as one controller, for the command line (run) and the
+/// desktop app (runNext, one step per job): "detect", "odometry", each
+/// configured stage by name, "output". Throws lookboth::Error on bad input
+/// (naming the file or camera), StopRequested when stopped (the dataset
+/// stays complete: either as it was or with the finished steps' additions;
+/// a stopped stage counts as not run, and the run must start again).
+class RegistrationPipeline {
+ public:
+  /// Checks the options and reads the registration configuration (a typo
+  /// fails before any work).
+  explicit RegistrationPipeline(FullPipelineOptions options);
+  ~RegistrationPipeline();
+  RegistrationPipeline(RegistrationPipeline&&) noexcept;
+
+  const std::vector<std::string>& steps() const { return steps_; }
+  std::size_t stepsRun() const { return next_; }
+  bool finished() const { return next_ >= steps_.size(); }
+  /// Runs the next step (the first also inspects the dataset and chooses
+  /// the trajectory); its line says what it did or why it was skipped.
+  StepOutcome runNext(const ProgressReporter& progress);
+  /// Every remaining step.
+  FullPipelineResult run(const ProgressReporter& progress);
+  /// The stages' session once the first stage has run (its current()
+  /// registration), else null.
+  const RegistrationSession* session() const;
+  /// The dataset the steps read: the user's, or the scratch copy without write_back.
+  const std::filesystem::path& dataset() const;
+
+ private:
+  struct State;
+  void prepare(const ProgressReporter& progress);
+  StepOutcome detect(const ProgressReporter& progress);
+  StepOutcome odometry(const ProgressReporter& progress);
+  StepOutcome stage(const ProgressReporter& progress);
+  StepOutcome output(const ProgressReporter& progress);
+
+  FullPipelineOptions options_;
+  std::unique_ptr<State> state_;
+  std::vector<std::string> steps_;
+  std::vector<std::string> lines_;  ///< What each step did, for FullPipelineResult::steps.
+  std::size_t next_ = 0;
+  bool prepared_ = false;
+};
+
+/// RegistrationPipeline(options).run(progress).
 FullPipelineResult runFullPipeline(const FullPipelineOptions& options,
                                    const ProgressReporter& progress);
 

@@ -30,8 +30,13 @@ struct RegistrationConfig {
   std::string mergedYaml() const;
 };
 
-/// Reads share/lookboth/config/default.yaml, then `user_file` (when given) over it.
-RegistrationConfig loadRegistrationConfig(const std::optional<std::filesystem::path>& user_file);
+/// How errors name the in-memory layer of loadRegistrationConfig.
+inline constexpr const char* kInMemorySettings = "the settings";
+/// Reads share/lookboth/config/default.yaml, then `user_file` (when given)
+/// over it, then `overrides` (the YAML text of a configuration, e.g. the
+/// desktop app's settings edited in memory; errors name it kInMemorySettings).
+RegistrationConfig loadRegistrationConfig(const std::optional<std::filesystem::path>& user_file,
+                                          const std::string& overrides = "");
 /// The same from texts (source names for errors), defaults first.
 RegistrationConfig registrationConfigFromYaml(
     const std::vector<std::pair<std::string, std::string>>& text_and_source);

@@ -21,7 +21,7 @@
 #include "lookboth/core/progress.h"
 #include "lookboth/geometry/trajectory.h"
 #include "lookboth/report/draw.h"
-#include "lookboth/report/evaluate.h"
+#include "lookboth/report/pose_comparison.h"
 
 namespace lookboth {
 struct Registration;

@@ -2,6 +2,7 @@
 // lookboth configuration file; defaults in share/lookboth/config/default.yaml,
 // fields in doc/formats.md, "Configuration: odometry").
 #pragma once
+#include <yaml-cpp/yaml.h>
 
 #include <cstdint>
 #include <filesystem>
@@ -94,6 +95,8 @@ struct OdometryOptions {
 /// A file without the section returns `defaults`.
 OdometryOptions loadOdometryOptions(const std::filesystem::path& yaml,
                                     const OdometryOptions& defaults = {});
+/// The `odometry:` section that loadOdometryOptions reads back as `options` (every key).
+YAML::Node odometryOptionsYaml(const OdometryOptions& options);
 /// The options a command uses: share/lookboth/config/default.yaml over the
 /// compiled defaults, then the user's file (when given) over it.
 OdometryOptions odometryOptionsFor(const std::optional<std::filesystem::path>& user_file);

@@ -1,4 +1,4 @@
-#include "lookboth/detect/evaluate.h"
+#include "lookboth/detect/detection_evaluation.h"
 
 #include <algorithm>
 #include <cmath>
