@@ -57,7 +57,7 @@ void optionalQuaternion(OptionFields& f, const char* key,
 // in namespace lookboth, not in an unnamed one).
 static void fields(AssociateOptions& o, OptionFields& s) {
   s.number("max_gap_s", o.max_gap_s);
-  s.integers("clock_offsets_ns", o.clock_offsets_ns);
+  s.integers("clock_offsets_ns", o.clock_offsets_ns, "label: ns");
 }
 
 static void fields(MotionCalibrationOptions& o, OptionFields& s) {

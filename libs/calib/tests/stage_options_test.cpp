@@ -129,6 +129,20 @@ TEST(StageOptions, AChangedDefaultIsNamedWithBothValues) {
       << found[1];
 }
 
+TEST(StageOptions, ClockOffsetsMustBeAMapping) {
+  const YamlReader reader("user.yaml");
+  AssociateOptions options;
+  try {
+    options.read(reader, reader.parse("{clock_offsets_ns: [1, 2]}"), "register.associate");
+    ADD_FAILURE() << "a list of clock offsets was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("register.associate.clock_offsets_ns"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("expected a mapping label: ns"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(StageOptions, UnknownKeysAreStillErrors) {
   const YamlReader reader("user.yaml");
   JointOptions joint;

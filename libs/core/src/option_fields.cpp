@@ -25,13 +25,13 @@ bool OptionFields::wanted(const char* key) {
     keys_->insert(key);
     return false;
   }
-  return !reader_ || node_[key];
+  return !reader_ || node(key);
 }
 
 void OptionFields::number(const char* key, double& target) {
   if (!wanted(key)) return;
   if (reader_) {
-    target = reader_->number(node_[key], path(key));
+    target = reader_->number(node(key), path(key));
   } else {
     node_[key] = target;
   }
@@ -40,7 +40,7 @@ void OptionFields::number(const char* key, double& target) {
 void OptionFields::integer(const char* key, int& target) {
   if (!wanted(key)) return;
   if (reader_) {
-    target = reader_->int32(node_[key], path(key));
+    target = reader_->int32(node(key), path(key));
   } else {
     node_[key] = target;
   }
@@ -52,9 +52,9 @@ void OptionFields::unsigned32(const char* key, std::uint32_t& target) {
     node_[key] = target;
     return;
   }
-  const long long value = reader_->integer(node_[key], path(key));
+  const long long value = reader_->integer(node(key), path(key));
   if (value < 0 || value > 4294967295LL) {
-    throw Error(reader_->at(node_[key], path(key)), "must be in [0, 4294967295]");
+    throw Error(reader_->at(node(key), path(key)), "must be in [0, 4294967295]");
   }
   target = static_cast<std::uint32_t>(value);
 }
@@ -62,7 +62,7 @@ void OptionFields::unsigned32(const char* key, std::uint32_t& target) {
 void OptionFields::flag(const char* key, bool& target) {
   if (!wanted(key)) return;
   if (reader_) {
-    target = reader_->boolean(node_[key], path(key));
+    target = reader_->boolean(node(key), path(key));
   } else {
     node_[key] = target;
   }
@@ -71,13 +71,14 @@ void OptionFields::flag(const char* key, bool& target) {
 void OptionFields::text(const char* key, std::string& target) {
   if (!wanted(key)) return;
   if (reader_) {
-    target = reader_->text(node_[key], path(key));
+    target = reader_->text(node(key), path(key));
   } else {
     node_[key] = target;
   }
 }
 
-void OptionFields::integers(const char* key, std::map<std::string, std::int64_t>& target) {
+void OptionFields::integers(const char* key, std::map<std::string, std::int64_t>& target,
+                            const char* form) {
   if (!wanted(key)) return;
   if (!reader_) {
     YAML::Node map(YAML::NodeType::Map);
@@ -85,10 +86,10 @@ void OptionFields::integers(const char* key, std::map<std::string, std::int64_t>
     node_[key] = map;
     return;
   }
-  const YAML::Node entries = node_[key];
+  const YAML::Node entries = node(key);
   if (entries.IsNull()) return;
   if (!entries.IsMap())
-    throw Error(reader_->at(entries, path(key)), "expected a mapping label: value");
+    throw Error(reader_->at(entries, path(key)), std::string("expected a mapping ") + form);
   for (const auto& entry : entries) {
     const std::string label = reader_->key(entry.first, path(key));
     target[label] = reader_->integer(entry.second, path(key) + "." + label);
@@ -106,7 +107,7 @@ bool OptionFields::numbers(const char* key, std::vector<double>& values, const c
     }
     return true;
   }
-  const YAML::Node n = node_[key];
+  const YAML::Node n = node(key);
   if (present && n.IsNull()) {
     *present = false;
     return true;

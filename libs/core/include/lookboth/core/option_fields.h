@@ -36,8 +36,10 @@ class OptionFields {
   void unsigned32(const char* key, std::uint32_t& target);
   void flag(const char* key, bool& target);
   void text(const char* key, std::string& target);
-  /// A mapping label: integer (e.g. clock offsets by camera).
-  void integers(const char* key, std::map<std::string, std::int64_t>& target);
+  /// A mapping label: integer (e.g. clock offsets by camera); `form` shows
+  /// it in errors ("label: ns").
+  void integers(const char* key, std::map<std::string, std::int64_t>& target,
+                const char* form = "label: integer");
   /// A list of exactly `values.size()` numbers; `expected` shows its form in
   /// errors ("[x, y, z]"). With `optional`, null (or ~) clears it: the return
   /// is then false (and `values` untouched) when the key is null.
@@ -47,7 +49,8 @@ class OptionFields {
   /// "<field>.<key>", for errors of the struct's own checks.
   std::string path(const char* key) const { return field_ + "." + key; }
   /// The reader and the node of a key being read (for a check of its own
-  /// that names the line); only while reading.
+  /// that names the line); only while reading. A const lookup: an absent
+  /// key is not added to the configuration being read.
   const YamlReader& reader() const { return *reader_; }
   YAML::Node node(const char* key) const { return node_[key]; }
   bool isReading() const { return reader_ != nullptr; }
