@@ -732,7 +732,7 @@ void MainFrame::onJobDone(const studio::JobResult& r, const Then& then) {
     chain_running_ = false;
     // A registration stage that failed or stopped may have left part of its
     // work in the kept problem: the registration stages start over.
-    if (step >= 2 && session_) {
+    if (step >= 2 && pipeline_) {
       resetSteps(true);
       log("  the registration stages will start again from the first one");
     }
@@ -841,7 +841,7 @@ void MainFrame::resetSteps(bool keep_preparation) {
     steps_[i].state = Step::State::kPending;
     steps_[i].note.clear();
   }
-  session_.reset();
+  pipeline_.reset();
   refreshSteps();
 }
 
@@ -988,7 +988,10 @@ void MainFrame::runStep(int step, Then then) {
   }
   FullPipelineOptions options = pipelineOptions();
   options.config_overrides = settingsYaml();
-  if (step >= 2 && !session_) session_ = std::make_shared<Session>();
+  // One step per job through the controller the command line runs. A new
+  // one for detection and for the first registration stage (with the
+  // panel's settings as they are then): it skips what the dataset has.
+  if (step == 0 || step == 2 || !pipeline_) pipeline_ = std::make_shared<PipelineHolder>();
 
   // What the job hands back to the window.
   struct Output {
@@ -1000,40 +1003,31 @@ void MainFrame::runStep(int step, Then then) {
   };
   auto output = std::make_shared<Output>();
   const std::string name = steps_[static_cast<size_t>(step)].name;
-  std::shared_ptr<Session> session = step >= 2 ? session_ : nullptr;
-  studio::JobRunner::Job job = [options, name, output, session](const ProgressReporter& progress) {
-    if (!session) {
+  std::shared_ptr<PipelineHolder> holder = pipeline_;
+  studio::JobRunner::Job job = [options, step, name, output,
+                                holder](const ProgressReporter& progress) {
+    if (!holder->pipeline) holder->pipeline = std::make_unique<RegistrationPipeline>(options);
+    RegistrationPipeline& pipeline = *holder->pipeline;
+    // The steps before this one, done already, pass as skipped.
+    while (pipeline.stepsRun() < static_cast<std::size_t>(step)) pipeline.runNext(progress);
+    if (pipeline.finished() || pipeline.steps()[pipeline.stepsRun()] != name)
+      throw Error(ErrorContext{"", 0, "register.pipeline", ""},
+                  "the step '" + name + "' is not the next one of the configured pipeline");
+    const StepOutcome outcome = pipeline.runNext(progress);
+    if (step < 2) {
       // detect or odometry: they add to the dataset; the views read it again.
-      const DatasetContents contents = inspectDataset(options.dataset, progress);
-      output->outcome = name == "detect" ? runDetectStep(options, contents, progress)
-                                         : runOdometryStep(options, contents, progress);
-      if (output->outcome.ran)
+      output->outcome = outcome;
+      if (outcome.ran)
         output->index = std::make_shared<const studio::DatasetIndex>(
             studio::DatasetIndex::build(options.dataset, progress));
       return;
     }
-    if (!session->session) {
-      session->controller = std::make_shared<RegistrationController>(
-          loadRegistrationConfig(options.config_file, options.config_overrides));
-      RegisterOptions input_options;
-      input_options.dataset = options.dataset;
-      input_options.mode = options.mode;
-      input_options.trajectory_label = options.trajectory_label;
-      input_options.trajectory_file = options.trajectory_file;
-      session->session = std::make_shared<RegistrationSession>(
-          session->controller->prepare(loadRegistrationInput(input_options, progress)));
-    }
-    RegistrationSession& s = *session->session;
-    if (s.finished() || s.stageName(s.stagesRun()) != name)
-      throw Error(ErrorContext{"", 0, "register.pipeline", ""},
-                  "the stage '" + name + "' is not the next one of the configured pipeline");
-    s.runNext(progress);
-    RegistrationRun run = s.current();
-    if (s.finished()) {
-      progress.checkStop();
-      writeRegistrationOutput(run, options.out, options.overwrite);
+    if (pipeline.steps()[pipeline.stepsRun()] == "output") {
+      pipeline.runNext(progress);  // the registration directory, after the last stage
       output->written = true;
     }
+    const RegistrationSession& s = *pipeline.session();
+    RegistrationRun run = s.current();
     output->outcome.ran = true;
     output->outcome.summary = name + ": " + stageSummary(name, s.problem(), run.registration) +
                               (output->written ? "; written to " + options.out.string() : "");

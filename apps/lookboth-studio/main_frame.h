@@ -151,13 +151,13 @@ class MainFrame : public wxFrame {
     int menu_id = 0;
   };
   std::vector<Step> steps_;
-  /// The registration being run stage by stage (kept between the stages' jobs;
-  /// only the running job touches it).
-  struct Session {
-    std::shared_ptr<RegistrationController> controller;
-    std::shared_ptr<RegistrationSession> session;
+  /// The controller `lookboth register` runs (RegistrationPipeline), kept
+  /// between the steps' jobs: made on the worker thread by the first job
+  /// that needs it; only the running job touches it.
+  struct PipelineHolder {
+    std::unique_ptr<RegistrationPipeline> pipeline;
   };
-  std::shared_ptr<Session> session_;
+  std::shared_ptr<PipelineHolder> pipeline_;
   bool chain_running_ = false;
   std::set<std::string> logged_;  ///< Messages logged once per dataset (warnings...).
   int overlay_mode_ = 0;          ///< 0: before and after, 1: after only, 2: before only.
