@@ -155,21 +155,18 @@ MainFrame::MainFrame(const StartupActions& actions)
       actions_(actions),
       history_(9) {
   // The steps: detect and odometry, then the configured registration stages.
-  auto add_step = [this](const std::string& name) {
-    Step step;
-    step.name = name;
-    step.title = stepTitle(name);
-    steps_.push_back(step);
-  };
-  add_step("detect");
-  add_step("odometry");
   std::string config_error;
   try {
-    for (const std::string& name : loadRegistrationConfig(std::nullopt).pipeline) add_step(name);
+    steps_ = studio::PipelineSteps(loadRegistrationConfig(std::nullopt).pipeline);
   } catch (const Error& e) {
     config_error = e.what();
   }
-  for (size_t i = 0; i < steps_.size(); ++i) steps_[i].menu_id = kIdStepFirst + static_cast<int>(i);
+  for (size_t i = 0; i < steps_.size(); ++i) {
+    StepWidgets widgets;
+    widgets.title = stepTitle(steps_[i].name);
+    widgets.menu_id = kIdStepFirst + static_cast<int>(i);
+    step_widgets_.push_back(widgets);
+  }
   buildMenus();
   CreateStatusBar(2);
   SetStatusText("No dataset open. File > Open (Ctrl+O) or File > Simulate.", 0);
@@ -269,9 +266,9 @@ void MainFrame::buildMenus() {
   pipeline->Append(kIdRunNext, "Run &next stage\tF6", "Run the first step not run yet");
   pipeline->AppendSeparator();
   for (size_t i = 0; i < steps_.size(); ++i) {
-    wxString item = wxString::Format("&%zu %s", i + 1, wxString::FromUTF8(steps_[i].title));
+    wxString item = wxString::Format("&%zu %s", i + 1, wxString::FromUTF8(step_widgets_[i].title));
     if (i < 9) item += wxString::Format("\tAlt+%zu", i + 1);
-    pipeline->Append(steps_[i].menu_id, item,
+    pipeline->Append(step_widgets_[i].menu_id, item,
                      wxString::FromUTF8("Run the step '" + steps_[i].name +
                                         "' (once the steps before it have run)"));
   }
@@ -464,12 +461,12 @@ wxWindow* MainFrame::buildSetupPanel(wxWindow* parent) {
   auto* steps_grid = new wxFlexGridSizer(2, 2, 6);
   steps_grid->AddGrowableCol(1);
   for (size_t i = 0; i < steps_.size(); ++i) {
-    Step& step = steps_[i];
+    StepWidgets& step = step_widgets_[i];
     step.button = new wxButton(rb, wxID_ANY,
                                wxString::Format("%zu  %s", i + 1, wxString::FromUTF8(step.title)),
                                wxDefaultPosition, wxDefaultSize, wxBU_LEFT);
-    step.button->SetToolTip(
-        wxString::FromUTF8("Run the step '" + step.name + "' (Alt+" + std::to_string(i + 1) + ")"));
+    step.button->SetToolTip(wxString::FromUTF8("Run the step '" + steps_[i].name + "' (Alt+" +
+                                               std::to_string(i + 1) + ")"));
     step.status =
         new wxStaticText(rb, wxID_ANY, "", wxDefaultPosition, wxSize(70, -1), wxST_ELLIPSIZE_END);
     steps_grid->Add(step.button, 0, wxEXPAND);
@@ -732,7 +729,7 @@ void MainFrame::onJobDone(const studio::JobResult& r, const Then& then) {
     chain_running_ = false;
     // A registration stage that failed or stopped may have left part of its
     // work in the kept problem: the registration stages start over.
-    if (step >= 2 && pipeline_) {
+    if (steps_.isStage(step) && pipeline_) {
       resetSteps(true);
       log("  the registration stages will start again from the first one");
     }
@@ -824,23 +821,12 @@ void MainFrame::importBag() {
 
 // ---- the pipeline, step by step ----
 
-int MainFrame::firstPendingStep() const {
-  for (size_t i = 0; i < steps_.size(); ++i)
-    if (steps_[i].state == Step::State::kPending) return static_cast<int>(i);
-  return -1;
-}
+int MainFrame::firstPendingStep() const { return steps_.firstPending(); }
 
-int MainFrame::stepIndex(const std::string& name) const {
-  for (size_t i = 0; i < steps_.size(); ++i)
-    if (steps_[i].name == name) return static_cast<int>(i);
-  return -1;
-}
+int MainFrame::stepIndex(const std::string& name) const { return steps_.index(name); }
 
 void MainFrame::resetSteps(bool keep_preparation) {
-  for (size_t i = keep_preparation ? 2 : 0; i < steps_.size(); ++i) {
-    steps_[i].state = Step::State::kPending;
-    steps_[i].note.clear();
-  }
+  steps_.reset(keep_preparation);
   pipeline_.reset();
   refreshSteps();
 }
@@ -850,22 +836,24 @@ void MainFrame::refreshSteps() {
   const bool ready = index_ && settings_ok_ && idle;
   const int next = firstPendingStep();
   for (size_t i = 0; i < steps_.size(); ++i) {
-    Step& step = steps_[i];
+    const studio::PipelineSteps::Step& step = steps_[i];
+    const StepWidgets& widgets = step_widgets_[i];
+    using State = studio::PipelineSteps::State;
     // A step runs once every step before it has run (or was not needed).
     const bool enabled = ready && static_cast<int>(i) == next;
-    if (step.button) {
-      step.button->Enable(enabled);
+    if (widgets.button) {
+      widgets.button->Enable(enabled);
       wxString status;
-      if (step.state == Step::State::kDone) status = wxString::FromUTF8("\u2714 done");
-      if (step.state == Step::State::kSkipped) status = "not needed";
-      if (step.state == Step::State::kPending && static_cast<int>(i) == running_step_)
+      if (step.state == State::kDone) status = wxString::FromUTF8("\u2714 done");
+      if (step.state == State::kSkipped) status = "not needed";
+      if (step.state == State::kPending && static_cast<int>(i) == running_step_)
         status = "running...";
-      step.status->SetLabel(status);
-      step.status->SetToolTip(wxString::FromUTF8(step.note));
-      step.status->SetForegroundColour(step.state == Step::State::kDone ? wxColour(20, 130, 40)
-                                                                        : wxColour(90, 90, 90));
+      widgets.status->SetLabel(status);
+      widgets.status->SetToolTip(wxString::FromUTF8(step.note));
+      widgets.status->SetForegroundColour(step.state == State::kDone ? wxColour(20, 130, 40)
+                                                                     : wxColour(90, 90, 90));
     }
-    if (pipeline_menu_) pipeline_menu_->Enable(step.menu_id, enabled);
+    if (pipeline_menu_) pipeline_menu_->Enable(widgets.menu_id, enabled);
   }
   const bool all_done = next < 0;
   if (run_all_) {
@@ -991,7 +979,8 @@ void MainFrame::runStep(int step, Then then) {
   // One step per job through the controller the command line runs. A new
   // one for detection and for the first registration stage (with the
   // panel's settings as they are then): it skips what the dataset has.
-  if (step == 0 || step == 2 || !pipeline_) pipeline_ = std::make_shared<PipelineHolder>();
+  if (step == 0 || step == studio::PipelineSteps::kPreparationSteps || !pipeline_)
+    pipeline_ = std::make_shared<PipelineHolder>();
 
   // What the job hands back to the window.
   struct Output {
@@ -1004,7 +993,8 @@ void MainFrame::runStep(int step, Then then) {
   auto output = std::make_shared<Output>();
   const std::string name = steps_[static_cast<size_t>(step)].name;
   std::shared_ptr<PipelineHolder> holder = pipeline_;
-  studio::JobRunner::Job job = [options, step, name, output,
+  const bool stage = steps_.isStage(step);
+  studio::JobRunner::Job job = [options, step, stage, name, output,
                                 holder](const ProgressReporter& progress) {
     if (!holder->pipeline) holder->pipeline = std::make_unique<RegistrationPipeline>(options);
     RegistrationPipeline& pipeline = *holder->pipeline;
@@ -1014,7 +1004,7 @@ void MainFrame::runStep(int step, Then then) {
       throw Error(ErrorContext{"", 0, "register.pipeline", ""},
                   "the step '" + name + "' is not the next one of the configured pipeline");
     const StepOutcome outcome = pipeline.runNext(progress);
-    if (step < 2) {
+    if (!stage) {
       // detect or odometry: they add to the dataset; the views read it again.
       output->outcome = outcome;
       if (outcome.ran)
@@ -1036,7 +1026,7 @@ void MainFrame::runStep(int step, Then then) {
   };
   running_step_ = step;
   const bool started =
-      startJob(steps_[static_cast<size_t>(step)].title, std::move(job),
+      startJob(step_widgets_[static_cast<size_t>(step)].title, std::move(job),
                [this, step, output, out = options.out, then] {
                  if (output->index) datasetLoaded(output->index);
                  if (output->registration) {
@@ -1050,9 +1040,7 @@ void MainFrame::runStep(int step, Then then) {
 }
 
 void MainFrame::stepFinished(int step, const StepOutcome& outcome) {
-  Step& s = steps_[static_cast<size_t>(step)];
-  s.state = outcome.ran ? Step::State::kDone : Step::State::kSkipped;
-  s.note = outcome.summary;
+  steps_.finish(step, outcome.ran, outcome.summary);
   log("  " + wxString::FromUTF8(outcome.summary));
   refreshSteps();
 }
@@ -1853,10 +1841,8 @@ void MainFrame::continueStartup() {
         int last = static_cast<int>(steps_.size()) - 1;
         if (!actions_.run_all) last = stepIndex(actions_.run_until);
         if (last < 0) {
-          std::string names;
-          for (const auto& step : steps_) names += (names.empty() ? "" : ", ") + step.name;
           log(wxString::FromUTF8("error: --run-until: no step '" + actions_.run_until +
-                                 "' (steps: " + names + ")"));
+                                 "' (steps: " + steps_.names() + ")"));
           exit_status_ = 1;
         } else {
           runThrough(last, [this] { continueStartup(); });

@@ -18,6 +18,7 @@
 #include "lookboth/pipeline/registration_controller.h"
 #include "lookboth/studio/dataset_index.h"
 #include "lookboth/studio/job_runner.h"
+#include "lookboth/studio/pipeline_steps.h"
 
 class wxChoice;
 class wxGauge;
@@ -140,17 +141,16 @@ class MainFrame : public wxFrame {
   std::shared_ptr<const void> registration_view_;  ///< report::RegistrationView (opaque here).
   std::filesystem::path registration_dir_;         ///< Where the finished registration was written.
 
-  /// The pipeline's steps: detect, odometry, then the configured registration stages.
-  struct Step {
-    std::string name;   ///< "detect", "odometry", or the stage name ("look_down"...).
-    std::string title;  ///< For buttons and menus.
-    enum class State { kPending, kDone, kSkipped } state = State::kPending;
-    std::string note;  ///< What it did or why it was skipped.
+  /// The pipeline's steps and what became of each (no window in it).
+  studio::PipelineSteps steps_;
+  /// Each step's title, button, status line and menu item.
+  struct StepWidgets {
+    std::string title;
     wxButton* button = nullptr;
     wxStaticText* status = nullptr;
     int menu_id = 0;
   };
-  std::vector<Step> steps_;
+  std::vector<StepWidgets> step_widgets_;
   /// The controller `lookboth register` runs (RegistrationPipeline), kept
   /// between the steps' jobs: made on the worker thread by the first job
   /// that needs it; only the running job touches it.
