@@ -1,5 +1,7 @@
 #include "main_frame.h"
 
+#include <yaml-cpp/yaml.h>
+
 #include <wx/aboutdlg.h>
 #include <wx/button.h>
 #include <wx/choicdlg.h>
@@ -614,13 +616,20 @@ void MainFrame::validateSettings() {
   if (const std::string m = marker.check(); !m.empty()) marker_problems.push_back(m);
   marker_size_->SetBackgroundColour(size && *size > 0 ? wxNullColour : wxColour(255, 220, 220));
   marker_size_->Refresh();
-  const std::pair<wxTextCtrl*, const char*> positives[] = {
-      {huber_, "Huber scale"}, {cauchy_, "Cauchy scale"}, {gate_, "Blob gate"}};
-  for (const auto& [ctrl, name] : positives) {
-    const double v = parseDouble(ctrl->GetValue().ToStdString()).value_or(-1);
-    if (!(v > 0))
-      loss_problems.push_back(std::string(name) + ": type a positive number (decimal point)");
-    ctrl->SetBackgroundColour(v > 0 ? wxNullColour : wxColour(255, 220, 220));
+  // The robust losses: read and checked by the stages' own options, as
+  // `lookboth register` reads the same settings over default.yaml.
+  std::string loss_error;
+  try {
+    const RegistrationController check(loadRegistrationConfig(std::nullopt, settingsYaml()));
+  } catch (const Error& e) {
+    loss_error = e.what();
+  }
+  if (!loss_error.empty()) loss_problems.push_back(loss_error);
+  const std::pair<wxTextCtrl*, const char*> losses[] = {
+      {huber_, "look_down.huber'"}, {cauchy_, "look_up.cauchy_px'"}, {gate_, "gate_px'"}};
+  for (const auto& [ctrl, key] : losses) {
+    const bool bad = loss_error.find(key) != std::string::npos;
+    ctrl->SetBackgroundColour(bad ? wxColour(255, 220, 220) : wxNullColour);
     ctrl->Refresh();
   }
   const bool metric = trajectory_mode_->GetSelection() == 1;
@@ -874,9 +883,19 @@ void MainFrame::refreshSteps() {
 std::string MainFrame::settingsYaml() const {
   // The settings of the panel, as a configuration over the defaults (and the
   // startup's --config), handed to the controller in memory.
-  return "register:\n  look_down:\n    huber: " + huber_->GetValue().ToStdString() +
-         "\n  look_up:\n    cauchy_px: " + cauchy_->GetValue().ToStdString() +
-         "\n    gate_px: " + gate_->GetValue().ToStdString() + "\n";
+  // Each value as a quoted scalar: whatever is typed stays one value, which
+  // the stages' options then read as a number or refuse.
+  YAML::Emitter out;
+  out << YAML::BeginMap << YAML::Key << "register" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "look_down" << YAML::Value << YAML::BeginMap << YAML::Key << "huber"
+      << YAML::Value << YAML::DoubleQuoted << huber_->GetValue().ToStdString() << YAML::EndMap;
+  out << YAML::Key << "look_up" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "cauchy_px" << YAML::Value << YAML::DoubleQuoted
+      << cauchy_->GetValue().ToStdString();
+  out << YAML::Key << "gate_px" << YAML::Value << YAML::DoubleQuoted
+      << gate_->GetValue().ToStdString();
+  out << YAML::EndMap << YAML::EndMap << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
 }
 
 void MainFrame::selectTrajectory() {

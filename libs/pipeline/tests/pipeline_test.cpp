@@ -442,6 +442,34 @@ TEST(RegistrationConfig, UserFileOverridesAndErrorsNameTheField) {
                Error);
 }
 
+// The desktop app's settings, as it hands them over (each typed value a
+// quoted scalar): the stages' own options read and check them, and the
+// message names the setting the window marks.
+TEST(RegistrationConfig, InMemorySettingsAreReadAndCheckedByTheStages) {
+  auto problem = [](const std::string& huber, const std::string& gate) {
+    const std::string text = "register:\n  look_down: {huber: \"" + huber +
+                             "\"}\n  look_up: {cauchy_px: \"2.0\", gate_px: \"" + gate + "\"}\n";
+    try {
+      const RegistrationController controller(loadRegistrationConfig(std::nullopt, text));
+      EXPECT_DOUBLE_EQ(
+          readStageOptions<LookDownOptions>(controller.config().stageConfig("look_down")).huber,
+          std::stod(huber));
+      return std::string();
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+  };
+  EXPECT_EQ(problem("3.0", "25"), "");
+  const std::string negative = problem("-1", "25");
+  EXPECT_NE(negative.find("'huber': must be positive"), std::string::npos) << negative;
+  const std::string typo = problem("3,0", "25");
+  EXPECT_NE(typo.find("register.look_down.huber"), std::string::npos) << typo;
+  EXPECT_NE(typo.find("is not a finite number"), std::string::npos) << typo;
+  EXPECT_NE(typo.find(kInMemorySettings), std::string::npos) << typo;
+  const std::string narrow = problem("3.0", "2");  // below min_gate_px (5)
+  EXPECT_NE(narrow.find("gate_px"), std::string::npos) << narrow;
+}
+
 TEST(RegistrationConfig, ShippedDefaultsAreValid) {
   const RegistrationConfig config = loadRegistrationConfig(std::nullopt);
   EXPECT_EQ(config.pipeline, (std::vector<std::string>{"associate", "motion_calibration",
