@@ -10,6 +10,7 @@
 #include <sstream>
 #include <thread>
 
+#include "lookboth/core/config_layers.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/option_fields.h"
 #include "lookboth/core/paths.h"
@@ -71,22 +72,37 @@ void readSection(const YamlReader& r, const YAML::Node& node, const std::string&
 
 }  // namespace
 
-DetectConfig loadDetectConfig(const fs::path& yaml, const DetectConfig& base) {
-  std::ifstream in(yaml);
-  if (!in) throw Error({yaml.string(), 0, "", ""}, "cannot open the configuration file");
-  std::stringstream text;
-  text << in.rdbuf();
-  const YamlReader reader(yaml.string());
-  const YAML::Node root = reader.parse(text.str());
-  reader.checkConfigRoot(root, text.str());
-  DetectConfig config = base;
+namespace {
+
+/// One layer's `detect:` section over `config`.
+void readDetectLayer(const std::string& text, const std::string& source, DetectConfig& config) {
+  const YamlReader reader(source);
+  const YAML::Node root = reader.parse(text);
+  reader.checkConfigRoot(root, text);
   const YAML::Node detect = root["detect"];
-  if (!detect || detect.IsNull()) return config;
+  if (!detect || detect.IsNull()) return;
   reader.rejectUnknownKeys(detect, {"markers", "blobs"}, "detect");
   if (detect["markers"] && !detect["markers"].IsNull())
     readSection(reader, detect["markers"], "detect.markers", config.markers);
   if (detect["blobs"] && !detect["blobs"].IsNull())
     readSection(reader, detect["blobs"], "detect.blobs", config.blobs);
+}
+
+}  // namespace
+
+DetectConfig loadDetectConfig(const fs::path& yaml, const DetectConfig& base) {
+  std::ifstream in(yaml);
+  if (!in) throw Error({yaml.string(), 0, "", ""}, "cannot open the configuration file");
+  std::stringstream text;
+  text << in.rdbuf();
+  DetectConfig config = base;
+  readDetectLayer(text.str(), yaml.string(), config);
+  return config;
+}
+
+DetectConfig detectConfigFrom(const std::vector<ConfigLayer>& layers) {
+  DetectConfig config;
+  for (const ConfigLayer& layer : layers) readDetectLayer(layer.text, layer.source, config);
   return config;
 }
 
@@ -106,8 +122,7 @@ DetectConfig defaultDetectConfig() {
 }
 
 DetectConfig detectConfigFor(const std::optional<fs::path>& user_file) {
-  const DetectConfig defaults = defaultDetectConfig();
-  return user_file ? loadDetectConfig(*user_file, defaults) : defaults;
+  return detectConfigFrom(configurationLayers(user_file));
 }
 
 std::string DetectOptions::check() const {

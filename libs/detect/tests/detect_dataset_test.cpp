@@ -232,6 +232,33 @@ TEST(DetectConfig, DefaultYamlSaysWhatTheCompiledDefaultsSay) {
   EXPECT_EQ(one[0], "detect.markers.max_speed_mps: 2 against 1.5");
 }
 
+// The configuration's layers: default.yaml, a user's file, then settings
+// held in memory, each over the ones before.
+TEST(DetectConfig, EveryLayerOverTheOnesBefore) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "lookboth_layers";
+  std::filesystem::create_directories(dir);
+  const std::filesystem::path user = dir / "user.yaml";
+  std::ofstream(user) << "detect:\n  markers: {max_speed_mps: 0.9, track_window_s: 2.0}\n";
+  const std::vector<ConfigLayer> layers =
+      configurationLayers(user, "detect:\n  markers: {max_speed_mps: 0.7}\n");
+  ASSERT_EQ(layers.size(), 3u);
+  EXPECT_EQ(std::filesystem::path(layers[0].source).filename(), "default.yaml");
+  EXPECT_EQ(layers[1].source, user.string());
+  EXPECT_EQ(layers[2].source, kInMemorySettings);
+  const DetectConfig config = detectConfigFrom(layers);
+  EXPECT_DOUBLE_EQ(config.markers.max_speed_mps, 0.7);   // the settings
+  EXPECT_DOUBLE_EQ(config.markers.track_window_s, 2.0);  // the user's file
+  EXPECT_DOUBLE_EQ(config.blobs.min_contrast, DetectConfig().blobs.min_contrast);  // default.yaml
+  try {
+    detectConfigFrom(configurationLayers(std::nullopt, "detect:\n  blobs: {min_contrastt: 3}\n"));
+    ADD_FAILURE() << "an unknown key in the settings was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(kInMemorySettings), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("min_contrastt"), std::string::npos) << e.what();
+  }
+  std::filesystem::remove_all(dir);
+}
+
 TEST(DetectConfig, ReadsTheDetectSectionStrictly) {
   const fs::path file = fs::temp_directory_path() / "lookboth_detect_config_test.yaml";
   std::ofstream(file) << "odometry: {x: 1}\n"

@@ -164,7 +164,8 @@ StepOutcome runDetectStep(const FullPipelineOptions& options, const DatasetConte
     detect.threads = options.threads;
     detect.markers = need_markers;
     detect.blobs = need_blobs;
-    detect.config = detectConfigFor(options.config_file);
+    detect.config =
+        detectConfigFrom(configurationLayers(options.config_file, options.config_overrides));
     const DetectSummary summary = detectDataset(detect, progress);
     std::int64_t markers = 0;
     std::int64_t blobs = 0;
@@ -206,7 +207,8 @@ StepOutcome runOdometryStep(const FullPipelineOptions& options, const DatasetCon
                   "': `lookboth odometry` writes '" + std::string(vo::kVoTrajectoryLabel) + "'");
     vo::OdometryRunOptions odometry;
     odometry.dataset = options.dataset;
-    odometry.odometry = vo::odometryOptionsFor(options.config_file);
+    odometry.odometry =
+        vo::odometryOptionsFrom(configurationLayers(options.config_file, options.config_overrides));
     odometry.write_dataset = true;  // adds the trajectory to the dataset (augmentDataset)
     odometry.out = out;
     odometry.on_issue = options.on_issue;

@@ -119,10 +119,9 @@ RegistrationConfig registrationConfigFromYaml(
 RegistrationConfig loadRegistrationConfig(const std::optional<fs::path>& user_file,
                                           const std::string& overrides) {
   std::vector<std::pair<std::string, std::string>> texts;
-  const fs::path defaults = shareDirectory() / "config" / "default.yaml";
-  texts.emplace_back(readFile(defaults), defaults.string());
-  if (user_file) texts.emplace_back(readFile(*user_file), user_file->string());
-  if (!overrides.empty()) texts.emplace_back(overrides, kInMemorySettings);
+  for (ConfigLayer& layer : configurationLayers(user_file, overrides)) {
+    texts.emplace_back(std::move(layer.text), std::move(layer.source));
+  }
   return registrationConfigFromYaml(texts);
 }
 

@@ -6,6 +6,7 @@
 #include <set>
 #include <sstream>
 
+#include "lookboth/core/config_layers.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/option_fields.h"
 #include "lookboth/core/paths.h"
@@ -122,23 +123,37 @@ static void fields(OdometryOptions& o, OptionFields& f) {
   f.unsigned32("seed", o.seed);
 }
 
+namespace {
+
+/// One layer's `odometry:` section over `o`, then the check (naming the layer).
+void readOdometryLayer(const std::string& text, const std::string& source, OdometryOptions& o) {
+  const YamlReader reader(source);
+  const YAML::Node root = reader.parse(text);
+  reader.checkConfigRoot(root, text);
+  if (!root["odometry"]) return;
+  const YAML::Node node = root["odometry"];
+  if (!node.IsMap()) throw Error(reader.at(node, "odometry"), "expected a mapping");
+  readOptions(o, reader, node, "odometry");
+  if (const std::string why = o.check(); !why.empty())
+    throw Error(source + ": 'odometry." + why.substr(1));
+}
+
+}  // namespace
+
 OdometryOptions loadOdometryOptions(const std::filesystem::path& yaml,
                                     const OdometryOptions& defaults) {
   std::ifstream in(yaml);
   if (!in) throw Error(yaml.string() + ": cannot open");
   std::stringstream text;
   text << in.rdbuf();
-  const YamlReader reader(yaml.string());
-  const YAML::Node root = reader.parse(text.str());
-  reader.checkConfigRoot(root, text.str());
   OdometryOptions o = defaults;
-  if (!root["odometry"]) return o;
-  const YAML::Node node = root["odometry"];
-  if (!node.IsMap()) throw Error(reader.at(node, "odometry"), "expected a mapping");
+  readOdometryLayer(text.str(), yaml.string(), o);
+  return o;
+}
 
-  readOptions(o, reader, node, "odometry");
-  if (const std::string why = o.check(); !why.empty())
-    throw Error(yaml.string() + ": 'odometry." + why.substr(1));
+OdometryOptions odometryOptionsFrom(const std::vector<ConfigLayer>& layers) {
+  OdometryOptions o;
+  for (const ConfigLayer& layer : layers) readOdometryLayer(layer.text, layer.source, o);
   return o;
 }
 
@@ -149,10 +164,7 @@ YAML::Node odometryOptionsYaml(const OdometryOptions& options) {
 }
 
 OdometryOptions odometryOptionsFor(const std::optional<std::filesystem::path>& user_file) {
-  OdometryOptions options;
-  const std::filesystem::path defaults = shareDirectory() / "config" / "default.yaml";
-  if (std::filesystem::exists(defaults)) options = loadOdometryOptions(defaults, options);
-  return user_file ? loadOdometryOptions(*user_file, options) : options;
+  return odometryOptionsFrom(configurationLayers(user_file));
 }
 
 }  // namespace lookboth::vo

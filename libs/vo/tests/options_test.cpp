@@ -47,6 +47,16 @@ TEST(OdometryOptionsTest, ShippedDefaultConfigReadsAsTheDefaults) {
   EXPECT_EQ(odometryOptionsYaml(OdometryOptions()).size(), 41u);  // every key written
 }
 
+// Settings held in memory, the last layer, reach the odometry too.
+TEST(OdometryOptionsTest, InMemorySettingsAreTheLastLayer) {
+  const OdometryOptions o =
+      odometryOptionsFrom(configurationLayers(std::nullopt, "odometry: {max_features: 321}\n"));
+  EXPECT_EQ(o.max_features, 321);
+  EXPECT_EQ(o.seed, OdometryOptions().seed);
+  EXPECT_THROW(odometryOptionsFrom(configurationLayers(std::nullopt, "odometry: {seed: -1}\n")),
+               Error);
+}
+
 // The user's --config layers over default.yaml (a share folder whose
 // default.yaml differs from the compiled defaults).
 TEST(OdometryOptionsTest, TheUsersFileLayersOverDefaultYaml) {

@@ -9,6 +9,7 @@
 // depend on the number of threads.
 #pragma once
 #include <yaml-cpp/yaml.h>
+#include "lookboth/core/config_layers.h"
 
 #include <filesystem>
 #include <functional>
@@ -41,6 +42,9 @@ DetectConfig defaultDetectConfig();
 /// The `detect:` section that loadDetectConfig reads back as `config`
 /// ({markers: {...}, blobs: {...}}, every key).
 YAML::Node detectConfigYaml(const DetectConfig& config);
+/// The `detect:` sections of the configuration's layers (core/config_layers.h),
+/// each over the ones before, over the compiled defaults.
+DetectConfig detectConfigFrom(const std::vector<ConfigLayer>& layers);
 /// The configuration a command uses: default.yaml, then the user's file
 /// (when given) over it, as `register:` is layered.
 DetectConfig detectConfigFor(const std::optional<std::filesystem::path>& user_file);

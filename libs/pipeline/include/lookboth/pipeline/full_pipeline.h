@@ -38,9 +38,8 @@ struct FullPipelineOptions {
   std::string trajectory_label;           ///< "" = "vo" (visual) or "odometry" (metric).
   std::filesystem::path trajectory_file;  ///< A TUM file instead of a dataset trajectory.
   std::optional<std::filesystem::path> config_file;  ///< Over share/lookboth/config/default.yaml.
-  /// YAML text of a configuration over config_file (loadRegistrationConfig's
-  /// `overrides`: the desktop app's settings, edited in memory). Its
-  /// `register:` section only: detection and odometry read config_file.
+  /// YAML text of a configuration over config_file, for every section
+  /// (configurationLayers' `overrides`: the desktop app's settings, edited in memory).
   std::string config_overrides;
   bool auto_detect = true;    ///< Run detection when detections are missing.
   bool auto_odometry = true;  ///< Run odometry when the visual trajectory is missing.

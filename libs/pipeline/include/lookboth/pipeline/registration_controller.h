@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "lookboth/calib/stage_registry.h"
+#include "lookboth/core/config_layers.h"
 #include "lookboth/core/progress.h"
 #include "lookboth/dataset/dataset_io.h"
 #include "lookboth/registration/registration.h"
@@ -30,11 +31,10 @@ struct RegistrationConfig {
   std::string mergedYaml() const;
 };
 
-/// How errors name the in-memory layer of loadRegistrationConfig.
-inline constexpr const char* kInMemorySettings = "the settings";
-/// Reads share/lookboth/config/default.yaml, then `user_file` (when given)
-/// over it, then `overrides` (the YAML text of a configuration, e.g. the
-/// desktop app's settings edited in memory; errors name it kInMemorySettings).
+/// The `register:` sections of configurationLayers(user_file, overrides)
+/// (core/config_layers.h): default.yaml, then `user_file` (when given),
+/// then `overrides` (the YAML text of a configuration, e.g. the desktop
+/// app's settings edited in memory; errors name it kInMemorySettings).
 RegistrationConfig loadRegistrationConfig(const std::optional<std::filesystem::path>& user_file,
                                           const std::string& overrides = "");
 /// The same from texts (source names for errors), defaults first.

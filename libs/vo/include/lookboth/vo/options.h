@@ -3,6 +3,7 @@
 // fields in doc/formats.md, "Configuration: odometry").
 #pragma once
 #include <yaml-cpp/yaml.h>
+#include "lookboth/core/config_layers.h"
 
 #include <cstdint>
 #include <filesystem>
@@ -99,6 +100,9 @@ OdometryOptions loadOdometryOptions(const std::filesystem::path& yaml,
 YAML::Node odometryOptionsYaml(const OdometryOptions& options);
 /// The options a command uses: share/lookboth/config/default.yaml over the
 /// compiled defaults, then the user's file (when given) over it.
+/// The `odometry:` sections of the configuration's layers
+/// (core/config_layers.h), each over the ones before, over the compiled defaults.
+OdometryOptions odometryOptionsFrom(const std::vector<ConfigLayer>& layers);
 OdometryOptions odometryOptionsFor(const std::optional<std::filesystem::path>& user_file);
 
 }  // namespace lookboth::vo
