@@ -1,8 +1,10 @@
-// The configuration's layers, each file read once: share/lookboth/config/
-// default.yaml, then the user's file (--config) when given, then text held in
-// memory (the desktop app's settings). Every module reads its own section
-// (register:, detect:, odometry:) from each layer in turn, a later layer
-// setting the keys it has; errors name the layer's source, line and field.
+// The configuration's layers: share/lookboth/config/default.yaml, then the
+// user's file (--config) when given, then text held in memory (the desktop
+// app's settings). Every module reads its own section (register:, detect:,
+// odometry:) from each layer in turn, a later layer setting the keys it has;
+// errors name the layer's source, line and field. Each caller reads the
+// files anew (a few kilobytes): the registration controller, detection and
+// odometry each call configurationLayers once per run.
 #pragma once
 #include <filesystem>
 #include <optional>
