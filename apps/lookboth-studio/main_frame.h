@@ -1,6 +1,11 @@
-// The main window of lookboth-studio. It owns the views and forwards every
-// action to the libraries (dataset indexing, simulation, the pipeline) run
-// by a JobRunner on a worker thread; it holds no estimation logic.
+// The main window of lookboth-studio: the menus, and the wiring between
+// the panels (settings, pipeline, views, camera table, log) and the jobs.
+// Every action runs in the libraries (dataset indexing, simulation, the
+// pipeline controller `lookboth register` runs) as a job on a worker
+// thread (studio::JobRunner), one at a time; the window holds no
+// estimation logic, and the step sequencing (studio::PipelineSteps,
+// studio::StepRunner) and the unattended startup (studio::ScriptedStartup)
+// are tested without it.
 #pragma once
 
 #include <wx/filehistory.h>
@@ -9,60 +14,36 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
-#include <optional>
 #include <set>
 #include <string>
 #include <vector>
 
 #include "lookboth/pipeline/full_pipeline.h"
-#include "lookboth/pipeline/registration_controller.h"
 #include "lookboth/studio/dataset_index.h"
 #include "lookboth/studio/job_runner.h"
 #include "lookboth/studio/pipeline_steps.h"
+#include "lookboth/studio/scripted_startup.h"
+#include "lookboth/studio/step_runner.h"
 
-class wxChoice;
-class wxGauge;
-class wxListCtrl;
-class wxListEvent;
-class wxRadioBox;
-class wxSlider;
-class wxSplitterWindow;
-class wxSpinCtrl;
-class wxStaticText;
-class wxTextCtrl;
-class wxButton;
-class wxNotebook;
 class wxMenu;
+class wxMenuBar;
+class wxScrolledWindow;
+class wxSplitterWindow;
+class wxTextCtrl;
+
+namespace lookboth::report {
+struct RegistrationView;
+}
 
 namespace lookboth::studio_app {
 
-class ImageView;
-class SceneView;
+using studio::StartupActions;
+class CameraTable;
+class PipelinePanel;
+class SetupPanel;
+class ViewsPanel;
 
-/// What the command line asks the app to do without a person (for tests and demos).
-struct StartupActions {
-  std::string open;      ///< Dataset to open.
-  std::string simulate;  ///< Built-in scenario to simulate (then open).
-  bool detections_only = false;
-  std::string simulate_out;  ///< Where the simulation goes (default: a temporary folder).
-  double duration_s = 0;     ///< Simulate only the first seconds (0 = all).
-  bool run_all = false;      ///< Run the whole pipeline once the dataset is open.
-  std::string run_until;     ///< Run the steps up to this one ("detect", "look_down"...).
-  /// Calibration files to load first (camera label, file), as File > Load camera calibration.
-  std::vector<std::pair<std::string, std::string>> calibrations;
-  std::string trajectory;     ///< "visual" or "metric" (default: visual when there are frames).
-  std::string select;         ///< Camera to select.
-  int frame = -1;             ///< Fisheye frame to show (-1: automatic).
-  std::string overlay;        ///< Fisheye overlay: "both" (default), "before" or "after".
-  std::string export_report;  ///< Write the HTML report here (.html file or folder).
-  std::string export_registration;  ///< Write the registration files into this folder.
-  std::string screenshot;           ///< Save a screenshot of the window here when done.
-  bool exit = false;                ///< Quit when done (exit status 1 if a job failed).
-  /// Receives the exit status (0, or 1 when a job failed) when the window closes.
-  std::function<void(int)> on_close;
-};
-
-class MainFrame : public wxFrame {
+class MainFrame : public wxFrame, private studio::ScriptedStartup::Target {
  public:
   using Then = std::function<void()>;
   explicit MainFrame(const StartupActions& actions);
@@ -72,140 +53,109 @@ class MainFrame : public wxFrame {
 
  private:
   // Building the window.
+  wxMenu* buildFileMenu();
+  wxMenu* buildPipelineMenu();
   void buildMenus();
-  wxWindow* buildSetupPanel(wxWindow* parent);
-  wxWindow* buildViews(wxWindow* parent);
-  wxWindow* buildBottom(wxWindow* parent);
+  void bindMenus();
+  void buildPanels();
+  void onClose(wxCloseEvent& event);
 
-  // Actions.
-  void openDataset(const std::string& path);
+  // Jobs: one at a time, its progress in the pipeline panel and the log.
+  bool startJob(const std::string& name, studio::JobRunner::Job job, Then then);
+  void onJobProgress(const ProgressEvent& event);
+  void onJobDone(const studio::JobResult& result, const Then& then);
+  void cancelJob();
+  void log(const wxString& line);
+  /// A failure the person must see: a message box, or with --exit the exit status.
+  void fail(const wxString& text, const wxString& title);
+
+  // The dataset.
+  void openDataset(const std::string& path, Then then);
   void simulateScenario(const std::string& scenario, bool detections_only, std::string out,
-                        double duration_s);
+                        double duration_s, Then then);
   void importBag();
+  void applyMarker();
+  void chooseAndLoadCalibration();
+  void loadCalibrationFor(const std::string& label, const std::string& file, Then then);
+  /// The dataset changed under what ran on it: the registration and every step go.
+  void forgetRegistration();
+
+  // The pipeline, one step per job.
   void runAll();
   void runNext();
-  /// Runs the pipeline steps from the first pending one through step `last`
-  /// (one job each, results shown as each ends), then `done`.
-  void runThrough(int last, Then done);
+  /// Runs the steps from the first pending one through step `last` (one
+  /// job each, results shown as each ends), then `done`.
+  void runSteps(int last, Then done);
   void runStep(int step, Then then);
   void stepFinished(int step, const StepOutcome& outcome);
   void resetSteps(bool keep_preparation);
   void refreshSteps();
-  int firstPendingStep() const;
-  int stepIndex(const std::string& name) const;
-  /// Sets the trajectory controls as `lookboth register` would choose.
-  void selectTrajectory();
+  void validateSettings();
   FullPipelineOptions pipelineOptions() const;
-  /// The panel's settings as the YAML text of a configuration.
-  std::string settingsYaml() const;
+
+  // What the panels show.
+  void datasetLoaded(std::shared_ptr<const studio::DatasetIndex> index);
+  void registrationReady(std::shared_ptr<const Registration> registration,
+                         std::vector<DetectionRay> rays);
+  void selectCamera(const std::string& label);
+
+  // Out of the window.
   void exportReport(const std::string& path, Then then);
   void chooseAndExportReport();
-  void exportRegistration(const std::string& dir);
   void chooseAndExportRegistration();
-  void saveViewScreenshot(int view);
-  void cycleOverlay();
-  void loadCalibration();
-  void applyMarker();
-  void loadCalibrationFor(const std::string& label, const std::string& file, Then then);
-  void cancelJob();
   void saveScreenshot(const std::string& path);
   void chooseAndSaveScreenshot();
+  void saveViewScreenshot(int view);
   void showAbout();
 
-  bool startJob(const std::string& name, studio::JobRunner::Job job, Then then);
-  void onJobProgress(const ProgressEvent& event);
-  void onJobDone(const studio::JobResult& result, const Then& then);
+  // studio::ScriptedStartup::Target: what the unattended startup asks for.
+  bool hasDataset() const override { return index_ != nullptr; }
+  void simulate(const StartupActions& actions) override;
+  void open(const std::string& dataset) override;
+  void loadCalibration(const std::string& camera, const std::string& file) override;
+  int stepIndex(const std::string& name) const override { return steps_.index(name); }
+  int stepCount() const override { return static_cast<int>(steps_.size()); }
+  std::string stepNames() const override { return steps_.names(); }
+  void runThrough(int last_step) override;
+  void error(const std::string& message) override;
+  void show(int overlay_mode, const std::string& camera, int frame) override;
+  void exportRegistration(const std::string& dir) override;
+  void exportReport(const std::string& path) override;
+  void finish(const std::string& screenshot, bool exit) override;
 
-  // Views.
-  void datasetLoaded(std::shared_ptr<const studio::DatasetIndex> index);
-  void registrationReady(std::shared_ptr<const studio::DatasetIndex> index,
-                         std::shared_ptr<const Registration> registration,
-                         std::vector<DetectionRay> rays, std::vector<std::string> steps);
-  void refreshTable();
-  void refreshScene();
-  void showFisheyeFrame(int index);
-  void showCameraView();
-  void selectCamera(const std::string& label);
-  void validateSettings();
-  void log(const wxString& line);
-  void continueStartup();
-
-  StartupActions actions_;
-  int startup_step_ = 0;
-  size_t calibrations_done_ = 0;
+  studio::ScriptedStartup startup_;
+  bool unattended_ = false;  ///< --exit: no dialogs; the log also goes to stderr.
   int exit_status_ = 0;
 
   studio::JobRunner runner_;
   std::shared_ptr<const studio::DatasetIndex> index_;
   std::shared_ptr<const Registration> registration_;
-  std::shared_ptr<const void> registration_view_;  ///< report::RegistrationView (opaque here).
-  std::filesystem::path registration_dir_;         ///< Where the finished registration was written.
-
-  /// The pipeline's steps and what became of each (no window in it).
-  studio::PipelineSteps steps_;
-  /// Each step's title, button, status line and menu item.
-  struct StepWidgets {
-    std::string title;
-    wxButton* button = nullptr;
-    wxStaticText* status = nullptr;
-    int menu_id = 0;
-  };
-  std::vector<StepWidgets> step_widgets_;
-  /// The controller `lookboth register` runs (RegistrationPipeline), kept
-  /// between the steps' jobs: made on the worker thread by the first job
-  /// that needs it; only the running job touches it.
-  struct PipelineHolder {
-    std::unique_ptr<RegistrationPipeline> pipeline;
-  };
-  std::shared_ptr<PipelineHolder> pipeline_;
-  bool chain_running_ = false;
-  std::set<std::string> logged_;  ///< Messages logged once per dataset (warnings...).
-  int overlay_mode_ = 0;          ///< 0: before and after, 1: after only, 2: before only.
+  std::shared_ptr<const report::RegistrationView> registration_view_;
   std::vector<DetectionRay> rays_;
+  std::filesystem::path registration_dir_;  ///< Where the finished registration was written.
+
+  /// The pipeline's steps and what became of each.
+  studio::PipelineSteps steps_;
+  /// The controller's steps between jobs: made anew for detection and for
+  /// the first registration stage (with the settings as they are then);
+  /// only the running job touches it.
+  std::shared_ptr<studio::StepRunner> step_runner_;
+  int running_step_ = -1;
+  bool settings_ok_ = false;
+  std::set<std::string> logged_;  ///< Messages logged once per dataset (warnings...).
   std::string selected_;
-  std::string last_stage_;
-  int last_percent_ = -1;
 
   wxFileHistory history_;
-  // Setup panel.
-  wxWindow* setup_panel_ = nullptr;
-  wxSplitterWindow* views_split_ = nullptr;
-  wxSplitterWindow* bottom_split_ = nullptr;
-  wxStaticText* dataset_text_ = nullptr;
-  wxChoice* dictionary_ = nullptr;
-  wxSpinCtrl* marker_id_ = nullptr;
-  wxTextCtrl* marker_size_ = nullptr;
-  wxRadioBox* trajectory_mode_ = nullptr;
-  wxChoice* trajectory_label_ = nullptr;
-  wxTextCtrl* huber_ = nullptr;
-  wxTextCtrl* cauchy_ = nullptr;
-  wxTextCtrl* gate_ = nullptr;
-  wxStaticText* validation_ = nullptr;  ///< Problems of the dataset itself (cameras).
-  wxStaticText* marker_msg_ = nullptr;  ///< Validation messages next to their fields.
-  wxStaticText* trajectory_msg_ = nullptr;
-  wxStaticText* loss_msg_ = nullptr;
-  bool settings_ok_ = false;
-  int running_step_ = -1;
-  wxButton* run_all_ = nullptr;
-  wxButton* run_next_ = nullptr;
-  wxButton* marker_apply_ = nullptr;
-  wxChoice* overlay_choice_ = nullptr;
   wxMenu* pipeline_menu_ = nullptr;
-  wxButton* cancel_ = nullptr;
-  wxGauge* gauge_ = nullptr;
-  wxStaticText* stage_text_ = nullptr;
-  // Views.
-  SceneView* scene_ = nullptr;
-  wxNotebook* image_tabs_ = nullptr;
-  ImageView* fisheye_view_ = nullptr;
-  ImageView* camera_view_ = nullptr;
-  wxSlider* frame_slider_ = nullptr;
-  wxStaticText* frame_text_ = nullptr;
-  wxListCtrl* table_ = nullptr;
+  wxScrolledWindow* left_ = nullptr;
+  SetupPanel* setup_ = nullptr;
+  PipelinePanel* pipeline_panel_ = nullptr;
+  ViewsPanel* views_ = nullptr;
+  CameraTable* table_ = nullptr;
   wxTextCtrl* log_ = nullptr;
-  std::vector<std::string> table_labels_;
-  int sort_column_ = 0;
-  bool sort_ascending_ = true;
+  wxSplitterWindow* outer_split_ = nullptr;
+  wxSplitterWindow* right_split_ = nullptr;
+  wxSplitterWindow* bottom_split_ = nullptr;
 };
 
 }  // namespace lookboth::studio_app
