@@ -51,6 +51,18 @@ function(lookboth_test_optimisation target)
   endif()
 endfunction()
 
+# A test's own temporary directory (TMPDIR, which temp_directory_path()
+# and mkstemp follow): <build>/Testing/tmp/<test>. Tests name their files in
+# the temporary directory after what they test; two tests, or the same test
+# in two build trees (Release and the sanitizers' at once), then never
+# write over each other's files.
+function(lookboth_test_temporary_directory name)
+  string(REPLACE "/" "_" leaf "${name}")
+  set(dir "${CMAKE_BINARY_DIR}/Testing/tmp/${leaf}")
+  file(MAKE_DIRECTORY "${dir}")
+  set_property(TEST ${name} APPEND PROPERTY ENVIRONMENT "TMPDIR=${dir}")
+endfunction()
+
 function(lookboth_add_test name)
   if(NOT LOOKBOTH_BUILD_TESTS)
     return()
@@ -67,6 +79,7 @@ function(lookboth_add_test name)
   add_test(NAME ${name} COMMAND ${target})
   set_tests_properties(${name} PROPERTIES LABELS "unit;${ARG_LABELS}"
     TIMEOUT ${LOOKBOTH_TEST_TIMEOUT})
+  lookboth_test_temporary_directory(${name})
   if(ARG_COST)
     set_tests_properties(${name} PROPERTIES COST ${ARG_COST})
   endif()

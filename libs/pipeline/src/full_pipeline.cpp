@@ -151,7 +151,8 @@ struct ScratchDataset {
 
 }  // namespace
 
-StepOutcome runDetectStep(const FullPipelineOptions& options, const DatasetContents& contents,
+StepOutcome runDetectStep(const FullPipelineOptions& options,
+                          const std::vector<ConfigLayer>& layers, const DatasetContents& contents,
                           const ProgressReporter& progress, const std::filesystem::path& out) {
   StepOutcome outcome;
   const bool need_markers = contents.camera_frames > 0 && contents.markers == 0;
@@ -164,8 +165,7 @@ StepOutcome runDetectStep(const FullPipelineOptions& options, const DatasetConte
     detect.threads = options.threads;
     detect.markers = need_markers;
     detect.blobs = need_blobs;
-    detect.config =
-        detectConfigFrom(configurationLayers(options.config_file, options.config_overrides));
+    detect.config = detectConfigFrom(layers);
     const DetectSummary summary = detectDataset(detect, progress);
     std::int64_t markers = 0;
     std::int64_t blobs = 0;
@@ -185,7 +185,8 @@ StepOutcome runDetectStep(const FullPipelineOptions& options, const DatasetConte
   return outcome;
 }
 
-StepOutcome runOdometryStep(const FullPipelineOptions& options, const DatasetContents& contents,
+StepOutcome runOdometryStep(const FullPipelineOptions& options,
+                            const std::vector<ConfigLayer>& layers, const DatasetContents& contents,
                             const ProgressReporter& progress, const std::filesystem::path& out) {
   StepOutcome outcome;
   const std::string vo_label = options.trajectory_label.empty() ? "vo" : options.trajectory_label;
@@ -207,8 +208,7 @@ StepOutcome runOdometryStep(const FullPipelineOptions& options, const DatasetCon
                   "': `lookboth odometry` writes '" + std::string(vo::kVoTrajectoryLabel) + "'");
     vo::OdometryRunOptions odometry;
     odometry.dataset = options.dataset;
-    odometry.odometry =
-        vo::odometryOptionsFrom(configurationLayers(options.config_file, options.config_overrides));
+    odometry.odometry = vo::odometryOptionsFrom(layers);
     odometry.write_dataset = true;  // adds the trajectory to the dataset (augmentDataset)
     odometry.out = out;
     odometry.on_issue = options.on_issue;
@@ -231,8 +231,15 @@ StepOutcome runOdometryStep(const FullPipelineOptions& options, const DatasetCon
 }
 
 struct RegistrationPipeline::State {
+  // The configuration's files are read once; every section is read from
+  // them here, so that a typo in any fails before any work.
   explicit State(const FullPipelineOptions& options)
-      : controller(loadRegistrationConfig(options.config_file, options.config_overrides)) {}
+      : layers(configurationLayers(options.config_file, options.config_overrides)),
+        controller(registrationConfigFrom(layers)) {
+    detectConfigFrom(layers);
+    vo::odometryOptionsFrom(layers);
+  }
+  std::vector<ConfigLayer> layers;
   RegistrationController controller;
   DatasetContents contents;
   FullPipelineOptions working;  ///< The options with the trajectory chosen, the dataset read.
@@ -243,7 +250,7 @@ struct RegistrationPipeline::State {
 RegistrationPipeline::RegistrationPipeline(FullPipelineOptions options)
     : options_(std::move(options)) {
   if (const std::string problem = options_.check(); !problem.empty()) throw Error(problem);
-  // The registration configuration first: a typo fails in a second, not after detection.
+  // The configuration first: a typo fails in a second, not after detection.
   state_ = std::make_unique<State>(options_);
   steps_ = {"detect", "odometry"};
   for (const std::string& stage : state_->controller.config().pipeline) steps_.push_back(stage);
@@ -271,7 +278,7 @@ void RegistrationPipeline::prepare(const ProgressReporter& progress) {
 StepOutcome RegistrationPipeline::detect(const ProgressReporter& progress) {
   State& st = *state_;
   const std::filesystem::path out = st.scratch ? st.scratch->path : std::filesystem::path();
-  const StepOutcome outcome = runDetectStep(st.working, st.contents, progress, out);
+  const StepOutcome outcome = runDetectStep(st.working, st.layers, st.contents, progress, out);
   if (outcome.ran && st.scratch) st.working.dataset = st.scratch->path;
   return outcome;
 }
@@ -283,7 +290,7 @@ StepOutcome RegistrationPipeline::odometry(const ProgressReporter& progress) {
   const bool in_scratch = st.scratch && st.working.dataset == st.scratch->path;
   const std::filesystem::path out =
       st.scratch && !in_scratch ? st.scratch->path : std::filesystem::path();
-  const StepOutcome outcome = runOdometryStep(st.working, st.contents, progress, out);
+  const StepOutcome outcome = runOdometryStep(st.working, st.layers, st.contents, progress, out);
   if (outcome.ran && st.scratch) st.working.dataset = st.scratch->path;
   return outcome;
 }

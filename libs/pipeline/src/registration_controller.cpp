@@ -116,13 +116,15 @@ RegistrationConfig registrationConfigFromYaml(
   return config;
 }
 
+RegistrationConfig registrationConfigFrom(const std::vector<ConfigLayer>& layers) {
+  std::vector<std::pair<std::string, std::string>> texts;
+  for (const ConfigLayer& layer : layers) texts.emplace_back(layer.text, layer.source);
+  return registrationConfigFromYaml(texts);
+}
+
 RegistrationConfig loadRegistrationConfig(const std::optional<fs::path>& user_file,
                                           const std::string& overrides) {
-  std::vector<std::pair<std::string, std::string>> texts;
-  for (ConfigLayer& layer : configurationLayers(user_file, overrides)) {
-    texts.emplace_back(std::move(layer.text), std::move(layer.source));
-  }
-  return registrationConfigFromYaml(texts);
+  return registrationConfigFrom(configurationLayers(user_file, overrides));
 }
 
 // ---- input ----

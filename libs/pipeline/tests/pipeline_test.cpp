@@ -183,18 +183,19 @@ TEST_F(PipelineTest, StepsBeforeRegistrationSayWhyTheyAreSkipped) {
   options.mode = TrajectoryMode::kMetric;
   options.trajectory_label = "odometry";
   const DatasetContents contents = inspectDataset(options.dataset, ProgressReporter());
+  const std::vector<ConfigLayer> layers = configurationLayers(std::nullopt);
   EXPECT_EQ(contents.fisheye_frames, 0);
   EXPECT_GT(contents.markers, 0);
-  const StepOutcome detect = runDetectStep(options, contents, ProgressReporter());
+  const StepOutcome detect = runDetectStep(options, layers, contents, ProgressReporter());
   EXPECT_FALSE(detect.ran);
   EXPECT_EQ(detect.summary, "detect: skipped (no frames: detections-only dataset)");
-  const StepOutcome odometry = runOdometryStep(options, contents, ProgressReporter());
+  const StepOutcome odometry = runOdometryStep(options, layers, contents, ProgressReporter());
   EXPECT_FALSE(odometry.ran);
   EXPECT_EQ(odometry.summary, "odometry: skipped (metric trajectory)");
   options.mode = TrajectoryMode::kVisual;
   options.trajectory_label.clear();
   try {
-    runOdometryStep(options, contents, ProgressReporter());
+    runOdometryStep(options, layers, contents, ProgressReporter());
     ADD_FAILURE() << "visual odometry without fisheye frames did not fail";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("no fisheye frames"), std::string::npos) << e.what();

@@ -2,9 +2,10 @@
 // user's file (--config) when given, then text held in memory (the desktop
 // app's settings). Every module reads its own section (register:, detect:,
 // odometry:) from each layer in turn, a later layer setting the keys it has;
-// errors name the layer's source, line and field. Each caller reads the
-// files anew (a few kilobytes): the registration controller, detection and
-// odometry each call configurationLayers once per run.
+// errors name the layer's source, line and field. A run reads the files
+// once (RegistrationPipeline) and hands the layers to each module's reader
+// (registrationConfigFrom, detectConfigFrom, odometryOptionsFrom); a command
+// that runs one module alone reads them for it.
 #pragma once
 #include <filesystem>
 #include <optional>

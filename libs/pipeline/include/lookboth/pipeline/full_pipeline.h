@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "lookboth/core/config_layers.h"
 #include "lookboth/core/progress.h"
 #include "lookboth/pipeline/registration_controller.h"
 
@@ -88,14 +89,18 @@ struct StepOutcome {
 
 /// Step 1 alone: detection when `contents` (of options.dataset) shows frames
 /// without their detections and options.auto_detect is set; else skipped.
+/// Its options are the `detect:` sections of `layers` (configurationLayers).
 /// (options.out is not used.)
 /// `out`: where the augmented dataset goes (empty: into options.dataset).
-StepOutcome runDetectStep(const FullPipelineOptions& options, const DatasetContents& contents,
+StepOutcome runDetectStep(const FullPipelineOptions& options,
+                          const std::vector<ConfigLayer>& layers, const DatasetContents& contents,
                           const ProgressReporter& progress, const std::filesystem::path& out = {});
 /// Step 2 alone: visual odometry in visual mode when the dataset has no VO
-/// trajectory; else skipped. Throws lookboth::Error when it is needed but
-/// cannot run (no fisheye frames, auto_odometry off, another label).
-StepOutcome runOdometryStep(const FullPipelineOptions& options, const DatasetContents& contents,
+/// trajectory; else skipped. Its options are the `odometry:` sections of
+/// `layers`. Throws lookboth::Error when it is needed but cannot run (no
+/// fisheye frames, auto_odometry off, another label).
+StepOutcome runOdometryStep(const FullPipelineOptions& options,
+                            const std::vector<ConfigLayer>& layers, const DatasetContents& contents,
                             const ProgressReporter& progress,
                             const std::filesystem::path& out = {});
 

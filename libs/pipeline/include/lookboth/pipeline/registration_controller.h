@@ -37,6 +37,8 @@ struct RegistrationConfig {
 /// app's settings edited in memory; errors name it kInMemorySettings).
 RegistrationConfig loadRegistrationConfig(const std::optional<std::filesystem::path>& user_file,
                                           const std::string& overrides = "");
+/// The `register:` sections of `layers`, in order.
+RegistrationConfig registrationConfigFrom(const std::vector<ConfigLayer>& layers);
 /// The same from texts (source names for errors), defaults first.
 RegistrationConfig registrationConfigFromYaml(
     const std::vector<std::pair<std::string, std::string>>& text_and_source);
