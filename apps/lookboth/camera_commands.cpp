@@ -21,7 +21,8 @@ namespace {
 const std::map<std::string, CameraFileFormat> kFormats = {
     {"auto", CameraFileFormat::kAuto},           {"lookboth", CameraFileFormat::kLookboth},
     {"ros", CameraFileFormat::kRosCameraInfo},   {"kalibr", CameraFileFormat::kKalibr},
-    {"ocamcalib", CameraFileFormat::kOCamCalib}, {"opencv", CameraFileFormat::kOpenCV}};
+    {"ocamcalib", CameraFileFormat::kOCamCalib}, {"opencv", CameraFileFormat::kOpenCV},
+    {"camodocal", CameraFileFormat::kCamOdoCal}};
 
 struct NamedCamera {
   std::string label;  // "file" or "file:cam1"

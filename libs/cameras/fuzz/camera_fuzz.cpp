@@ -60,7 +60,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   fuzz::writeBytes(file, data, size);
   for (const CameraFileFormat format :
        {CameraFileFormat::kAuto, CameraFileFormat::kLookboth, CameraFileFormat::kRosCameraInfo,
-        CameraFileFormat::kKalibr, CameraFileFormat::kOCamCalib, CameraFileFormat::kOpenCV}) {
+        CameraFileFormat::kKalibr, CameraFileFormat::kOCamCalib, CameraFileFormat::kOpenCV,
+        CameraFileFormat::kCamOdoCal}) {
     fuzz::expectOnlyLookbothErrors([&] { useCamera(lookboth::loadCamera(file, format)); });
   }
   fuzz::expectOnlyLookbothErrors([&] {

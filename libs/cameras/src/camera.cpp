@@ -494,6 +494,125 @@ double DoubleSphereModel::maxIncidenceAngle(const double* params, int width, int
   return scanMaxIncidenceAngle(*this, params, width, height, limit, false);
 }
 
+// ---------------------------------------------------------------- EUCM
+
+std::vector<std::string> EucmModel::paramNames() const { return withIntrinsics({"alpha", "beta"}); }
+
+bool EucmModel::unproject(const double* params, const double* pixel, double* bearing) const {
+  const double alpha = params[4], beta = params[5];
+  const double mx = (pixel[0] - params[2]) / params[0];
+  const double my = (pixel[1] - params[3]) / params[1];
+  const double r2 = mx * mx + my * my;
+  const double inside = 1.0 - (2.0 * alpha - 1.0) * beta * r2;
+  if (!(inside >= 0.0)) return false;  // outside the valid circle (alpha > 0.5)
+  const double mz = (1.0 - beta * alpha * alpha * r2) / (alpha * std::sqrt(inside) + 1.0 - alpha);
+  bearing[0] = mx;
+  bearing[1] = my;
+  bearing[2] = mz;
+  const double n = std::sqrt(mx * mx + my * my + mz * mz);
+  if (!(n > 0.0) || !std::isfinite(n)) return false;
+  normalize3(bearing);
+  return true;
+}
+
+std::string EucmModel::validate(const double* params, int width, int height) const {
+  std::string message = validateIntrinsics(params, width, height);
+  if (!message.empty()) return message;
+  if (!(params[4] >= 0.0 && params[4] <= 1.0))
+    return "'alpha': must be in [0, 1], got " + fmt(params[4]);
+  if (!(params[5] > 0.0)) return "'beta': must be positive, got " + fmt(params[5]);
+  return {};
+}
+
+double EucmModel::maxIncidenceAngle(const double* params, int width, int height) const {
+  // The boundary z = -w d of the valid region, as an angle from the axis:
+  // with d = sqrt(beta sin^2 + cos^2), tan^2(theta) = (1 - w^2) / (w^2 beta), cos < 0.
+  // w >= 1 (alpha = 0.5) leaves every direction valid; w = 0 is a pinhole.
+  const double w = validityW(params[4]);
+  double limit = kPi;
+  if (w < 1.0)
+    limit = w > 0.0 ? kPi - std::atan(std::sqrt((1.0 - w * w) / (w * w * params[5]))) : 0.5 * kPi;
+  return scanMaxIncidenceAngle(*this, params, width, height, limit - kLimitMargin, false);
+}
+
+// ---------------------------------------------------------------- Mei
+
+std::vector<std::string> MeiModel::paramNames() const {
+  return withIntrinsics({"xi", "k1", "k2", "p1", "p2"});
+}
+
+bool MeiModel::unproject(const double* params, const double* pixel, double* bearing) const {
+  const double xi = params[4];
+  const double xd = (pixel[0] - params[2]) / params[0];
+  const double yd = (pixel[1] - params[3]) / params[1];
+  const double k[8] = {params[5], params[6], params[7], params[8], 0.0, 0.0, 0.0, 0.0};
+  double mx, my;
+  if (!undistortOpenCv(k, false, xd, yd, &mx, &my)) return false;
+  // The ray through (mx, my, 1) from (0, 0, -xi) meets the unit sphere at
+  // lambda (mx, my, 1) - (0, 0, xi).
+  const double r2 = mx * mx + my * my;
+  const double discriminant = 1.0 + (1.0 - xi * xi) * r2;
+  if (!(discriminant >= 0.0)) return false;
+  const double lambda = (xi + std::sqrt(discriminant)) / (1.0 + r2);
+  bearing[0] = lambda * mx;
+  bearing[1] = lambda * my;
+  bearing[2] = lambda - xi;
+  const double n =
+      std::sqrt(bearing[0] * bearing[0] + bearing[1] * bearing[1] + bearing[2] * bearing[2]);
+  if (!(n > 0.0) || !std::isfinite(n)) return false;
+  normalize3(bearing);
+  return true;
+}
+
+std::string MeiModel::validate(const double* params, int width, int height) const {
+  std::string message = validateIntrinsics(params, width, height);
+  if (!message.empty()) return message;
+  if (!(params[4] >= 0.0 && params[4] <= 100.0))
+    return "'xi': must be in [0, 100], got " + fmt(params[4]);
+  return {};
+}
+
+double MeiModel::maxIncidenceAngle(const double* params, int width, int height) const {
+  // z / |p| > -w: the angle acos(-w) (xi = 0 is a pinhole: pi / 2).
+  const double limit = std::acos(std::clamp(-validityW(params[4]), -1.0, 1.0));
+  return scanMaxIncidenceAngle(*this, params, width, height, limit - kLimitMargin, false);
+}
+
+// ---------------------------------------------------------------- FOV
+
+std::vector<std::string> FovModel::paramNames() const { return withIntrinsics({"w"}); }
+
+bool FovModel::unproject(const double* params, const double* pixel, double* bearing) const {
+  const double w = params[4];
+  const double xd = (pixel[0] - params[2]) / params[0];
+  const double yd = (pixel[1] - params[3]) / params[1];
+  const double rd = std::hypot(xd, yd);
+  const double two_tan = 2.0 * std::tan(0.5 * w);
+  double factor = w / two_tan;  // r / r_d on the axis
+  if (rd > 1e-12) {
+    if (!(rd * w < 0.5 * kPi)) return false;  // beyond the image of the plane z = 0
+    factor = std::tan(rd * w) / (two_tan * rd);
+  }
+  bearing[0] = xd * factor;
+  bearing[1] = yd * factor;
+  bearing[2] = 1.0;
+  if (!std::isfinite(bearing[0]) || !std::isfinite(bearing[1])) return false;
+  normalize3(bearing);
+  return true;
+}
+
+std::string FovModel::validate(const double* params, int width, int height) const {
+  std::string message = validateIntrinsics(params, width, height);
+  if (!message.empty()) return message;
+  if (!(params[4] > 0.0 && params[4] < kPi))
+    return "'w': must be in (0, pi) rad, got " + fmt(params[4]);
+  return {};
+}
+
+double FovModel::maxIncidenceAngle(const double* params, int width, int height) const {
+  return scanMaxIncidenceAngle(*this, params, width, height, 0.5 * kPi - kLimitMargin, true);
+}
+
 // ---------------------------------------------------------------- Scaramuzza
 
 std::vector<std::string> ScaramuzzaModel::paramNames() const {

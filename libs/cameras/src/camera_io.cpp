@@ -33,8 +33,9 @@ namespace fs = std::filesystem;
 /// Every model except Scaramuzza, whose structure (polynomial degrees) is not
 /// known from its name alone.
 std::vector<CameraModel> fixedSizeModels() {
-  return {PinholeModel{}, RadTanModel{}, RationalPolynomialModel{}, KannalaBrandtModel{},
-          DoubleSphereModel{}};
+  return {PinholeModel{},       RadTanModel{},       RationalPolynomialModel{},
+          KannalaBrandtModel{}, DoubleSphereModel{}, EucmModel{},
+          MeiModel{},           FovModel{}};
 }
 
 std::string scaramuzzaName() { return cameraModelName(CameraModel{ScaramuzzaModel{}}); }
@@ -550,7 +551,8 @@ Camera loadKalibrCamera(const YAML::Node& node, const std::string& name, const s
 
   const std::string combination = camera_model + "-" + distortion;
   const std::string supported =
-      "supported: pinhole-radtan, pinhole-equidistant, pinhole-none, ds-none";
+      "supported: pinhole-radtan, pinhole-equidistant, pinhole-fov, pinhole-none, ds-none, "
+      "eucm-none, omni-radtan, omni-none";
   auto expectCount = [&](const YAML::Node& where, const std::string& field, size_t got, size_t want,
                          const std::string& what) {
     if (got != want) {
@@ -573,6 +575,10 @@ Camera loadKalibrCamera(const YAML::Node& node, const std::string& name, const s
       expectCount(coeffs_node, "distortion_coeffs", coeffs.size(), 4, "[k1 k2 k3 k4]");
       model = KannalaBrandtModel{};
       params.insert(params.end(), coeffs.begin(), coeffs.end());
+    } else if (distortion == "fov") {
+      expectCount(coeffs_node, "distortion_coeffs", coeffs.size(), 1, "[w]");
+      model = FovModel{};
+      params.push_back(coeffs[0]);
     } else if (distortion == "none") {
       expectCount(coeffs_node, "distortion_coeffs", coeffs.size(), 0, "(no distortion)");
       model = PinholeModel{};
@@ -591,6 +597,32 @@ Camera loadKalibrCamera(const YAML::Node& node, const std::string& name, const s
     // lookboth order: fx fy cx cy xi alpha.
     params = {intrinsics[2], intrinsics[3], intrinsics[4],
               intrinsics[5], intrinsics[0], intrinsics[1]};
+  } else if (camera_model == "eucm") {
+    if (distortion != "none") {
+      throw Error(at(file, lineOf(distortion_node), name + ".distortion_model"),
+                  "camera model " + excerpt(combination) + " is not supported (" + supported + ")");
+    }
+    expectCount(intrinsics_node, "intrinsics", intrinsics.size(), 6, "[alpha beta fu fv pu pv]");
+    expectCount(coeffs_node, "distortion_coeffs", coeffs.size(), 0, "(no distortion)");
+    model = EucmModel{};
+    // lookboth order: fx fy cx cy alpha beta.
+    params = {intrinsics[2], intrinsics[3], intrinsics[4],
+              intrinsics[5], intrinsics[0], intrinsics[1]};
+  } else if (camera_model == "omni") {
+    if (distortion != "radtan" && distortion != "none") {
+      throw Error(at(file, lineOf(distortion_node), name + ".distortion_model"),
+                  "camera model " + excerpt(combination) + " is not supported (" + supported + ")");
+    }
+    expectCount(intrinsics_node, "intrinsics", intrinsics.size(), 5, "[xi fu fv pu pv]");
+    if (distortion == "radtan")
+      expectCount(coeffs_node, "distortion_coeffs", coeffs.size(), 4, "[k1 k2 p1 p2]");
+    else
+      expectCount(coeffs_node, "distortion_coeffs", coeffs.size(), 0, "(no distortion)");
+    model = MeiModel{};
+    // lookboth order: fx fy cx cy xi k1 k2 p1 p2.
+    params = {intrinsics[1], intrinsics[2], intrinsics[3], intrinsics[4], intrinsics[0]};
+    if (coeffs.empty()) coeffs.assign(4, 0.0);
+    params.insert(params.end(), coeffs.begin(), coeffs.end());
   } else {
     throw Error(at(file, lineOf(model_node), name + ".camera_model"),
                 "camera model " + excerpt(combination) + " is not supported (" + supported + ")");
@@ -942,12 +974,95 @@ Camera loadOpenCv(const std::string& text, const std::string& file) {
 }
 
 // ---------------------------------------------------------------------------
+// CamOdoCal (VINS-Mono, VINS-Fusion): OpenCV FileStorage YAML with model_type
+
+/// A number in a map of the file ("projection_parameters.gamma1").
+double camOdoCalNumber(const cv::FileStorage& storage, const char* section, const char* key,
+                       const std::string& file) {
+  const std::string field = std::string(section) + "." + key;
+  const cv::FileNode map = storage[section];
+  if (map.empty() || map.isNone() || !map.isMap())
+    throw Error(at(file, 0, section), "missing (a map of the model's parameters)");
+  const cv::FileNode node = map[key];
+  if (node.empty() || node.isNone()) throw Error(at(file, 0, field), "missing");
+  if (!node.isReal() && !node.isInt()) throw Error(at(file, 0, field), "expected a number");
+  const double value = node.isInt() ? static_cast<int>(node) : static_cast<double>(node);
+  if (!std::isfinite(value)) throw Error(at(file, 0, field), "not a finite number");
+  return value;
+}
+
+int camOdoCalSize(const cv::FileStorage& storage, const char* key, const std::string& file) {
+  const cv::FileNode node = storage[key];
+  if (node.empty() || node.isNone()) throw Error(at(file, 0, key), "missing");
+  if (!node.isInt()) throw Error(at(file, 0, key), "expected an integer");
+  return static_cast<int>(node);
+}
+
+Camera loadCamOdoCal(const std::string& text, const std::string& file) {
+  checkFileStorageStructure(text, file);
+  try {
+    cv::FileStorage storage(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
+    if (!storage.isOpened())
+      throw Error(at(file, 0, ""), "OpenCV could not open it as FileStorage");
+    const cv::FileNode type_node = storage["model_type"];
+    if (!type_node.isString()) throw Error(at(file, 0, "model_type"), "expected a name");
+    const std::string type = static_cast<std::string>(type_node);
+    const int width = camOdoCalSize(storage, "image_width", file);
+    const int height = camOdoCalSize(storage, "image_height", file);
+    auto number = [&](const char* section, const char* key) {
+      return camOdoCalNumber(storage, section, key, file);
+    };
+    CameraModel model;
+    std::vector<double> params;
+    if (type == "MEI") {
+      model = MeiModel{};
+      params = {
+          number("projection_parameters", "gamma1"), number("projection_parameters", "gamma2"),
+          number("projection_parameters", "u0"),     number("projection_parameters", "v0"),
+          number("mirror_parameters", "xi"),         number("distortion_parameters", "k1"),
+          number("distortion_parameters", "k2"),     number("distortion_parameters", "p1"),
+          number("distortion_parameters", "p2")};
+    } else if (type == "PINHOLE") {
+      model = RadTanModel{};
+      params = {number("projection_parameters", "fx"),
+                number("projection_parameters", "fy"),
+                number("projection_parameters", "cx"),
+                number("projection_parameters", "cy"),
+                number("distortion_parameters", "k1"),
+                number("distortion_parameters", "k2"),
+                number("distortion_parameters", "p1"),
+                number("distortion_parameters", "p2"),
+                0.0};  // k3: CamOdoCal's pinhole has none
+    } else if (type == "KANNALA_BRANDT") {
+      // CamOdoCal numbers the coefficients of theta^3 .. theta^9 k2 .. k5.
+      model = KannalaBrandtModel{};
+      params = {number("projection_parameters", "mu"), number("projection_parameters", "mv"),
+                number("projection_parameters", "u0"), number("projection_parameters", "v0"),
+                number("projection_parameters", "k2"), number("projection_parameters", "k3"),
+                number("projection_parameters", "k4"), number("projection_parameters", "k5")};
+    } else {
+      throw Error(at(file, 0, "model_type"),
+                  "CamOdoCal model " + excerpt(type) +
+                      " is not supported (supported: MEI, PINHOLE, KANNALA_BRANDT; for "
+                      "SCARAMUZZA give OCamCalib's calib_results.txt)");
+    }
+    return makeCamera(std::move(model), width, height, std::move(params),
+                      at(file, 0, "projection_parameters"));
+  } catch (const cv::Exception& error) {
+    throw Error(at(file, 0, ""), std::string("OpenCV could not read it: ") + error.what());
+  }
+}
+
+// ---------------------------------------------------------------------------
 // Format detection
 
 CameraFileFormat detectFromText(const std::string& text, const std::string& file) {
   const std::string head = trim(std::string_view(text).substr(0, 64));
   if (startsWith(head, "%YAML") || startsWith(head, "<?xml") ||
       startsWith(head, "<opencv_storage") || text.find("!!opencv-matrix") != std::string::npos) {
+    // CamOdoCal writes FileStorage YAML too, named by a top-level model_type.
+    for (const std::string& line : splitLines(text))
+      if (startsWith(line, "model_type:")) return CameraFileFormat::kCamOdoCal;
     return CameraFileFormat::kOpenCV;
   }
   bool ocam = false;
@@ -984,8 +1099,8 @@ CameraFileFormat detectFromText(const std::string& text, const std::string& file
   if (kalibr) return CameraFileFormat::kKalibr;
   throw Error(at(file, 0, ""),
               "not a camera calibration file lookboth knows (lookboth YAML, ROS camera_info YAML, "
-              "Kalibr camchain, OCamCalib calib_results.txt, OpenCV FileStorage YAML/XML; see "
-              "doc/formats.md)");
+              "Kalibr camchain, OCamCalib calib_results.txt, OpenCV FileStorage YAML/XML, "
+              "CamOdoCal YAML; see doc/formats.md)");
 }
 
 }  // namespace
@@ -1004,6 +1119,8 @@ std::string cameraFileFormatName(CameraFileFormat format) {
       return "ocamcalib";
     case CameraFileFormat::kOpenCV:
       return "opencv";
+    case CameraFileFormat::kCamOdoCal:
+      return "camodocal";
   }
   return "unknown";
 }
@@ -1029,6 +1146,8 @@ Camera loadCamera(const fs::path& path, CameraFileFormat format, const std::stri
       return loadOCamCalib(text, file);
     case CameraFileFormat::kOpenCV:
       return loadOpenCv(text, file);
+    case CameraFileFormat::kCamOdoCal:
+      return loadCamOdoCal(text, file);
     case CameraFileFormat::kAuto:
       break;
   }

@@ -276,12 +276,55 @@ TEST(CameraIo, LoadsKalibrCamchain) {
       {642.8173, 641.9352, 633.4518, 362.0874, -0.2981342, 0.0873158, 0.0003127, -0.0005213, 0.0});
 }
 
+TEST(CameraIo, LoadsKalibrUnifiedModelsAndFov) {
+  const fs::path file = dataFile("kalibr_unified_models.yaml");
+  // eucm [alpha beta fu fv pu pv] -> fx fy cx cy alpha beta.
+  expectParams(loadCamera(file, CameraFileFormat::kAuto, "cam0"), "eucm", 512, 512,
+               {191.25, 191.5, 254.75, 256.5, 0.63, 1.04});
+  // omni [xi fu fv pu pv] + radtan [k1 k2 p1 p2] -> fx fy cx cy xi k1 k2 p1 p2.
+  expectParams(loadCamera(file, CameraFileFormat::kAuto, "cam1"), "mei", 1280, 1024,
+               {750.5, 751.25, 639.5, 511.75, 1.5, -0.25, 0.0625, 0.001, -0.0005});
+  expectParams(loadCamera(file, CameraFileFormat::kAuto, "cam2"), "mei", 640, 480,
+               {500.5, 500.25, 319.5, 239.5, 0.75, 0.0, 0.0, 0.0, 0.0});
+  // pinhole-fov [w] -> fx fy cx cy w.
+  expectParams(loadCamera(file, CameraFileFormat::kAuto, "cam3"), "fov", 640, 480,
+               {280.5, 280.25, 320.5, 240.25, 0.875});
+  expectLoadError(file, {"cam4.distortion_coeffs", "omni-radtan needs 4 numbers", "got 3"},
+                  CameraFileFormat::kAuto, "cam4");
+  expectLoadError(file, {"cam5.distortion_model", "eucm-radtan", "is not supported", "omni-radtan"},
+                  CameraFileFormat::kAuto, "cam5");
+}
+
+TEST(CameraIo, LoadsCamOdoCalFiles) {
+  // Real files of VINS-Fusion (tests/data/cameras/real/euroc_cam0/SOURCE.md).
+  const fs::path real = fs::path(LOOKBOTH_TEST_DATA_DIR) / "cameras" / "real" / "euroc_cam0";
+  EXPECT_EQ(detectCameraFileFormat(real / "cam0_mei.yaml"), CameraFileFormat::kCamOdoCal);
+  expectParams(loadCamera(real / "cam0_mei.yaml"), "mei", 752, 480,
+               {2.1387619122017772e+03, 2.1315886210259278e+03, 3.6119856633263799e+02,
+                2.4827644773395667e+02, 3.6313355285286337e+00, 1.1757726639872075e+00,
+                1.5491281051140213e+01, -8.1237172954550494e-04, 6.7297684030310243e-04});
+  expectParams(loadCamera(real / "cam0_pinhole.yaml"), "radtan", 752, 480,
+               {4.6170381623421628e+02, 4.6043378588777085e+02, 3.6322379726457223e+02,
+                2.4818637846327383e+02, -2.9250563288482467e-01, 8.3305380138632271e-02,
+                2.4650824570721693e-05, -1.1770093773613896e-04, 0.0});
+  // CamOdoCal's k2..k5 are the coefficients of theta^3 .. theta^9: kannala_brandt's k1..k4.
+  expectParams(loadCamera(dataFile("camodocal_kannala_brandt.yaml")), "kannala_brandt", 1024, 768,
+               {380.5, 380.25, 511.5, 383.75, 0.0125, -0.00375, 0.00125, -0.0003125});
+  expectLoadError(dataFile("camodocal_scaramuzza.yaml"),
+                  {"'model_type'", "SCARAMUZZA", "MEI, PINHOLE, KANNALA_BRANDT"});
+  expectLoadError(dataFile("camodocal_mei_missing_gamma.yaml"),
+                  {"projection_parameters.gamma1", "missing"});
+}
+
 TEST(CameraIo, KalibrErrorsNameTheCameraAndField) {
   expectLoadError(
       dataFile("kalibr_omni.yaml"),
-      {"'cam1.camera_model'", "omni-radtan", "not supported", "pinhole-radtan", "ds-none"},
-      CameraFileFormat::kKalibr, "cam1");
+      {"'cam2.camera_model'", "fisheye624-none", "not supported", "pinhole-radtan", "omni-radtan"},
+      CameraFileFormat::kKalibr, "cam2");
   EXPECT_THROW(loadKalibrCamchain(dataFile("kalibr_omni.yaml")), Error);
+  // Its cam1, Kalibr's omni-radtan, is Mei's model.
+  EXPECT_EQ(loadCamera(dataFile("kalibr_omni.yaml"), CameraFileFormat::kKalibr, "cam1").modelName(),
+            "mei");
   // cam0 of that file is fine.
   EXPECT_EQ(loadCamera(dataFile("kalibr_omni.yaml")).modelName(), "pinhole");
   expectLoadError(dataFile("kalibr_wrong_count.yaml"),

@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/ccalib/omnidir.hpp>
 #include <random>
 #include <sstream>
 #include <string>
@@ -85,7 +86,8 @@ struct ImageSize {
 
 const std::vector<CameraModelId> kAllModels = {
     CameraModelId::kPinhole,       CameraModelId::kRadTan,     CameraModelId::kRationalPolynomial,
-    CameraModelId::kKannalaBrandt, CameraModelId::kScaramuzza, CameraModelId::kDoubleSphere};
+    CameraModelId::kKannalaBrandt, CameraModelId::kScaramuzza, CameraModelId::kDoubleSphere,
+    CameraModelId::kEucm,          CameraModelId::kMei,        CameraModelId::kFov};
 
 /// A camera of the given model with random parameters in realistic ranges.
 Camera randomCamera(CameraModelId id, std::mt19937& rng) {
@@ -138,6 +140,23 @@ Camera randomCamera(CameraModelId id, std::mt19937& rng) {
       return Camera(DoubleSphereModel{}, size.width, size.height,
                     {f, f * aspect, cx, cy, xi, uniform(rng, 0.3, 0.7)});
     }
+    case CameraModelId::kEucm: {
+      const double f = uniform(rng, 250.0, 700.0) * scale;
+      return Camera(EucmModel{}, size.width, size.height,
+                    {f, f * aspect, cx, cy, uniform(rng, 0.35, 0.7), uniform(rng, 0.8, 1.3)});
+    }
+    case CameraModelId::kMei: {
+      const double xi = uniform(rng, 0.3, 2.0);
+      const double f = uniform(rng, 250.0, 700.0) * scale * (1.0 + xi);
+      return Camera(MeiModel{}, size.width, size.height,
+                    {f, f * aspect, cx, cy, xi, uniform(rng, -0.2, 0.1), uniform(rng, -0.02, 0.05),
+                     uniform(rng, -1e-3, 1e-3), uniform(rng, -1e-3, 1e-3)});
+    }
+    case CameraModelId::kFov: {
+      const double fov_w = uniform(rng, 0.6, 1.1);
+      const double f = uniform(rng, 0.35, 1.0) * w;
+      return Camera(FovModel{}, size.width, size.height, {f, f * aspect, cx, cy, fov_w});
+    }
   }
   throw std::logic_error("unknown model");
 }
@@ -169,7 +188,8 @@ class CameraModelsRoundTrip : public testing::TestWithParam<CameraModelId> {};
 
 std::string modelParamName(const testing::TestParamInfo<CameraModelId>& info) {
   const char* names[] = {"Pinhole",       "RadTan",     "RationalPolynomial",
-                         "KannalaBrandt", "Scaramuzza", "DoubleSphere"};
+                         "KannalaBrandt", "Scaramuzza", "DoubleSphere",
+                         "Eucm",          "Mei",        "Fov"};
   return names[static_cast<int>(info.param)];
 }
 
@@ -225,8 +245,8 @@ TEST(CameraModelsTest, PinholeTypesRejectPointsAtOrBehindTheImagePlane) {
   std::mt19937 rng(3);
   const std::vector<Eigen::Vector3d> points = {
       {0.0, 0.0, -1.0}, {1.0, 0.0, 0.0}, {0.2, -0.3, -1.0}, {0.0, 0.0, 0.0}, {1.0, 1.0, -1e-12}};
-  for (CameraModelId id :
-       {CameraModelId::kPinhole, CameraModelId::kRadTan, CameraModelId::kRationalPolynomial}) {
+  for (CameraModelId id : {CameraModelId::kPinhole, CameraModelId::kRadTan,
+                           CameraModelId::kRationalPolynomial, CameraModelId::kFov}) {
     const Camera camera = randomCamera(id, rng);
     SCOPED_TRACE(describe(camera));
     for (const Eigen::Vector3d& point : points) {
@@ -247,7 +267,8 @@ TEST(CameraModelsTest, FisheyesRejectPointsBeyondTheMaxIncidenceAngle) {
   std::mt19937 rng(4);
   int checked = 0;
   for (CameraModelId id :
-       {CameraModelId::kKannalaBrandt, CameraModelId::kScaramuzza, CameraModelId::kDoubleSphere}) {
+       {CameraModelId::kKannalaBrandt, CameraModelId::kScaramuzza, CameraModelId::kDoubleSphere,
+        CameraModelId::kEucm, CameraModelId::kMei}) {
     for (int trial = 0; trial < 10; ++trial) {
       const Camera camera = randomCamera(id, rng);
       SCOPED_TRACE(describe(camera));
@@ -438,6 +459,54 @@ TEST(CameraModelsTest, KannalaBrandtMatchesCvFisheyeProjectPointsInFront) {
     cv::fisheye::projectPoints(points, expected, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0),
                                cameraMatrix(p), cv::Vec4d(p[4], p[5], p[6], p[7]));
     expectSameAsOpenCv(camera, points, expected);
+  }
+}
+
+TEST(CameraModelsTest, MeiMatchesCvOmnidirProjectPoints) {
+  // OpenCV's omnidir module (Mei's model, skew 0): the same pixels over the
+  // whole valid field of view, so that a calibration from cv::omnidir or
+  // Kalibr's omni-radtan means the same camera here.
+  std::mt19937 rng(9);
+  for (int trial = 0; trial < 10; ++trial) {
+    const Camera camera = randomCamera(CameraModelId::kMei, rng);
+    const std::vector<double>& p = camera.params();
+    const std::vector<cv::Point3d> points = randomPoints(camera, kPi, 1000, rng);
+    std::vector<cv::Point2d> expected;
+    cv::omnidir::projectPoints(points, expected, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0),
+                               cameraMatrix(p), p[4], cv::Vec4d(p[5], p[6], p[7], p[8]));
+    expectSameAsOpenCv(camera, points, expected);
+  }
+}
+
+TEST(CameraModelsTest, EucmWithBetaOneIsMeiWithoutDistortion) {
+  // The extended model with beta = 1 is the unified one: xi = alpha / (1 - alpha),
+  // f_mei = f_eucm / (1 - alpha).
+  const double alpha = 0.6, f = 400.0;
+  const Camera eucm(EucmModel{}, 1280, 1024, {f, f * 1.01, 640.2, 511.7, alpha, 1.0});
+  const Camera mei(
+      MeiModel{}, 1280, 1024,
+      {f / (1 - alpha), f * 1.01 / (1 - alpha), 640.2, 511.7, alpha / (1 - alpha), 0, 0, 0, 0});
+  std::mt19937 rng(10);
+  for (const cv::Point3d& q : randomPoints(eucm, kPi, 500, rng)) {
+    const Eigen::Vector3d point(q.x, q.y, q.z);
+    const auto a = eucm.project(point);
+    const auto b = mei.project(point);
+    ASSERT_EQ(a.has_value(), b.has_value()) << point.transpose();
+    if (a) {
+      EXPECT_LT((*a - *b).norm(), 1e-9) << point.transpose();
+    }
+  }
+}
+
+TEST(CameraModelsTest, FovModelFollowsItsDefinition) {
+  // r_d = atan(2 r tan(w / 2)) / w for a point at r = |(x, y)| / z.
+  const double w = 0.9, f = 300.0;
+  const Camera fov(FovModel{}, 640, 480, {f, f, 319.5, 239.5, w});
+  for (double r : {0.0, 1e-9, 0.1, 0.5, 1.0, 3.0}) {
+    const auto pixel = fov.project(Eigen::Vector3d(r, 0.0, 1.0));
+    if (!pixel) continue;  // beyond the image border
+    const double rd = r == 0.0 ? 0.0 : std::atan(2.0 * r * std::tan(w / 2)) / w;
+    EXPECT_NEAR(pixel->x(), 319.5 + f * rd, 1e-9) << r;
   }
 }
 

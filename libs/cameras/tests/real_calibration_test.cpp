@@ -406,5 +406,178 @@ TEST(RealOCamCalib, KodakPixproSp360) {
   EXPECT_LT(report.loaded.rmse, 5.0);
 }
 
+// ---------------------------------------------------------------------------
+// One real camera, several models: the same pixels
+
+/// How far the pixels of `reference` land through `other`: a grid of
+/// pixels (every 4 px) unprojected by one calibration and projected by the
+/// other, where both map them.
+struct Agreement {
+  int pixels = 0;
+  double rms = 0.0;
+  double max = 0.0;
+};
+
+Agreement agreement(const Camera& reference, const Camera& other) {
+  Agreement a;
+  double sum = 0.0;
+  for (int v = 0; v < reference.height(); v += 4) {
+    for (int u = 0; u < reference.width(); u += 4) {
+      const Eigen::Vector2d pixel(u, v);
+      const auto ray = reference.unproject(pixel);
+      if (!ray) continue;
+      const auto back = other.project(*ray);
+      if (!back) continue;
+      const double e = (*back - pixel).norm();
+      sum += e * e;
+      a.max = std::max(a.max, e);
+      ++a.pixels;
+    }
+  }
+  a.rms = std::sqrt(sum / std::max(a.pixels, 1));
+  return a;
+}
+
+Agreement printAgreement(const std::string& what, const Camera& reference, const Camera& other) {
+  const Agreement a = agreement(reference, other);
+  std::printf("  %-44s pixels %6d  RMS %7.3f px  max %7.3f px\n", what.c_str(), a.pixels, a.rms,
+              a.max);
+  return a;
+}
+
+/// The same camera with its principal point read as (cy, cx): the mistake
+/// a loader makes with a file that stores (row, column).
+Camera withCentreSwapped(const Camera& camera) {
+  std::vector<double> params = camera.params();
+  std::swap(params[2], params[3]);
+  return Camera(camera.model(), camera.width(), camera.height(), params);
+}
+
+TEST(RealCalibrations, TumVi512OneCameraThreeModels) {
+  // A 195-degree fisheye: Kannala-Brandt (the dataset's), double sphere and
+  // extended unified (basalt's), read from Kalibr's camchain format.
+  const auto cameras = loadKalibrCamchain(realFile("tumvi_512_cam0", "camchain.yaml"));
+  const Camera& kb = cameras.at("cam0");
+  const Camera& ds = cameras.at("cam1");
+  const Camera& eucm = cameras.at("cam2");
+  ASSERT_EQ(eucm.modelName(), "eucm");
+  std::printf("tumvi_512_cam0 (%dx%d):\n", kb.width(), kb.height());
+  const Agreement kb_ds = printAgreement("kannala_brandt -> double_sphere", kb, ds);
+  const Agreement kb_eucm = printAgreement("kannala_brandt -> eucm", kb, eucm);
+  const Agreement ds_eucm = printAgreement("double_sphere -> eucm", ds, eucm);
+  // Calibrations made apart agree to half a pixel over the image (a few
+  // pixels at its corners, beyond the lens's circle, where each model
+  // extrapolates); basalt's two models, fitted to the same photos, to a
+  // twentieth.
+  for (const Agreement& a : {kb_ds, kb_eucm, ds_eucm}) {
+    EXPECT_GT(a.pixels, 10000);
+    EXPECT_LT(a.rms, 1.0);
+  }
+  EXPECT_LT(ds_eucm.rms, 0.2);
+  // What the comparison sees: EUCM read without its beta (as the unified model).
+  std::vector<double> no_beta = eucm.params();
+  no_beta[5] = 1.0;
+  const Agreement broken = printAgreement("kannala_brandt -> eucm without beta (broken)", kb,
+                                          Camera(EucmModel{}, 512, 512, no_beta));
+  EXPECT_GT(broken.rms, 5.0 * kb_eucm.rms);
+}
+
+TEST(RealCalibrations, EurocOneCameraThreeModels) {
+  const auto cameras = loadKalibrCamchain(realFile("euroc_cam0", "camchain.yaml"));
+  const Camera& radtan = cameras.at("cam0");
+  const Camera& ds = cameras.at("cam1");
+  const Camera& eucm = cameras.at("cam2");
+  std::printf("euroc_cam0 (%dx%d):\n", radtan.width(), radtan.height());
+  const Agreement radtan_ds = printAgreement("radtan -> double_sphere", radtan, ds);
+  const Agreement radtan_eucm = printAgreement("radtan -> eucm", radtan, eucm);
+  const Agreement ds_eucm = printAgreement("double_sphere -> eucm", ds, eucm);
+  // basalt's two models, fitted to the same recording, agree to a hundredth
+  // of a pixel; the dataset's own calibration, made apart, to a few pixels
+  // (its principal point is 1.3 px away, and its polynomial bends away at
+  // the image corners).
+  for (const Agreement& a : {radtan_ds, radtan_eucm, ds_eucm}) {
+    EXPECT_GT(a.pixels, 20000);
+    EXPECT_LT(a.rms, 3.0);
+  }
+  EXPECT_LT(ds_eucm.rms, 0.1);
+  // The same camera in CamOdoCal's files (VINS-Fusion): its pinhole and Mei calibrations.
+  const Camera pinhole = loadCamera(realFile("euroc_cam0", "cam0_pinhole.yaml"));
+  const Camera mei = loadCamera(realFile("euroc_cam0", "cam0_mei.yaml"));
+  ASSERT_EQ(pinhole.modelName(), "radtan");
+  ASSERT_EQ(mei.modelName(), "mei");
+  const Agreement radtan_pinhole = printAgreement("radtan -> CamOdoCal PINHOLE", radtan, pinhole);
+  const Agreement radtan_mei = printAgreement("radtan -> CamOdoCal MEI", radtan, mei);
+  // VINS-Fusion's calibrations put the principal point 4 px (PINHOLE) and
+  // 6 px (MEI) from the dataset's: the pixels differ by about that, where a
+  // misread file (a centre swapped, parameters out of order) moves them by
+  // a hundred.
+  for (const Agreement& a : {radtan_pinhole, radtan_mei}) {
+    EXPECT_GT(a.pixels, 20000);
+    EXPECT_LT(a.rms, 8.0);
+  }
+  const Agreement swapped = printAgreement("radtan -> eucm, centre as (cy, cx) (broken)", radtan,
+                                           withCentreSwapped(eucm));
+  EXPECT_GT(swapped.rms, 100.0);
+}
+
+TEST(RealCalibrations, MeiFromOpenCvOmnidirOnRealPhotosIsTheSameCamera) {
+  // OpenCV's omnidir calibration (Mei's model) of the real corners of
+  // fisheye_localization's photos: the camera built from its K, xi and D
+  // gives omnidir's own pixels for every corner of every board, and so the
+  // same reprojection error.
+  const std::vector<Board> boards = loadBoards(realFile("fisheye_localization", "corners.csv"));
+  std::vector<std::vector<cv::Point3d>> object;
+  std::vector<std::vector<cv::Point2d>> image;
+  for (const Board& board : boards) {
+    std::vector<cv::Point3d> points;
+    for (const Eigen::Vector3d& p : boardPoints(board)) points.emplace_back(p.x(), p.y(), p.z());
+    object.push_back(points);
+    std::vector<cv::Point2d> pixels;
+    for (const Eigen::Vector2d& p : board.pixels) pixels.emplace_back(p.x(), p.y());
+    image.push_back(pixels);
+  }
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 300, 1e-10);
+  cv::Mat k, xi, d, used;
+  std::vector<cv::Mat> rvecs, tvecs;
+  cv::omnidir::calibrate(object, image, cv::Size(640, 480), k, xi, d, rvecs, tvecs,
+                         cv::omnidir::CALIB_FIX_SKEW, criteria, used);
+  ASSERT_GT(used.cols, 4);
+  const Camera mei(
+      MeiModel{}, 640, 480,
+      {k.at<double>(0, 0), k.at<double>(1, 1), k.at<double>(0, 2), k.at<double>(1, 2),
+       xi.at<double>(0), d.at<double>(0), d.at<double>(1), d.at<double>(2), d.at<double>(3)});
+  double worst = 0.0, ours = 0.0, theirs = 0.0;
+  int corners = 0;
+  for (int b = 0; b < used.cols; ++b) {
+    const auto i = static_cast<size_t>(used.at<int>(b));
+    std::vector<cv::Point2d> projected;
+    cv::omnidir::projectPoints(object[i], projected, rvecs[static_cast<size_t>(b)],
+                               tvecs[static_cast<size_t>(b)], k, xi.at<double>(0), d);
+    cv::Mat rotation;
+    cv::Rodrigues(rvecs[static_cast<size_t>(b)], rotation);
+    const cv::Vec3d t(tvecs[static_cast<size_t>(b)].reshape(1, 3));
+    for (size_t j = 0; j < object[i].size(); ++j) {
+      const cv::Mat q =
+          rotation * cv::Mat(cv::Vec3d(object[i][j].x, object[i][j].y, object[i][j].z));
+      const Eigen::Vector3d p(q.at<double>(0) + t[0], q.at<double>(1) + t[1],
+                              q.at<double>(2) + t[2]);
+      const auto pixel = mei.project(p);
+      ASSERT_TRUE(pixel);
+      const Eigen::Vector2d corner(image[i][j].x, image[i][j].y);
+      worst = std::max(worst, (*pixel - Eigen::Vector2d(projected[j].x, projected[j].y)).norm());
+      ours += (*pixel - corner).squaredNorm();
+      theirs += (Eigen::Vector2d(projected[j].x, projected[j].y) - corner).squaredNorm();
+      ++corners;
+    }
+  }
+  std::printf(
+      "fisheye_localization, Mei's model from cv::omnidir::calibrate (xi %.3f): boards %d "
+      "corners %d RMSE %.3f px (omnidir %.3f px), largest difference %.2e px\n",
+      xi.at<double>(0), used.cols, corners, std::sqrt(ours / corners), std::sqrt(theirs / corners),
+      worst);
+  EXPECT_LT(worst, 1e-6);
+  EXPECT_LT(std::sqrt(ours / corners), 1.0);
+}
+
 }  // namespace
 }  // namespace lookboth

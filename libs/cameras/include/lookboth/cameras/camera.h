@@ -18,8 +18,9 @@ namespace lookboth {
 /// Every model lookboth knows, as a value type. Model objects carry the
 /// structural information a parameter vector cannot (e.g. the polynomial
 /// degrees of a Scaramuzza model); the numbers live in `Camera::params()`.
-using CameraModel = std::variant<PinholeModel, RadTanModel, RationalPolynomialModel,
-                                 KannalaBrandtModel, ScaramuzzaModel, DoubleSphereModel>;
+using CameraModel =
+    std::variant<PinholeModel, RadTanModel, RationalPolynomialModel, KannalaBrandtModel,
+                 ScaramuzzaModel, DoubleSphereModel, EucmModel, MeiModel, FovModel>;
 
 /// Name used in files and on the command line ("pinhole", "radtan", ...).
 std::string cameraModelName(const CameraModel& model);

@@ -25,9 +25,11 @@ enum class CameraFileFormat {
   kRosCameraInfo,  ///< ROS camera_info YAML (camera_calibration_parsers): plumb_bob,
                    ///< rational_polynomial, equidistant.
   kKalibr,         ///< Kalibr camchain / camera YAML (cam0, cam1...): pinhole-radtan,
-                   ///< pinhole-equi, pinhole-none, ds.
+                   ///< pinhole-equi, pinhole-fov, pinhole-none, ds, eucm, omni[-radtan].
   kOCamCalib,      ///< OCamCalib calib_results.txt (Scaramuzza).
   kOpenCV,         ///< OpenCV FileStorage YAML or XML (camera_matrix, distortion_coefficients).
+  kCamOdoCal,      ///< CamOdoCal YAML (VINS-Mono, VINS-Fusion): model_type MEI, PINHOLE,
+                   ///< KANNALA_BRANDT.
 };
 
 std::string cameraFileFormatName(CameraFileFormat format);

@@ -39,7 +39,10 @@ enum class CameraModelId {
   kRationalPolynomial,
   kKannalaBrandt,
   kScaramuzza,
-  kDoubleSphere
+  kDoubleSphere,
+  kEucm,
+  kMei,
+  kFov
 };
 
 namespace camera_models_detail {
@@ -329,6 +332,136 @@ struct DoubleSphereModel {
     const double w1 = alpha <= 0.5 ? alpha / (1.0 - alpha) : (1.0 - alpha) / alpha;
     return (w1 + xi) / std::sqrt(2.0 * w1 * xi + xi * xi + 1.0);
   }
+};
+
+/// Extended unified camera model (Khomutenko, Garcia, Martinet 2016; Kalibr's
+/// and basalt's `eucm`). Parameters: fx fy cx cy [px], alpha in [0, 1],
+/// beta > 0. With d = sqrt(beta (x^2 + y^2) + z^2), the pixel is
+/// f (x, y) / (alpha d + (1 - alpha) z) + c; valid for z > -w d, where
+/// w = alpha / (1 - alpha) for alpha <= 0.5, else (1 - alpha) / alpha.
+struct EucmModel {
+  static constexpr CameraModelId kId = CameraModelId::kEucm;
+  static constexpr const char* kName = "eucm";
+
+  int numParams() const { return 6; }
+  std::vector<std::string> paramNames() const;
+
+  /// False at the centre of projection and outside the model's valid region.
+  template <typename T>
+  bool project(const T* params, const T* p_in_camera, T* pixel) const {
+    using camera_models_detail::value;
+    using std::sqrt;
+    const T& x = p_in_camera[0];
+    const T& y = p_in_camera[1];
+    const T& z = p_in_camera[2];
+    const T& alpha = params[4];
+    const T& beta = params[5];
+    const T d2 = beta * (x * x + y * y) + z * z;
+    if (!(value(d2) > 0.0)) return false;
+    const T d = sqrt(d2);
+    if (!(value(z) > -validityW(value(alpha)) * value(d))) return false;
+    const T denominator = alpha * d + (T(1.0) - alpha) * z;
+    if (!(value(denominator) > 0.0)) return false;
+    camera_models_detail::applyIntrinsics(params, x / denominator, y / denominator, pixel);
+    return true;
+  }
+  /// Closed form; false outside the valid circle (alpha > 0.5).
+  bool unproject(const double* params, const double* pixel, double* bearing) const;
+  std::string validate(const double* params, int width, int height) const;
+  /// At most the valid region's angle minus a micro-radian.
+  double maxIncidenceAngle(const double* params, int width, int height) const;
+
+  /// w: points with z > -w d are valid.
+  static double validityW(double alpha) {
+    return alpha <= 0.5 ? alpha / (1.0 - alpha) : (1.0 - alpha) / alpha;
+  }
+};
+
+/// Mei's unified omnidirectional model with radial-tangential distortion
+/// (Mei and Rives 2007; Kalibr's `omni-radtan`, CamOdoCal's `MEI`, OpenCV's
+/// `cv::omnidir` without skew). Parameters: fx fy cx cy [px] (Kalibr's
+/// gamma1 gamma2 u0 v0), xi >= 0, k1 k2 p1 p2. The point is put on the unit
+/// sphere, projected from (0, 0, -xi) to the plane z = 1, distorted as
+/// OpenCV's radtan (k3 = 0), then scaled by f and shifted by c. Valid for
+/// z / |p| > -w, where w = xi for xi <= 1, else 1 / xi.
+struct MeiModel {
+  static constexpr CameraModelId kId = CameraModelId::kMei;
+  static constexpr const char* kName = "mei";
+
+  int numParams() const { return 9; }
+  std::vector<std::string> paramNames() const;
+
+  /// False at the centre of projection and outside the model's valid region.
+  template <typename T>
+  bool project(const T* params, const T* p_in_camera, T* pixel) const {
+    using camera_models_detail::value;
+    using std::sqrt;
+    const T& x = p_in_camera[0];
+    const T& y = p_in_camera[1];
+    const T& z = p_in_camera[2];
+    const T& xi = params[4];
+    const T n2 = x * x + y * y + z * z;
+    if (!(value(n2) > 0.0)) return false;
+    const T n = sqrt(n2);
+    if (!(value(z) > -validityW(value(xi)) * value(n))) return false;
+    const T denominator = z + xi * n;
+    if (!(value(denominator) > 0.0)) return false;
+    const T mx = x / denominator;
+    const T my = y / denominator;
+    const T k[8] = {params[5], params[6], params[7], params[8], T(0.0), T(0.0), T(0.0), T(0.0)};
+    T xd, yd;
+    camera_models_detail::distortOpenCv(k, false, mx, my, &xd, &yd);
+    camera_models_detail::applyIntrinsics(params, xd, yd, pixel);
+    return true;
+  }
+  /// Undistorts iteratively, then lifts to the sphere in closed form.
+  bool unproject(const double* params, const double* pixel, double* bearing) const;
+  std::string validate(const double* params, int width, int height) const;
+  double maxIncidenceAngle(const double* params, int width, int height) const;
+
+  /// w: points with z / |p| > -w are valid.
+  static double validityW(double xi) { return xi <= 1.0 ? xi : 1.0 / xi; }
+};
+
+/// The field-of-view model (Devernay and Faugeras 2001; Kalibr's
+/// `pinhole-fov`, PTAM's and DSO's ATAN/FOV). Parameters: fx fy cx cy [px],
+/// w [rad] in (0, pi). A point at distance r = |(x, y)| / z from the axis
+/// on the plane z = 1 is moved to r_d = atan(2 r tan(w / 2)) / w; valid in
+/// front of the camera (z > 0).
+struct FovModel {
+  static constexpr CameraModelId kId = CameraModelId::kFov;
+  static constexpr const char* kName = "fov";
+
+  int numParams() const { return 5; }
+  std::vector<std::string> paramNames() const;
+
+  /// False behind the camera or on its plane (z <= 0).
+  template <typename T>
+  bool project(const T* params, const T* p_in_camera, T* pixel) const {
+    using camera_models_detail::value;
+    using std::atan;
+    using std::sqrt;
+    using std::tan;
+    const T& z = p_in_camera[2];
+    if (!(value(z) > 0.0)) return false;
+    const T mx = p_in_camera[0] / z;
+    const T my = p_in_camera[1] / z;
+    const T& w = params[4];
+    const T r2 = mx * mx + my * my;
+    // r_d / r, and its limit 2 tan(w / 2) / w on the axis (where sqrt has no derivative).
+    const T two_tan = T(2.0) * tan(w / T(2.0));
+    T factor = two_tan / w;
+    if (value(r2) > 1e-16) {
+      const T r = sqrt(r2);
+      factor = atan(r * two_tan) / (w * r);
+    }
+    camera_models_detail::applyIntrinsics(params, mx * factor, my * factor, pixel);
+    return true;
+  }
+  /// Closed form; false beyond r_d = pi / (2 w) (the image of the plane z = 0).
+  bool unproject(const double* params, const double* pixel, double* bearing) const;
+  std::string validate(const double* params, int width, int height) const;
+  double maxIncidenceAngle(const double* params, int width, int height) const;
 };
 
 }  // namespace lookboth
