@@ -109,7 +109,8 @@ void registerRegisterCommand(CLI::App& app, const std::function<void(CommandBody
                   "A TUM file (world_from_fisheye, robot clock) instead of a dataset trajectory")
       ->check(CLI::ExistingFile);
   cmd->add_option("--config", args->config,
-                  "A YAML file whose 'register:' keys override share/lookboth/config/default.yaml")
+                  "A YAML file over share/lookboth/config/default.yaml: the keys it sets in "
+                  "'register:', 'detect:' and 'odometry:' replace the defaults")
       ->check(CLI::ExistingFile);
   cmd->add_flag("--overwrite", args->overwrite, "Replace an existing output directory");
   cmd->add_flag("--verbose", args->verbose,
