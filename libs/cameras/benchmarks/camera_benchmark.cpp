@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/ccalib/omnidir.hpp>
 #include <random>
 #include <string>
 #include <variant>
@@ -94,6 +95,14 @@ const Scene& scaramuzzaDirectOnlyScene() {
     std::vector<double> params(full.params().begin(), full.params().begin() + 5 + direct.num_poly);
     return makeScene(Camera(direct, full.width(), full.height(), params), 4);
   }();
+  return scene;
+}
+
+/// Mei's unified model at 1280x1024 (xi 1.5, a fisheye of about 190 deg).
+const Scene& meiScene() {
+  static const Scene scene = makeScene(
+      Camera(MeiModel{}, 1280, 1024, {750.0, 750.5, 639.5, 511.5, 1.5, -0.05, 0.01, 2e-4, -1e-4}),
+      5);
   return scene;
 }
 
@@ -211,6 +220,22 @@ void BM_KannalaBrandtUnproject_OpenCV(benchmark::State& state) {
   state.counters["max_err_px"] = maxErrorOfNormalized(scene, normalized);
 }
 
+void BM_MeiProject_Lookboth(benchmark::State& state) { projectLookboth(state, meiScene()); }
+
+void BM_MeiProject_OpenCV(benchmark::State& state) {
+  const Scene& scene = meiScene();
+  const std::vector<double>& p = scene.camera.params();
+  std::vector<cv::Point2d> pixels;
+  for (auto _ : state) {
+    cv::omnidir::projectPoints(scene.cv_points, pixels, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0),
+                               scene.camera_matrix, p[4], cv::Vec4d(p[5], p[6], p[7], p[8]));
+    benchmark::DoNotOptimize(pixels.data());
+  }
+  setRate(state);
+}
+
+void BM_MeiUnproject_Lookboth(benchmark::State& state) { unprojectLookboth(state, meiScene()); }
+
 BENCHMARK(BM_RadTanProject_Lookboth);
 BENCHMARK(BM_RadTanProject_OpenCV);
 BENCHMARK(BM_KannalaBrandtProject_Lookboth);
@@ -221,6 +246,9 @@ BENCHMARK(BM_RadTanUnproject_Lookboth);
 BENCHMARK(BM_RadTanUnproject_OpenCV);
 BENCHMARK(BM_KannalaBrandtUnproject_Lookboth);
 BENCHMARK(BM_KannalaBrandtUnproject_OpenCV);
+BENCHMARK(BM_MeiProject_Lookboth);
+BENCHMARK(BM_MeiProject_OpenCV);
+BENCHMARK(BM_MeiUnproject_Lookboth);
 
 }  // namespace
 }  // namespace lookboth
