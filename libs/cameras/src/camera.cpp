@@ -41,6 +41,15 @@ void normalize3(double* v) {
   v[2] /= n;
 }
 
+/// Scales `v` to unit length; false (and `v` left as it is) when it has no
+/// direction: a zero, infinite or NaN length.
+bool normalizeDirection(double* v) {
+  const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  if (!(n > 0.0) || !std::isfinite(n)) return false;
+  normalize3(v);
+  return true;
+}
+
 /// Points on the border of the image area (pixel edges, not centres):
 /// the corners and evenly spaced points along each side.
 std::vector<Eigen::Vector2d> borderPixels(int width, int height) {
@@ -470,11 +479,7 @@ bool DoubleSphereModel::unproject(const double* params, const double* pixel,
   bearing[0] = scale * mx;
   bearing[1] = scale * my;
   bearing[2] = scale * mz - xi;
-  const double n =
-      std::sqrt(bearing[0] * bearing[0] + bearing[1] * bearing[1] + bearing[2] * bearing[2]);
-  if (!(n > 0.0) || !std::isfinite(n)) return false;
-  normalize3(bearing);
-  return true;
+  return normalizeDirection(bearing);
 }
 
 std::string DoubleSphereModel::validate(const double* params, int width, int height) const {
@@ -509,10 +514,7 @@ bool EucmModel::unproject(const double* params, const double* pixel, double* bea
   bearing[0] = mx;
   bearing[1] = my;
   bearing[2] = mz;
-  const double n = std::sqrt(mx * mx + my * my + mz * mz);
-  if (!(n > 0.0) || !std::isfinite(n)) return false;
-  normalize3(bearing);
-  return true;
+  return normalizeDirection(bearing);
 }
 
 std::string EucmModel::validate(const double* params, int width, int height) const {
@@ -557,11 +559,7 @@ bool MeiModel::unproject(const double* params, const double* pixel, double* bear
   bearing[0] = lambda * mx;
   bearing[1] = lambda * my;
   bearing[2] = lambda - xi;
-  const double n =
-      std::sqrt(bearing[0] * bearing[0] + bearing[1] * bearing[1] + bearing[2] * bearing[2]);
-  if (!(n > 0.0) || !std::isfinite(n)) return false;
-  normalize3(bearing);
-  return true;
+  return normalizeDirection(bearing);
 }
 
 std::string MeiModel::validate(const double* params, int width, int height) const {
@@ -703,9 +701,7 @@ bool ScaramuzzaModel::unproject(const double* params, const double* pixel, doubl
   bearing[0] = yo;
   bearing[1] = xo;
   bearing[2] = -zo;
-  const double n = std::sqrt(yo * yo + xo * xo + zo * zo);
-  if (!(n > 0.0) || !std::isfinite(n)) return false;
-  normalize3(bearing);
+  if (!normalizeDirection(bearing)) return false;
   if (rho > 0.0) {
     // Beyond a fold of the polynomial the ray projects to another pixel.
     double mu = 0.0;
