@@ -644,8 +644,9 @@ void MainFrame::runStep(int step, Then then) {
   }
   // A new controller for detection and for the first registration stage
   // (with the settings as they are then): it skips what the dataset has.
+  const FullPipelineOptions options = pipelineOptions();
   if (step == 0 || step == studio::PipelineSteps::kPreparationSteps || !step_runner_)
-    step_runner_ = std::make_shared<studio::StepRunner>(pipelineOptions());
+    step_runner_ = std::make_shared<studio::StepRunner>(options);
   auto result = std::make_shared<studio::StepResult>();
   const std::string name = steps_[static_cast<size_t>(step)].name;
   studio::JobRunner::Job job = [runner = step_runner_, step, name,
@@ -653,7 +654,7 @@ void MainFrame::runStep(int step, Then then) {
     *result = runner->run(step, name, progress);
   };
   running_step_ = step;
-  const fs::path out = pipelineOptions().out;
+  const fs::path out = options.out;
   const bool started =
       startJob(studio::stepTitle(name), std::move(job), [this, step, result, out, then] {
         if (result->index) datasetLoaded(result->index);
