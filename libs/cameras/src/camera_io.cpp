@@ -561,6 +561,10 @@ Camera loadKalibrCamera(const YAML::Node& node, const std::string& name, const s
                                                 std::to_string(got));
     }
   };
+  auto refuseCombination = [&] {
+    throw Error(at(file, lineOf(distortion_node), name + ".distortion_model"),
+                "camera model " + excerpt(combination) + " is not supported (" + supported + ")");
+  };
   CameraModel model = PinholeModel{};
   std::vector<double> params;
   if (camera_model == "pinhole") {
@@ -583,36 +587,21 @@ Camera loadKalibrCamera(const YAML::Node& node, const std::string& name, const s
       expectCount(coeffs_node, "distortion_coeffs", coeffs.size(), 0, "(no distortion)");
       model = PinholeModel{};
     } else {
-      throw Error(at(file, lineOf(distortion_node), name + ".distortion_model"),
-                  "camera model " + excerpt(combination) + " is not supported (" + supported + ")");
+      refuseCombination();
     }
-  } else if (camera_model == "ds") {
-    if (distortion != "none") {
-      throw Error(at(file, lineOf(distortion_node), name + ".distortion_model"),
-                  "camera model " + excerpt(combination) + " is not supported (" + supported + ")");
-    }
-    expectCount(intrinsics_node, "intrinsics", intrinsics.size(), 6, "[xi alpha fu fv pu pv]");
+  } else if (camera_model == "ds" || camera_model == "eucm") {
+    // Two shape parameters first in Kalibr ([xi alpha] / [alpha beta] fu fv pu pv), last in
+    // lookboth.
+    const bool ds = camera_model == "ds";
+    if (distortion != "none") refuseCombination();
+    expectCount(intrinsics_node, "intrinsics", intrinsics.size(), 6,
+                ds ? "[xi alpha fu fv pu pv]" : "[alpha beta fu fv pu pv]");
     expectCount(coeffs_node, "distortion_coeffs", coeffs.size(), 0, "(no distortion)");
-    model = DoubleSphereModel{};
-    // lookboth order: fx fy cx cy xi alpha.
-    params = {intrinsics[2], intrinsics[3], intrinsics[4],
-              intrinsics[5], intrinsics[0], intrinsics[1]};
-  } else if (camera_model == "eucm") {
-    if (distortion != "none") {
-      throw Error(at(file, lineOf(distortion_node), name + ".distortion_model"),
-                  "camera model " + excerpt(combination) + " is not supported (" + supported + ")");
-    }
-    expectCount(intrinsics_node, "intrinsics", intrinsics.size(), 6, "[alpha beta fu fv pu pv]");
-    expectCount(coeffs_node, "distortion_coeffs", coeffs.size(), 0, "(no distortion)");
-    model = EucmModel{};
-    // lookboth order: fx fy cx cy alpha beta.
+    model = ds ? CameraModel{DoubleSphereModel{}} : CameraModel{EucmModel{}};
     params = {intrinsics[2], intrinsics[3], intrinsics[4],
               intrinsics[5], intrinsics[0], intrinsics[1]};
   } else if (camera_model == "omni") {
-    if (distortion != "radtan" && distortion != "none") {
-      throw Error(at(file, lineOf(distortion_node), name + ".distortion_model"),
-                  "camera model " + excerpt(combination) + " is not supported (" + supported + ")");
-    }
+    if (distortion != "radtan" && distortion != "none") refuseCombination();
     expectCount(intrinsics_node, "intrinsics", intrinsics.size(), 5, "[xi fu fv pu pv]");
     if (distortion == "radtan")
       expectCount(coeffs_node, "distortion_coeffs", coeffs.size(), 4, "[k1 k2 p1 p2]");
