@@ -18,6 +18,7 @@ PACKAGES=(
   libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev libstd-msgs-dev
   chromium xvfb xauth
   python3 python3-yaml  # scripts/*.py (benchmark helpers)
+  colmap liburdfdom-tools python3-jsonschema  # exports read by their consumers (tests/export)
   clang libclang-rt-14-dev llvm  # sanitizer build and libFuzzer targets (scripts/fuzz.sh)
 )
 

@@ -23,10 +23,13 @@
 
 #include "camera_table.h"
 #include "image_view.h"
+#include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
 #include "lookboth/core/version.h"
 #include "lookboth/dataset/rosbag_import.h"
+#include "lookboth/export/export.h"
+#include "lookboth/registration/site_frame.h"
 #include "lookboth/report/report.h"
 #include "lookboth/report/snapshot.h"
 #include "lookboth/sim/scenario.h"
@@ -61,6 +64,10 @@ enum MenuId {
   kIdRunNext,
   kIdExportReport,
   kIdExportRegistration,
+  kIdExportFormatFirst,  // one per export format, then "all"
+  kIdExportFormatLast = kIdExportFormatFirst + 8,
+  kIdAlignFloor,
+  kIdAlignControlPoints,
   kIdViewShotFirst,  // one per view: scene, fisheye, camera, table
   kIdViewShotLast = kIdViewShotFirst + 3,
   kIdCycleOverlay,
@@ -217,6 +224,23 @@ wxMenu* MainFrame::buildFileMenu() {
                "Write the HTML report of the finished registration (one file to hand over)");
   file->Append(kIdExportRegistration, "Export re&gistration...\tCtrl+Shift+E",
                "Write the registration files (cameras.csv, registration.yaml...) into a folder");
+  auto* formats = new wxMenu;
+  const char* format_titles[] = {
+      "&COLMAP text model...", "&JSON...", "&OpenCV YAML, one file per camera...",
+      "&ROS 2: URDF, static transforms, camera_info...", "&MRPT pose graph..."};
+  const std::vector<ExportFormat> all_formats = allExportFormats();
+  for (std::size_t i = 0; i < all_formats.size(); ++i) {
+    formats->Append(kIdExportFormatFirst + static_cast<int>(i), format_titles[i]);
+  }
+  formats->Append(kIdExportFormatFirst + static_cast<int>(all_formats.size()),
+                  "&All formats, a folder each...");
+  file->AppendSubMenu(formats, "Export for &other systems");
+  auto* site = new wxMenu;
+  site->Append(kIdAlignFloor, "In the &floor frame...",
+               "Write the registration with z normal to the floor the robot drove on");
+  site->Append(kIdAlignControlPoints, "In the &site frame (control points)...",
+               "Write the registration in the frame of surveyed camera positions (CSV)");
+  file->AppendSubMenu(site, "Site &frame");
   file->AppendSeparator();
   file->Append(kIdScreenshot, "Save &screenshot of the window...\tCtrl+Shift+S",
                "Save a PNG of the window");
@@ -319,6 +343,13 @@ void MainFrame::bindMenus() {
   on(kIdRunNext, [this] { runNext(); });
   on(kIdExportReport, [this] { chooseAndExportReport(); });
   on(kIdExportRegistration, [this] { chooseAndExportRegistration(); });
+  const std::vector<ExportFormat> formats = allExportFormats();
+  for (std::size_t i = 0; i <= formats.size(); ++i) {
+    const std::string name = i < formats.size() ? exportFormatName(formats[i]) : "all";
+    on(kIdExportFormatFirst + static_cast<int>(i), [this, name] { chooseAndExportFormats(name); });
+  }
+  on(kIdAlignFloor, [this] { chooseAndAlign(true); });
+  on(kIdAlignControlPoints, [this] { chooseAndAlign(false); });
   on(kIdCycleOverlay, [this] { views_->cycleOverlay(); });
   on(kIdLoadCalibration, [this] { chooseAndLoadCalibration(); });
   on(kIdCancel, [this] { cancelJob(); });
@@ -577,6 +608,11 @@ void MainFrame::refreshSteps() {
   pipeline_menu_->Enable(kIdRunNext, ready && next >= 0);
   GetMenuBar()->Enable(kIdExportReport, idle && !registration_dir_.empty());
   GetMenuBar()->Enable(kIdExportRegistration, idle && registration_ != nullptr);
+  for (int id = kIdExportFormatFirst; id <= kIdExportFormatFirst + 5; ++id) {
+    GetMenuBar()->Enable(id, idle && registration_ != nullptr);
+  }
+  GetMenuBar()->Enable(kIdAlignFloor, idle && registration_ != nullptr);
+  GetMenuBar()->Enable(kIdAlignControlPoints, idle && registration_ != nullptr);
 }
 
 void MainFrame::validateSettings() {
@@ -756,6 +792,86 @@ void MainFrame::chooseAndExportRegistration() {
   if (!registration_) return;
   wxDirDialog dialog(this, "Folder to write the registration into (created or replaced)");
   if (dialog.ShowModal() == wxID_OK) exportRegistration(dialog.GetPath().ToStdString());
+}
+
+void MainFrame::exportFormats(const std::string& formats, const std::string& dir) {
+  if (!registration_ || !index_) {
+    fail("no registration to export yet: run the stages first", "Nothing exported");
+    return;
+  }
+  try {
+    std::vector<ExportFormat> chosen;
+    if (formats == "all") chosen = allExportFormats();
+    for (std::size_t start = 0; formats != "all" && start <= formats.size();) {
+      const std::size_t comma = std::min(formats.find(',', start), formats.size());
+      const std::string name = formats.substr(start, comma - start);
+      const std::optional<ExportFormat> format = parseExportFormat(name);
+      if (!format) throw Error("unknown export format '" + name + "'");
+      chosen.push_back(*format);
+      start = comma + 1;
+    }
+    std::map<std::string, Camera> intrinsics;
+    for (const CameraSensor& sensor : index_->manifest().cameras) {
+      if (sensor.camera) intrinsics.emplace(sensor.label, *sensor.camera);
+    }
+    for (const std::string& line :
+         exportRegistrationFormats(*registration_, intrinsics, dir, chosen, ExportOptions{})) {
+      log(wxString::FromUTF8(line));
+    }
+    log("Exported to " + wxString::FromUTF8(dir));
+  } catch (const std::exception& e) {
+    fail(wxString::FromUTF8(e.what()), "Not exported");
+  }
+}
+
+void MainFrame::chooseAndExportFormats(const std::string& formats) {
+  if (!registration_) return;
+  wxDirDialog dialog(this, "Folder to export into (created or replaced)");
+  if (dialog.ShowModal() == wxID_OK) exportFormats(formats, dialog.GetPath().ToStdString());
+}
+
+void MainFrame::writeAligned(const AlignedRegistration& aligned, const std::string& dir) {
+  for (const std::string& line : aligned.summary) log(wxString::FromUTF8(line));
+  writeDirectoryAtomically(dir, [&](const std::filesystem::path& folder) {
+    saveRegistration(aligned.registration, folder);
+  });
+  log("Registration in the " + wxString::FromUTF8(aligned.registration.world_frame.name) +
+      " frame written to " + wxString::FromUTF8(dir));
+}
+
+void MainFrame::alignToFloor(const std::string& dir) {
+  if (!registration_) {
+    fail("no registration yet: run the stages first", "Not aligned");
+    return;
+  }
+  try {
+    writeAligned(alignRegistrationToFloor(*registration_), dir);
+  } catch (const std::exception& e) {
+    fail(wxString::FromUTF8(e.what()), "Not aligned");
+  }
+}
+
+void MainFrame::chooseAndAlign(bool floor) {
+  if (!registration_) return;
+  std::string points;
+  if (!floor) {
+    wxFileDialog open(this, "Control points (CSV name,x,y,z,sigma_m)", "", "",
+                      "CSV files (*.csv)|*.csv|All files|*", wxFD_OPEN | wxFD_FILE_MUST_EXIST);
+    if (open.ShowModal() != wxID_OK) return;
+    points = open.GetPath().ToStdString();
+  }
+  wxDirDialog dialog(this, "Folder to write the aligned registration into (created or replaced)");
+  if (dialog.ShowModal() != wxID_OK) return;
+  const std::string dir = dialog.GetPath().ToStdString();
+  if (floor) {
+    alignToFloor(dir);
+    return;
+  }
+  try {
+    writeAligned(alignRegistrationToControlPoints(*registration_, points), dir);
+  } catch (const std::exception& e) {
+    fail(wxString::FromUTF8(e.what()), "Not aligned");
+  }
 }
 
 void MainFrame::exportReport(const std::string& path, Then then) {

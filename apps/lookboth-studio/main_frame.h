@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "lookboth/pipeline/full_pipeline.h"
+#include "lookboth/registration/site_frame.h"
 #include "lookboth/studio/dataset_index.h"
 #include "lookboth/studio/job_runner.h"
 #include "lookboth/studio/pipeline_steps.h"
@@ -103,6 +104,8 @@ class MainFrame : public wxFrame, private studio::ScriptedStartup::Target {
   void exportReport(const std::string& path, Then then);
   void chooseAndExportReport();
   void chooseAndExportRegistration();
+  void chooseAndExportFormats(const std::string& formats);
+  void chooseAndAlign(bool floor);
   void saveScreenshot(const std::string& path);
   void chooseAndSaveScreenshot();
   void saveViewScreenshot(int view);
@@ -120,6 +123,9 @@ class MainFrame : public wxFrame, private studio::ScriptedStartup::Target {
   void error(const std::string& message) override;
   void show(int overlay_mode, const std::string& camera, int frame) override;
   void exportRegistration(const std::string& dir) override;
+  void alignToFloor(const std::string& dir) override;
+  void exportFormats(const std::string& formats, const std::string& dir) override;
+  void writeAligned(const AlignedRegistration& aligned, const std::string& dir);
   void exportReport(const std::string& path) override;
   void finish(const std::string& screenshot, bool exit) override;
 

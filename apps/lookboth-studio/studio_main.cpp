@@ -1,7 +1,8 @@
 // lookboth-studio: the desktop app for calibration technicians. Usage:
 //   lookboth-studio [dataset] [--simulate small] [--run-all | --run-until look_down]
 //                   [--select cam03] [--frame N] [--overlay before|after|both]
-//                   [--export-registration dir] [--export-report report.html]
+//                   [--export-registration dir] [--align-floor dir]
+//                   [--export-formats colmap,ros=dir] [--export-report report.html]
 //                   [--screenshot out.png] [--exit]
 // The options let tests and demos drive the same code paths a click uses.
 #include <wx/app.h>
@@ -67,6 +68,11 @@ class StudioApp : public wxApp {
                      wxCMD_LINE_VAL_STRING, wxCMD_LINE_PARAM_MULTIPLE);
     parser.AddOption("", "overlay", "fisheye overlay: both (default), before or after");
     parser.AddOption("", "export-registration", "write the registration files into this folder");
+    parser.AddOption("", "align-floor",
+                     "write the registration in its floor frame into this folder");
+    parser.AddOption("", "export-formats",
+                     "FORMATS=DIR: export for other systems (colmap, json, opencv, ros, mrpt, "
+                     "all) into this folder");
     parser.AddOption("", "export-report",
                      "write the HTML report (a .html file, or report.html in this folder)");
     parser.AddOption("", "screenshot", "save a PNG of the main window when done");
@@ -104,6 +110,13 @@ class StudioApp : public wxApp {
     }
     if (parser.Found("export-registration", &text))
       actions_.export_registration = text.ToStdString();
+    if (parser.Found("align-floor", &text)) actions_.align_floor = text.ToStdString();
+    if (parser.Found("export-formats", &text)) {
+      const std::string value = text.ToStdString();
+      const auto equals = value.find('=');
+      actions_.export_formats = value.substr(0, equals);
+      actions_.export_formats_dir = equals == std::string::npos ? "" : value.substr(equals + 1);
+    }
     if (parser.Found("export-report", &text)) actions_.export_report = text.ToStdString();
     if (parser.Found("trajectory", &text)) {
       actions_.trajectory = text.ToStdString();

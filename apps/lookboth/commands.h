@@ -26,6 +26,8 @@ void registerOdometryCommand(CLI::App& app, const std::function<void(CommandBody
 void registerEvaluateCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerSnapshotCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerReportCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
+void registerAlignCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
+void registerExportCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 
 /// "cannot write 'path': No space left on device" for a failed file operation.
 std::string describeFilesystemError(const std::filesystem::filesystem_error& e);

@@ -32,6 +32,8 @@ int main(int argc, char** argv) {
   lookboth::app::registerEvaluateCommand(app, set_body);
   lookboth::app::registerSnapshotCommand(app, set_body);
   lookboth::app::registerReportCommand(app, set_body);
+  lookboth::app::registerAlignCommand(app, set_body);
+  lookboth::app::registerExportCommand(app, set_body);
 
   try {
     app.parse(argc, argv);

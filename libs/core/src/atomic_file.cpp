@@ -65,6 +65,34 @@ void AtomicOutputFile::commit() {
   }
 }
 
+void writeDirectoryAtomically(const std::filesystem::path& destination,
+                              const std::function<void(const std::filesystem::path&)>& fill) {
+  namespace fs = std::filesystem;
+  const fs::path target = fs::absolute(destination).lexically_normal();
+  const fs::path parent = target.parent_path();
+  const std::string stem = target.filename().string();
+  removeStaleTemporaries(parent);
+  const fs::path temporary = parent / ("." + stem + ".tmp-" + std::to_string(::getpid()));
+  fs::remove_all(temporary);
+  try {
+    fs::create_directories(temporary);
+    fill(temporary);
+    if (fs::exists(target)) {
+      const fs::path old = parent / ("." + stem + ".old-" + std::to_string(::getpid()));
+      fs::remove_all(old);
+      fs::rename(target, old);
+      fs::rename(temporary, target);
+      fs::remove_all(old);
+    } else {
+      fs::rename(temporary, target);
+    }
+  } catch (...) {
+    std::error_code ec;
+    fs::remove_all(temporary, ec);
+    throw;
+  }
+}
+
 void writeFileAtomically(const std::filesystem::path& destination, const std::string& contents) {
   AtomicOutputFile out(destination, /*binary=*/true);
   out.stream() << contents;

@@ -327,30 +327,10 @@ void checkRegistrationOutput(const fs::path& dir, bool overwrite,
 
 void writeRegistrationOutput(const RegistrationRun& run, const fs::path& dir, bool overwrite) {
   checkRegistrationOutput(dir, overwrite);
-  const fs::path target = fs::absolute(dir).lexically_normal();
-  const fs::path parent = target.parent_path();
-  const std::string stem = target.filename().string();
-  removeStaleTemporaries(parent);
-  const fs::path temporary = parent / ("." + stem + ".tmp-" + std::to_string(::getpid()));
-  fs::remove_all(temporary);
-  try {
-    fs::create_directories(temporary);
+  writeDirectoryAtomically(dir, [&](const fs::path& temporary) {
     saveRegistration(run.registration, temporary);
     writeRegistrationScene(run, temporary / "scene.3Dscene");
-    if (fs::exists(target)) {
-      const fs::path old = parent / ("." + stem + ".old-" + std::to_string(::getpid()));
-      fs::remove_all(old);
-      fs::rename(target, old);
-      fs::rename(temporary, target);
-      fs::remove_all(old);
-    } else {
-      fs::rename(temporary, target);
-    }
-  } catch (...) {
-    std::error_code ec;
-    fs::remove_all(temporary, ec);
-    throw;
-  }
+  });
 }
 
 }  // namespace lookboth

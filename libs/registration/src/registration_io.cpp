@@ -355,6 +355,16 @@ std::string registrationToYaml(const Registration& reg) {
   out << YAML::Key << "scale_sigma" << YAML::Value << formatDouble(reg.scale_sigma);
   out << YAML::EndMap;
 
+  out << YAML::Key << "world_frame" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "name" << YAML::Value << reg.world_frame.name;
+  out << YAML::Key << "description" << YAML::Value << YAML::DoubleQuoted
+      << reg.world_frame.description;
+  if (reg.world_frame.from_registration) {
+    out << YAML::Key << "from_registration" << YAML::Value;
+    emitPose(out, *reg.world_frame.from_registration);
+  }
+  out << YAML::EndMap;
+
   out << YAML::Key << "fisheye_from_marker" << YAML::Value << YAML::BeginMap;
   {
     const Eigen::Quaterniond q = reg.fisheye_from_marker.rotation.normalized();
@@ -532,11 +542,11 @@ Registration loadRegistration(const std::filesystem::path& dir) {
   const Reader r(yaml_path.string());
   const YAML::Node root = r.parse(readFile(yaml_path));
   if (!root.IsMap()) throw Error({yaml_path.string(), 0, "", ""}, "expected a YAML mapping");
-  r.rejectUnknownKeys(
-      root,
-      {"format", "dataset", "created", "versions", "pipeline", "trajectory", "fisheye_from_marker",
-       "cameras", "reprojection", "observability", "warnings", "notes", "statistics", "config"},
-      "");
+  r.rejectUnknownKeys(root,
+                      {"format", "dataset", "created", "versions", "pipeline", "trajectory",
+                       "world_frame", "fisheye_from_marker", "cameras", "reprojection",
+                       "observability", "warnings", "notes", "statistics", "config"},
+                      "");
   const std::string format = r.text(r.require(root, "format", "format"), "format");
   if (format != kFormat) {
     throw Error(r.at(root["format"], "format"),
@@ -567,6 +577,18 @@ Registration loadRegistration(const std::filesystem::path& dir) {
     if (t["label"]) reg.trajectory_label = r.text(t["label"], "trajectory.label");
     reg.scale = r.number(r.require(t, "scale", "trajectory.scale"), "trajectory.scale");
     if (t["scale_sigma"]) reg.scale_sigma = r.number(t["scale_sigma"], "trajectory.scale_sigma");
+  }
+
+  if (const YAML::Node w = root["world_frame"]; w) {
+    r.rejectUnknownKeys(w, {"name", "description", "from_registration"}, "world_frame");
+    reg.world_frame.name = r.text(r.require(w, "name", "world_frame.name"), "world_frame.name");
+    if (w["description"]) {
+      reg.world_frame.description = r.text(w["description"], "world_frame.description");
+    }
+    if (w["from_registration"]) {
+      reg.world_frame.from_registration =
+          r.pose(w["from_registration"], "world_frame.from_registration");
+    }
   }
 
   {

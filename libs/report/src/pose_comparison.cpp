@@ -132,20 +132,6 @@ CameraPoseSet loadGroundTruthPoses(const fs::path& path) {
   return set;
 }
 
-Eigen::Vector3d rollPitchYaw(const Eigen::Matrix3d& r) {
-  // R = Rz(yaw) Ry(pitch) Rx(roll): r20 = -sin(pitch).
-  const double pitch = std::asin(std::clamp(-r(2, 0), -1.0, 1.0));
-  double roll, yaw;
-  if (std::abs(r(2, 0)) < 1.0 - 1e-12) {
-    roll = std::atan2(r(2, 1), r(2, 2));
-    yaw = std::atan2(r(1, 0), r(0, 0));
-  } else {  // Gimbal lock: only roll -+ yaw is determined; put it all in yaw.
-    roll = 0.0;
-    yaw = std::atan2(-r(0, 1), r(1, 1));
-  }
-  return Eigen::Vector3d(roll, pitch, yaw);
-}
-
 namespace {
 
 /// PoseComparison::position_nees_per_dof of a comparison whose alignment and

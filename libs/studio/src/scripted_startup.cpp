@@ -80,6 +80,10 @@ bool ScriptedStartup::showStep() {
   target_.show(overlayMode(actions_.overlay), actions_.select, actions_.frame);
   if (!actions_.export_registration.empty())
     target_.exportRegistration(actions_.export_registration);
+  if (!actions_.align_floor.empty()) target_.alignToFloor(actions_.align_floor);
+  if (!actions_.export_formats.empty()) {
+    target_.exportFormats(actions_.export_formats, actions_.export_formats_dir);
+  }
   if (actions_.export_report.empty()) return false;
   target_.exportReport(actions_.export_report);
   return true;

@@ -45,6 +45,10 @@ class RecordingTarget : public ScriptedStartup::Target {
                     std::to_string(frame));
   }
   void exportRegistration(const std::string& d) override { calls.push_back("registration " + d); }
+  void alignToFloor(const std::string& d) override { calls.push_back("floor " + d); }
+  void exportFormats(const std::string& f, const std::string& d) override {
+    calls.push_back("export " + f + " " + d);
+  }
   void exportReport(const std::string& p) override { start("report " + p); }
   void finish(const std::string& shot, bool exit) override {
     calls.push_back("finish '" + shot + "'" + (exit ? " exit" : ""));
@@ -80,14 +84,18 @@ TEST(ScriptedStartup, EveryActionInOrderEachAfterTheOneBefore) {
   a.select = "cam03";
   a.frame = 12;
   a.export_registration = "reg";
+  a.align_floor = "reg_floor";
+  a.export_formats = "colmap,ros";
+  a.export_formats_dir = "exports";
   a.export_report = "r.html";
   a.screenshot = "s.png";
   a.exit = true;
   RecordingTarget target;
   const std::vector<std::string> expected = {
-      "simulate small", "calibration cam00=a.yaml", "calibration cam01=b.yaml",
-      "run through 2",  "show 1 'cam03' 12",        "registration reg",
-      "report r.html",  "finish 's.png' exit"};
+      "simulate small",     "calibration cam00=a.yaml",  "calibration cam01=b.yaml",
+      "run through 2",      "show 1 'cam03' 12",         "registration reg",
+      "floor reg_floor",    "export colmap,ros exports", "report r.html",
+      "finish 's.png' exit"};
   EXPECT_EQ(runScript(a, target), expected);
 }
 

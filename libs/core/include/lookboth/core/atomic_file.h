@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <string>
 
 namespace lookboth {
@@ -40,6 +41,14 @@ class AtomicOutputFile {
 
 /// Writes `contents` to `destination` atomically (see AtomicOutputFile).
 void writeFileAtomically(const std::filesystem::path& destination, const std::string& contents);
+
+/// Writes a folder atomically: `fill` writes its files into a temporary
+/// folder beside `destination` (".<name>.tmp-<pid>"), which is then renamed
+/// onto `destination`, replacing an existing one (kept as ".<name>.old-<pid>"
+/// until the rename is done). On an exception the temporary is removed and
+/// `destination` is left as it was. The caller checks `--overwrite`.
+void writeDirectoryAtomically(const std::filesystem::path& destination,
+                              const std::function<void(const std::filesystem::path&)>& fill);
 
 /// Reads a whole file. Throws lookboth::Error naming the file if it cannot be read.
 std::string readFile(const std::filesystem::path& path);

@@ -18,6 +18,8 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
 
 namespace lookboth {
 
@@ -72,6 +74,16 @@ inline Rigid3d rigid3FromMatrix(const Eigen::Matrix4d& a_from_b) {
   Eigen::Quaterniond q(Eigen::Matrix3d(a_from_b.topLeftCorner<3, 3>()));
   q.normalize();
   return Rigid3d(q, a_from_b.topRightCorner<3, 1>());
+}
+
+/// ZYX Euler angles (roll about x, pitch about y, yaw about z) of R =
+/// Rz(yaw) Ry(pitch) Rx(roll) [rad], each in (-pi, pi], pitch in [-pi/2, pi/2]
+/// (URDF's fixed-axis rpy). At pitch +-pi/2 only roll -+ yaw is determined:
+/// all of it goes to yaw.
+inline Eigen::Vector3d rollPitchYaw(const Eigen::Matrix3d& r) {
+  const double pitch = std::asin(std::clamp(-r(2, 0), -1.0, 1.0));
+  if (std::abs(r(2, 0)) >= 1.0 - 1e-12) return {0.0, pitch, std::atan2(-r(0, 1), r(1, 1))};
+  return {std::atan2(r(2, 1), r(2, 2)), pitch, std::atan2(r(1, 0), r(0, 0))};
 }
 
 }  // namespace lookboth

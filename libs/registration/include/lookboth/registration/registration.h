@@ -139,6 +139,16 @@ struct RegistrationStatistics {
   std::map<std::string, double> seconds_per_stage;  ///< Wall time [s] by stage name.
 };
 
+/// Which frame a registration's poses are in (registration.yaml `world_frame`).
+struct WorldFrame {
+  /// "registration": the first fisheye pose of the trajectory, as `register`
+  /// writes it; "floor" or "site" once `lookboth align` re-expressed it.
+  std::string name = "registration";
+  std::string description = "the first fisheye pose of the trajectory";
+  /// This frame from the registration's own, when re-expressed.
+  std::optional<Rigid3d> from_registration;
+};
+
 struct Registration {
   std::string dataset;                          ///< Absolute path of the dataset registered.
   std::string created;                          ///< UTC, ISO 8601 ("2026-11-22T12:00:00Z").
@@ -147,6 +157,7 @@ struct Registration {
 
   TrajectoryMode trajectory_mode = TrajectoryMode::kVisual;
   std::string trajectory_label;  ///< The dataset trajectory used ("vo", "odometry", a file...).
+  WorldFrame world_frame;        ///< Which frame every pose below is in.
   double scale = 1;              ///< Metric scale s of the trajectory (1 in metric mode).
   double scale_sigma = 0;        ///< Its standard deviation (0 when fixed).
 

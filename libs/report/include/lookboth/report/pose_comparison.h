@@ -148,10 +148,6 @@ struct ReprojectionTable {
 
 ReprojectionTable reprojectionTable(const std::vector<ReprojectionRow>& rows);
 
-/// ZYX Euler angles (roll about x, pitch about y, yaw about z) of R =
-/// Rz(yaw) Ry(pitch) Rx(roll) [rad], each in (-pi, pi], pitch in [-pi/2, pi/2].
-Eigen::Vector3d rollPitchYaw(const Eigen::Matrix3d& rotation);
-
 /// `lookboth evaluate`'s output: any of the three parts may be absent.
 struct Evaluation {
   std::string registration;  ///< The registration directory evaluated.

@@ -31,8 +31,13 @@ struct StartupActions {
   std::string overlay;        ///< Fisheye overlay: "both" (default), "before" or "after".
   std::string export_report;  ///< Write the HTML report here (.html file or folder).
   std::string export_registration;  ///< Write the registration files into this folder.
-  std::string screenshot;           ///< Save a screenshot of the window here when done.
-  bool exit = false;                ///< Quit when done (exit status 1 if a job failed).
+  /// Write the registration re-expressed in its floor frame into this folder.
+  std::string align_floor;
+  /// Export for other systems: formats ("colmap,ros", "all") and the folder.
+  std::string export_formats;
+  std::string export_formats_dir;
+  std::string screenshot;  ///< Save a screenshot of the window here when done.
+  bool exit = false;       ///< Quit when done (exit status 1 if a job failed).
   /// Receives the exit status (0, or 1 when a job failed) when the window closes.
   std::function<void(int)> on_close;
 };
@@ -63,6 +68,8 @@ class ScriptedStartup {
     /// The views: overlay mode, camera to select ("" none), frame (-1 automatic).
     virtual void show(int overlay_mode, const std::string& camera, int frame) = 0;
     virtual void exportRegistration(const std::string& dir) = 0;
+    virtual void alignToFloor(const std::string& dir) = 0;
+    virtual void exportFormats(const std::string& formats, const std::string& dir) = 0;
     virtual void exportReport(const std::string& path) = 0;  ///< Async.
     /// The last action: a screenshot ("" none), then quit when `exit`.
     virtual void finish(const std::string& screenshot, bool exit) = 0;

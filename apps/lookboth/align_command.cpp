@@ -1,0 +1,62 @@
+// `lookboth align`: a registration re-expressed in the floor's frame or in
+// the site's (surveyed control points); doc/formats.md, "Site frame".
+#include <iostream>
+
+#include "commands.h"
+#include "lookboth/core/atomic_file.h"
+#include "lookboth/core/error.h"
+#include "lookboth/core/output_path.h"
+#include "lookboth/registration/registration.h"
+#include "lookboth/registration/site_frame.h"
+
+namespace lookboth::app {
+namespace {
+
+struct AlignArgs {
+  std::string registration;
+  std::string control_points;
+  bool floor = false;
+  std::string out;
+  bool overwrite = false;
+};
+
+int runAlign(const AlignArgs& args) {
+  if (args.floor == !args.control_points.empty()) {
+    throw Error("align: give either --floor or --control-points");
+  }
+  std::vector<std::filesystem::path> inputs = {args.registration};
+  if (!args.control_points.empty()) inputs.emplace_back(args.control_points);
+  checkOutputPath(args.out, inputs, args.overwrite);
+  const Registration reg = loadRegistration(args.registration);
+  const AlignedRegistration aligned =
+      args.floor ? alignRegistrationToFloor(reg)
+                 : alignRegistrationToControlPoints(reg, args.control_points);
+  for (const std::string& line : aligned.summary) std::cout << line << "\n";
+  writeDirectoryAtomically(args.out, [&](const std::filesystem::path& dir) {
+    saveRegistration(aligned.registration, dir);
+  });
+  std::cout << "wrote " << args.out << " (world frame '" << aligned.registration.world_frame.name
+            << "')\n";
+  return 0;
+}
+
+}  // namespace
+
+void registerAlignCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body) {
+  auto args = std::make_shared<AlignArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "align", "A registration in the floor's frame or the site's (surveyed control points)");
+  cmd->add_option("registration", args->registration, "Registration directory")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  cmd->add_flag("--floor", args->floor,
+                "z normal to the floor the robot drove on, origin at its first pose");
+  cmd->add_option("--control-points", args->control_points,
+                  "CSV name,x,y,z,sigma_m: registered cameras' positions in the site's frame [m]")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--out", args->out, "The registration directory to write")->required();
+  cmd->add_flag("--overwrite", args->overwrite, "Replace an existing --out");
+  cmd->callback([args, set_body] { set_body([args] { return runAlign(*args); }); });
+}
+
+}  // namespace lookboth::app

@@ -1,0 +1,174 @@
+// MRPT: the registration as a pose graph (registration.graph, written by
+// MRPT's own CNetworkOfPoses3DCov, read by `graph-slam --3d`): one node per
+// trajectory pose, then one per camera; an edge between consecutive
+// trajectory poses (their relative pose, the covariance of the joint
+// adjustment's motion prior), and one from the trajectory pose nearest each
+// camera to the camera (the camera's covariance); plus each camera as a
+// CPose3DPDFGaussian in cameras_pdf.txt (its mean and covariance).
+#include <yaml-cpp/yaml.h>
+
+#include <mrpt/graphs/CNetworkOfPoses.h>
+#include <mrpt/poses/CPose3DPDFGaussian.h>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "formats.h"
+#include "lookboth/core/error.h"
+#include "lookboth/core/text.h"
+#include "lookboth/geometry/lie.h"
+#include "lookboth/geometry/pose_conversions.h"
+
+namespace lookboth::export_detail {
+namespace {
+
+using mrpt::poses::CPose3D;
+using mrpt::poses::CPose3DPDFGaussian;
+
+/// d(yaw, pitch, roll)/d(dtheta) of R Exp(dtheta) at `pose`, by central differences.
+Eigen::Matrix3d yawPitchRollJacobian(const Rigid3d& pose) {
+  Eigen::Matrix3d j;
+  const double h = 1e-7;
+  for (int k = 0; k < 3; ++k) {
+    Eigen::Vector3d d = Eigen::Vector3d::Zero();
+    d[k] = h;
+    double ypr_plus[3], ypr_minus[3];
+    const Rigid3d plus(pose.rotation * so3Exp(d), pose.translation);
+    const Rigid3d minus(pose.rotation * so3Exp(Eigen::Vector3d(-d)), pose.translation);
+    toMrptPose(plus).getYawPitchRoll(ypr_plus[0], ypr_plus[1], ypr_plus[2]);
+    toMrptPose(minus).getYawPitchRoll(ypr_minus[0], ypr_minus[1], ypr_minus[2]);
+    for (int i = 0; i < 3; ++i) {
+      double difference = ypr_plus[i] - ypr_minus[i];
+      difference = std::remainder(difference, 2 * M_PI);  // across +-pi
+      j(i, k) = difference / (2 * h);
+    }
+  }
+  return j;
+}
+
+/// A pose with its covariance over [dt; dtheta] (doc/conventions.md) as
+/// MRPT's PDF, whose covariance is over [x y z yaw pitch roll].
+CPose3DPDFGaussian mrptPdf(const Rigid3d& pose, const Matrix6d& covariance) {
+  Matrix6d j = Matrix6d::Zero();
+  j.topLeftCorner<3, 3>().setIdentity();
+  j.bottomRightCorner<3, 3>() = yawPitchRollJacobian(pose);
+  const Matrix6d mrpt_covariance = j * covariance * j.transpose();
+  mrpt::math::CMatrixDouble66 cov;
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c) cov(r, c) = mrpt_covariance(r, c);
+  }
+  return CPose3DPDFGaussian(toMrptPose(pose), cov);
+}
+
+struct MotionSigmas {
+  double m_per_sqrt_m = 0.01, deg_per_sqrt_m = 0.2, min_m = 0.0005, min_deg = 0.005;
+};
+
+/// The joint's motion prior as the registration ran it: its configured
+/// drift model times the factors it estimated.
+MotionSigmas motionSigmas(const Registration& reg) {
+  MotionSigmas s;
+  try {
+    const YAML::Node joint = YAML::Load(reg.config_yaml)["joint"];
+    if (joint && joint.IsMap()) {
+      if (joint["drift_m_per_sqrt_m"]) s.m_per_sqrt_m = joint["drift_m_per_sqrt_m"].as<double>();
+      if (joint["drift_deg_per_sqrt_m"]) {
+        s.deg_per_sqrt_m = joint["drift_deg_per_sqrt_m"].as<double>();
+      }
+      if (joint["min_sigma_m"]) s.min_m = joint["min_sigma_m"].as<double>();
+      if (joint["min_sigma_deg"]) s.min_deg = joint["min_sigma_deg"].as<double>();
+    }
+  } catch (const YAML::Exception&) {
+    // The defaults above: the configuration is what register wrote.
+  }
+  if (const auto& drift = reg.observability.drift_model) {
+    s.m_per_sqrt_m *= drift->horizontal;
+    s.deg_per_sqrt_m *= drift->yaw;
+  }
+  return s;
+}
+
+Matrix6d motionCovariance(const MotionSigmas& s, double distance_m) {
+  const double t = std::max(s.min_m, s.m_per_sqrt_m * std::sqrt(distance_m));
+  const double r = std::max(s.min_deg, s.deg_per_sqrt_m * std::sqrt(distance_m)) * M_PI / 180;
+  Matrix6d covariance = Matrix6d::Zero();
+  covariance.diagonal() << t * t, t * t, t * t, r * r, r * r, r * r;
+  return covariance;
+}
+
+/// The trajectory pose nearest the camera in the floor's directions (the
+/// robot passes under it).
+std::size_t nearestPose(const std::vector<StampedPose>& trajectory, const Rigid3d& camera) {
+  std::size_t best = 0;
+  double best_distance = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < trajectory.size(); ++k) {
+    const double d = (trajectory[k].world_from_body.translation - camera.translation).norm();
+    if (d < best_distance) {
+      best_distance = d;
+      best = k;
+    }
+  }
+  return best;
+}
+
+void addTrajectory(const Registration& reg, mrpt::graphs::CNetworkOfPoses3DCov* graph) {
+  const MotionSigmas sigmas = motionSigmas(reg);
+  for (std::size_t k = 0; k < reg.trajectory.size(); ++k) {
+    graph->nodes[k] = toMrptPose(reg.trajectory[k].world_from_body);
+    if (k == 0) continue;
+    const Rigid3d& a = reg.trajectory[k - 1].world_from_body;
+    const Rigid3d& b = reg.trajectory[k].world_from_body;
+    const Rigid3d relative = a.inverse() * b;
+    graph->insertEdge(k - 1, k,
+                      mrptPdf(relative, motionCovariance(sigmas, relative.translation.norm())));
+  }
+}
+
+}  // namespace
+
+void writeMrpt(const ExportContext& context) {
+  const Registration& reg = context.registration;
+  if (reg.trajectory.empty()) {
+    throw Error(
+        "export mrpt: the registration has no trajectory (trajectory.tum) to make "
+        "the graph's nodes");
+  }
+  mrpt::graphs::CNetworkOfPoses3DCov graph;
+  graph.root = 0;
+  addTrajectory(reg, &graph);
+  std::ostringstream pdfs;
+  pdfs << "# label x y z yaw pitch roll [m, rad], then the 6x6 covariance over them, rows first\n";
+  std::size_t id = reg.trajectory.size();
+  for (const ExportedCamera& c : context.cameras) {
+    const CameraRegistration& camera = *c.registration;
+    const Matrix6d covariance = camera.covariance.value_or(Matrix6d::Identity() * 1e-4);
+    graph.nodes[id] = toMrptPose(camera.world_from_camera);
+    const std::size_t k = nearestPose(reg.trajectory, camera.world_from_camera);
+    const Rigid3d& node = reg.trajectory[k].world_from_body;
+    // The camera relative to the node: translation in the node's frame,
+    // the rotation's right perturbation unchanged.
+    Matrix6d turn = Matrix6d::Identity();
+    turn.topLeftCorner<3, 3>() = node.rotation.toRotationMatrix().transpose();
+    graph.insertEdge(
+        k, id,
+        mrptPdf(node.inverse() * camera.world_from_camera, turn * covariance * turn.transpose()));
+    const CPose3DPDFGaussian pdf = mrptPdf(camera.world_from_camera, covariance);
+    pdfs << camera.label;
+    for (double v : {pdf.mean.x(), pdf.mean.y(), pdf.mean.z(), pdf.mean.yaw(), pdf.mean.pitch(),
+                     pdf.mean.roll()}) {
+      pdfs << " " << formatDouble(v);
+    }
+    for (int r = 0; r < 6; ++r) {
+      for (int col = 0; col < 6; ++col) pdfs << " " << formatDouble(pdf.cov(r, col));
+    }
+    pdfs << "\n";
+    ++id;
+  }
+  std::ostringstream text;
+  text.precision(17);  // MRPT writes through the stream: all the digits of a double
+  graph.writeAsText(text);
+  context.write("registration.graph", text.str());
+  context.write("cameras_pdf.txt", pdfs.str());
+}
+
+}  // namespace lookboth::export_detail

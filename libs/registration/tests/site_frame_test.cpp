@@ -1,0 +1,231 @@
+// Floor and site frames: ground truth -> noise -> solve -> bound, and the
+// predicted uncertainty of the site alignment against its measured error.
+#include "lookboth/registration/site_frame.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <fstream>
+#include <random>
+
+#include "lookboth/core/error.h"
+#include "lookboth/geometry/lie.h"
+
+namespace lookboth {
+namespace {
+
+Rigid3d someTransform() {
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.2, -0.5, 1.0).normalized()));
+  return Rigid3d(q, Eigen::Vector3d(12.0, -3.5, 1.25));
+}
+
+/// A registration made in a site frame (floor at z = 0, cameras at 3 m,
+/// the robot's fisheye at 0.4 m on a 10 m x 6 m loop), then expressed in
+/// the frame `world_from_site` maps into.
+Registration siteRegistration(const Rigid3d& world_from_site) {
+  Registration reg;
+  for (int k = 0; k < 200; ++k) {
+    const double a = 2 * M_PI * k / 200;
+    const Rigid3d fisheye(
+        Eigen::Quaterniond(Eigen::AngleAxisd(a + M_PI / 2, Eigen::Vector3d::UnitZ())),
+        Eigen::Vector3d(5 + 5 * std::cos(a), 3 + 3 * std::sin(a), 0.4));
+    reg.trajectory.push_back({k * 100000000LL, world_from_site * fisheye});
+  }
+  const Eigen::Quaterniond down(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()));
+  for (int i = 0; i < 6; ++i) {
+    CameraRegistration c;
+    c.label = "cam0" + std::to_string(i);
+    c.status = CameraStatus::kRegistered;
+    c.world_from_camera =
+        world_from_site * Rigid3d(down, Eigen::Vector3d(1.0 + 2 * i, i % 2 ? 6.0 : 0.5, 3.0));
+    Matrix6d covariance = Matrix6d::Identity() * 1e-6;
+    covariance(0, 4) = covariance(4, 0) = 2e-7;
+    c.covariance = covariance;
+    c.aligned_position_covariance = Eigen::Matrix3d::Identity() * 4e-6;
+    reg.cameras.push_back(c);
+  }
+  return reg;
+}
+
+double angleDeg(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
+  return Eigen::AngleAxisd(a * b.conjugate()).angle() * 180 / M_PI;
+}
+
+TEST(FloorFrame, RecoversTheFloorOfATiltedRegistration) {
+  const Rigid3d world_from_site = someTransform();
+  const Registration reg = siteRegistration(world_from_site);
+  const FloorFit fit = fitFloor(reg);
+  // The floor frame's z is the site's up, its origin on the fisheye's plane.
+  const Eigen::Vector3d z_in_site =
+      world_from_site.rotation.conjugate() *
+      (fit.floor_from_world.inverse().rotation * Eigen::Vector3d::UnitZ());
+  EXPECT_LT((z_in_site - Eigen::Vector3d::UnitZ()).norm(), 1e-9);
+  for (const StampedPose& p : reg.trajectory) {
+    EXPECT_NEAR((fit.floor_from_world * p.world_from_body.translation).z(), 0.0, 1e-9);
+  }
+  EXPECT_NEAR(fit.flatness_rms_m, 0.0, 1e-9);
+  const Eigen::Vector3d site_z_in_world = world_from_site.rotation * Eigen::Vector3d::UnitZ();
+  EXPECT_NEAR(fit.tilt_deg, std::acos(site_z_in_world.z()) * 180 / M_PI, 1e-9);
+  EXPECT_NEAR((fit.floor_from_world * reg.trajectory.front().world_from_body.translation).norm(),
+              0.0, 1e-9);
+  // Cameras above the floor.
+  EXPECT_NEAR((fit.floor_from_world * reg.cameras[0].world_from_camera.translation).z(), 2.6, 1e-9);
+}
+
+TEST(FloorFrame, AStraightDriveIsAnError) {
+  Registration reg = siteRegistration(Rigid3d());
+  for (std::size_t k = 0; k < reg.trajectory.size(); ++k) {
+    reg.trajectory[k].world_from_body.translation = Eigen::Vector3d(0.05 * k, 0.001 * (k % 3), 0.4);
+  }
+  try {
+    fitFloor(reg);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("straight line"), std::string::npos) << e.what();
+  }
+}
+
+std::vector<ControlPoint> controlPoints(const Registration& site, double sigma, int count) {
+  std::vector<ControlPoint> points;
+  for (int i = 0; i < count; ++i) {
+    points.push_back(
+        {site.cameras[i].label, site.cameras[i].world_from_camera.translation, sigma, i + 2});
+  }
+  return points;
+}
+
+TEST(SiteFrame, NoiseFreeControlPointsGiveTheSiteFrame) {
+  const Rigid3d world_from_site = someTransform();
+  const Registration site = siteRegistration(Rigid3d());
+  const Registration reg = siteRegistration(world_from_site);
+  const SiteAlignment aligned =
+      alignToControlPoints(reg, controlPoints(site, 0.005, 4), "site.csv");
+  const Rigid3d expected = world_from_site.inverse();
+  EXPECT_LT((aligned.site_from_world.translation - expected.translation).norm(), 1e-9);
+  EXPECT_LT(angleDeg(aligned.site_from_world.rotation, expected.rotation), 1e-7);
+  EXPECT_LT(aligned.rms_m, 1e-9);
+}
+
+TEST(SiteFrame, PredictedUncertaintyMatchesTheErrors) {
+  const Rigid3d world_from_site = someTransform();
+  const Registration site = siteRegistration(Rigid3d());
+  Registration reg = siteRegistration(world_from_site);
+  for (CameraRegistration& c : reg.cameras) c.covariance.reset();  // the points' sigma alone
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.005);
+  double nees = 0;
+  const int trials = 400;
+  for (int trial = 0; trial < trials; ++trial) {
+    std::vector<ControlPoint> points = controlPoints(site, 0.005, 5);
+    for (ControlPoint& p : points)
+      p.p_in_site += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    const SiteAlignment aligned = alignToControlPoints(reg, points, "site.csv");
+    // The error as the covariance's perturbation: truth = Exp(dtheta) estimate + dt.
+    const Rigid3d truth = world_from_site.inverse();
+    const Eigen::Quaterniond dq = truth.rotation * aligned.site_from_world.rotation.conjugate();
+    const Eigen::Vector3d dtheta = Eigen::AngleAxisd(dq).angle() * Eigen::AngleAxisd(dq).axis();
+    Eigen::Matrix<double, 6, 1> e;
+    e << truth.translation - dq * aligned.site_from_world.translation, dtheta;
+    nees += e.dot(aligned.covariance.inverse() * e);
+  }
+  const double per_dof = nees / trials / 6;
+  EXPECT_GT(per_dof, 0.85);
+  EXPECT_LT(per_dof, 1.15);
+}
+
+TEST(SiteFrame, AnInconsistentPointIsNamed) {
+  const Registration site = siteRegistration(Rigid3d());
+  const Registration reg = siteRegistration(someTransform());
+  std::vector<ControlPoint> points = controlPoints(site, 0.005, 5);
+  points[2].p_in_site.x() += 0.10;
+  try {
+    alignToControlPoints(reg, points, "site.csv");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("'cam02'"), std::string::npos) << what;
+    EXPECT_NE(what.find("site.csv:4"), std::string::npos) << what;
+  }
+  points[2].name = "cam99";
+  EXPECT_THROW(alignToControlPoints(reg, points, "site.csv"), Error);
+}
+
+TEST(SiteFrame, ReexpressedRegistrationKeepsItsGeometry) {
+  const Registration reg = siteRegistration(someTransform());
+  const Rigid3d t = someTransform().inverse();
+  WorldFrame frame;
+  frame.name = "site";
+  const Registration out = reexpressRegistration(reg, t, std::nullopt, frame);
+  EXPECT_EQ(out.world_frame.name, "site");
+  ASSERT_TRUE(out.world_frame.from_registration);
+  const Rigid3d relative_before =
+      reg.cameras[0].world_from_camera.inverse() * reg.cameras[3].world_from_camera;
+  const Rigid3d relative_after =
+      out.cameras[0].world_from_camera.inverse() * out.cameras[3].world_from_camera;
+  EXPECT_LT((relative_before.translation - relative_after.translation).norm(), 1e-12);
+  // The position covariance turns with the frame; the rotation's stays (right perturbation).
+  const Eigen::Matrix3d r = t.rotation.toRotationMatrix();
+  const Matrix6d& before = *reg.cameras[0].covariance;
+  const Matrix6d& after = *out.cameras[0].covariance;
+  EXPECT_LT((after.topLeftCorner<3, 3>() - r * before.topLeftCorner<3, 3>() * r.transpose()).norm(),
+            1e-18);
+  EXPECT_LT((after.bottomRightCorner<3, 3>() - before.bottomRightCorner<3, 3>()).norm(), 1e-18);
+  // And back.
+  const Registration back = reexpressRegistration(out, t.inverse(), std::nullopt, WorldFrame{});
+  EXPECT_LT(
+      (back.cameras[4].world_from_camera.translation - reg.cameras[4].world_from_camera.translation)
+          .norm(),
+      1e-12);
+  EXPECT_LT((*back.cameras[4].covariance - *reg.cameras[4].covariance).norm(), 1e-18);
+  EXPECT_LT(back.world_frame.from_registration->translation.norm(), 1e-12);
+}
+
+TEST(SiteFrame, ControlPointFilesAreCheckedByLine) {
+  const std::filesystem::path path = std::filesystem::temp_directory_path() /
+                                     ("control_points_" + std::to_string(getpid()) + ".csv");
+  auto expectError = [&](const std::string& text, const std::string& part) {
+    std::ofstream(path) << text;
+    try {
+      readControlPoints(path);
+      ADD_FAILURE() << "no error for: " << text;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
+    }
+  };
+  expectError("name,x,y,sigma_m\n", "'z'");
+  expectError("name,x,y,z,sigma_m\ncam00,1,2,x3,0.01\n", ":2");
+  expectError("name,x,y,z,sigma_m\ncam00,1,2,3,0\n", "sigma_m");
+  expectError("name,x,y,z,sigma_m\ncam00,1,2,3,0.1\ncam00,1,2,3,0.1\n", "already on line 2");
+  std::ofstream(path)
+      << "\xEF\xBB\xBF# surveyed\nname, x, y, z, sigma_m\ncam00, 1.5, -2, 3.25, 0.005\n";
+  const std::vector<ControlPoint> points = readControlPoints(path);
+  ASSERT_EQ(points.size(), 1u);
+  EXPECT_EQ(points[0].p_in_site, Eigen::Vector3d(1.5, -2, 3.25));
+  EXPECT_EQ(points[0].line, 3);
+  std::filesystem::remove(path);
+}
+
+TEST(SiteFrame, TheFrameIsSavedAndReadBack) {
+  Registration reg = siteRegistration(someTransform());
+  reg.dataset = "/data/x.rawlog";
+  reg.pipeline = {"joint"};
+  const Registration out = reexpressRegistration(reg, someTransform().inverse(), std::nullopt,
+                                                 WorldFrame{"floor", "the floor", std::nullopt});
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("site_frame_io_" + std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  saveRegistration(out, dir);
+  const Registration back = loadRegistration(dir);
+  EXPECT_EQ(back.world_frame.name, "floor");
+  EXPECT_EQ(back.world_frame.description, "the floor");
+  ASSERT_TRUE(back.world_frame.from_registration);
+  EXPECT_LT((back.world_frame.from_registration->translation -
+             out.world_frame.from_registration->translation)
+                .norm(),
+            1e-12);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace lookboth

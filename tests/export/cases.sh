@@ -1,0 +1,171 @@
+#!/usr/bin/env bash
+# End to end through `lookboth export` (doc/formats.md, "Exports"): a
+# simulated registration exported in every format, each file read by its
+# consumer from Debian: COLMAP (model_converter), urdfdom (check_urdf), a JSON
+# Schema validator (python3-jsonschema), Python for the launch file, MRPT's
+# graph-slam (mrpt-apps).
+#   cases.sh <lookboth binary> <case> <work dir>
+ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
+# shellcheck source=../e2e_cases.sh
+source "$ROOT/tests/e2e_cases.sh" "$@"
+
+registered() {
+  "$L" simulate --scenario small --detections-only --out small.rawlog >/dev/null
+  "$L" register small.rawlog --trajectory metric --out reg >/dev/null
+}
+
+# The poses COLMAP read (its own text output) against cameras.csv: cam_from_world.
+compare_colmap() {
+  python3 - "$1" reg/cameras.csv <<'PY'
+import csv, math, sys
+def qmul(a, b):
+    aw, ax, ay, az = a; bw, bx, by, bz = b
+    return (aw*bw - ax*bx - ay*by - az*bz, aw*bx + ax*bw + ay*bz - az*by,
+            aw*by - ax*bz + ay*bw + az*bx, aw*bz + ax*by - ay*bx + az*bw)
+def rotate(q, v):
+    w, x, y, z = qmul(qmul(q, (0.0, *v)), (q[0], -q[1], -q[2], -q[3]))
+    return (x, y, z)
+truth = {r['label']: r for r in csv.DictReader(open(sys.argv[2]))}
+seen = 0
+lines = [l for l in open(sys.argv[1]) if not l.startswith('#')]
+for line in lines[0::2]:
+    f = line.split()
+    q, t, name = tuple(map(float, f[1:5])), tuple(map(float, f[5:8])), f[9]
+    r = truth[name]
+    centre = (float(r['tx']), float(r['ty']), float(r['tz']))
+    # cam_from_world maps the camera's centre to the origin.
+    residual = [a + b for a, b in zip(rotate(q, centre), t)]
+    qw = (float(r['qw']), float(r['qx']), float(r['qy']), float(r['qz']))
+    # cam_from_world's rotation is world_from_camera's inverse.
+    d = qmul(q, qw)
+    angle = 2 * math.acos(min(1.0, abs(d[0])))
+    if max(map(abs, residual)) > 1e-9 or angle > 1e-9:
+        sys.exit(f"FAIL: {name}: COLMAP's pose differs from cameras.csv ({residual}, {angle} rad)")
+    seen += 1
+if seen != len(truth):
+    sys.exit(f"FAIL: {seen} images for {len(truth)} cameras")
+print(f"colmap: {seen} images, cam_from_world = cameras.csv^-1 within 1e-9")
+PY
+}
+
+case "$CASE" in
+
+all_formats)
+  registered
+  "$L" export reg --format all --out exported | tee export.log
+  for f in colmap/cameras.txt colmap/images.txt colmap/points3D.txt json/registration.json \
+    opencv/cam00.yaml ros/site.urdf ros/static_transforms.launch.py ros/static_transforms.yaml \
+    ros/camera_info/cam00_optical_frame.yaml mrpt/registration.graph mrpt/cameras_pdf.txt; do
+    [[ -s exported/$f ]] || fail "exported/$f missing"
+  done
+  command -v colmap >/dev/null || fail "colmap is not installed (scripts/setup.sh installs it)"
+  mkdir -p colmap_text
+  colmap model_converter --input_path exported/colmap --output_path colmap_text \
+    --output_type TXT >colmap.log 2>&1 || { cat colmap.log; fail "COLMAP cannot read the model"; }
+  compare_colmap colmap_text/images.txt
+  check_urdf exported/ros/site.urdf | tee urdf.log
+  grep -q "root Link: site has 6 child(ren)" urdf.log || fail "the URDF does not hold 6 cameras"
+  /usr/bin/python3 - "$SHARE/schema/registration_export.schema.json" \
+    exported/json/registration.json <<'PY'
+import json, sys, jsonschema
+jsonschema.validate(json.load(open(sys.argv[2])), json.load(open(sys.argv[1])))
+print("json: valid against", sys.argv[1].split('/')[-1])
+PY
+  python3 -m py_compile exported/ros/static_transforms.launch.py
+  # MRPT's graph-slam reads the graph; optimised from its own nodes
+  # (--no-span: not re-initialised from the root), they stay where they are,
+  # every edge being its nodes' relative pose (graph-slam writes 6 digits).
+  graph-slam --3d --info -i exported/mrpt/registration.graph | tee graph.log
+  grep -Eq "Nodes count \(in VERTEX2/3 entries\) *: *[1-9]" graph.log ||
+    fail "graph-slam did not read the graph"
+  graph-slam --3d --levmarq --no-span --max-iters 5 -i exported/mrpt/registration.graph \
+    -o optimised.graph >levmarq.log 2>&1 || { cat levmarq.log; fail "graph-slam --levmarq failed"; }
+  python3 - exported/mrpt/registration.graph optimised.graph <<'PY'
+import sys
+def nodes(path):
+    out = {}
+    for line in open(path):
+        f = line.split()
+        if f and f[0].startswith('VERTEX'):
+            out[int(f[1])] = [float(x) for x in f[2:5]]
+    return out
+a, b = nodes(sys.argv[1]), nodes(sys.argv[2])
+if not a or a.keys() != b.keys():
+    sys.exit(f"FAIL: {len(a)} nodes written, {len(b)} after graph-slam")
+moved = max(max(abs(x - y) for x, y in zip(a[k], b[k])) for k in a)
+print(f"mrpt: {len(a)} nodes, the largest move under graph-slam's optimisation {moved:.2e} m")
+if moved > 1e-4:
+    sys.exit("FAIL: the graph is not at its optimum")
+PY
+  ;;
+
+refusals)
+  registered
+  "$L" export reg --format json --out one >/dev/null
+  [[ -f one/registration.json ]] || fail "one format: its files straight in --out"
+  if "$L" export reg --format json --out one 2>err.log; then fail "--out replaced without --overwrite"; fi
+  grep -q "already exists" err.log || fail "no word on the existing output: $(cat err.log)"
+  if "$L" export reg --format json,dxf --out two 2>err.log; then fail "an unknown format accepted"; fi
+  grep -q "unknown format 'dxf'" err.log || fail "the unknown format is not named: $(cat err.log)"
+  if "$L" export reg --format json --out reg --overwrite 2>err.log; then fail "wrote over its input"; fi
+  [[ -f reg/registration.yaml ]] || fail "the registration was lost"
+  [[ ! -e two ]] || fail "a failed export left 'two'"
+  ;;
+
+site_frame)
+  # The floor frame's z against the simulator's vertical (the rotation of
+  # lookboth evaluate's alignment to the ground truth), and control points.
+  registered
+  "$L" align reg --floor --out floor | tee floor.log
+  grep -q "world frame 'floor'" floor.log || fail "no floor frame"
+  for run in reg floor; do
+    "$L" evaluate $run --ground-truth small.rawlog --json $run.eval.json >/dev/null
+  done
+  python3 - reg.eval.json floor.eval.json <<'PY'
+import json, math, sys
+def tilt(path):
+    x, y, z, w = json.load(open(path))['ground_truth']['alignment']['rotation_xyzw']
+    # z component of R e_z for the unit quaternion (x, y, z, w).
+    return math.degrees(math.acos(min(1.0, 1 - 2 * (x * x + y * y))))
+before, after = tilt(sys.argv[1]), tilt(sys.argv[2])
+print(f"vertical: registration frame {before:.3f} deg off, floor frame {after:.4f} deg off")
+if after > 0.05:
+    sys.exit(f"FAIL: the floor frame's z is {after:.4f} deg from the vertical")
+PY
+  # Control points: four cameras' true positions with 5 mm of noise, then one 10 cm off.
+  "$L" convert --from small.rawlog --to folder >/dev/null
+  python3 - folder/ground_truth/cameras.csv <<'PY'
+import csv, random, sys
+random.seed(3)
+rows = list(csv.DictReader(open(sys.argv[1])))[:4]
+with open('site.csv', 'w') as good, open('bad.csv', 'w') as bad:
+    for f in (good, bad):
+        f.write('name,x,y,z,sigma_m\n')
+    for i, r in enumerate(rows):
+        p = [float(r[k]) + random.gauss(0, 0.005) for k in ('tx', 'ty', 'tz')]
+        good.write(f"{r['label']},{p[0]:.4f},{p[1]:.4f},{p[2]:.4f},0.005\n")
+        if i == 2: p[0] += 0.10
+        bad.write(f"{r['label']},{p[0]:.4f},{p[1]:.4f},{p[2]:.4f},0.005\n")
+PY
+  "$L" align reg --control-points site.csv --out site | tee site.log
+  grep -q "world frame 'site'" site.log || fail "no site frame"
+  if "$L" align reg --control-points bad.csv --out bad 2>bad.log; then fail "a point 10 cm off accepted"; fi
+  grep -q "bad.csv:4: .*control point 'cam02' is" bad.log || fail "the bad point is not named: $(cat bad.log)"
+  ;;
+
+studio)
+  # $L is lookboth-studio here: a detections-only run through every stage,
+  # then the floor frame and two export formats, as the File menu writes them.
+  xvfb-run -a -s "-screen 0 1600x1000x24" "$L" --simulate small --detections-only --run-all \
+    --align-floor floor --export-formats json,colmap=exported --exit 2>studio.log ||
+    { tail -20 studio.log; fail "the app failed"; }
+  grep -q "Registration in the floor frame written" studio.log || fail "no floor frame: $(tail -5 studio.log)"
+  grep -q "name: floor" floor/registration.yaml || fail "floor/registration.yaml is not in the floor frame"
+  [[ -s exported/json/registration.json && -s exported/colmap/images.txt ]] ||
+    fail "the exports are missing: $(ls -R exported 2>&1)"
+  ;;
+
+*)
+  fail "unknown case '$CASE'"
+  ;;
+esac
