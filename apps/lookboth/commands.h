@@ -26,6 +26,7 @@ void registerOdometryCommand(CLI::App& app, const std::function<void(CommandBody
 void registerEvaluateCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerSnapshotCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerReportCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
+void registerCheckCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerAlignCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerExportCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 

@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
   lookboth::app::registerSnapshotCommand(app, set_body);
   lookboth::app::registerReportCommand(app, set_body);
   lookboth::app::registerAlignCommand(app, set_body);
+  lookboth::app::registerCheckCommand(app, set_body);
   lookboth::app::registerExportCommand(app, set_body);
 
   try {

@@ -365,6 +365,33 @@ void readFaults(Parser& p, Section s, FaultSpec& f) {
   s.finish();
 }
 
+void readLaterDrive(Parser& p, Section s, LaterDriveSpec& later) {
+  if (const YAML::Node seed = s.get("noise_seed"); seed.IsDefined()) {
+    const long long value = p.integer(seed, "later_drive.noise_seed");
+    if (value < 1 || value > std::numeric_limits<std::uint32_t>::max()) {
+      throw Error(p.at(seed, "later_drive.noise_seed"), "must be in [1, 4294967295]");
+    }
+    later.noise_seed = static_cast<std::uint32_t>(value);
+  }
+  if (const YAML::Node moved = s.get("moved"); moved.IsDefined()) {
+    if (!moved.IsSequence()) {
+      throw Error(p.at(moved, "later_drive.moved"),
+                  "expected a list of {camera, translate_m, rotate_deg}");
+    }
+    for (size_t i = 0; i < moved.size(); ++i) {
+      Section m(p, moved[i], "later_drive.moved[" + std::to_string(i) + "]");
+      CameraMove move;
+      m.require("camera");
+      m.text("camera", move.camera);
+      m.vector3("translate_m", move.translate_m);
+      m.vector3("rotate_deg", move.rotate_deg);
+      m.finish();
+      later.moved.push_back(move);
+    }
+  }
+  s.finish();
+}
+
 std::optional<std::pair<std::string, std::string>> prefixed(const std::string& prefix,
                                                             const std::string& why) {
   if (why.empty()) return std::nullopt;
@@ -614,6 +641,7 @@ Scenario scenarioFromYaml(const std::string& yaml, const std::string& source,
     n.finish();
   }
   readFaults(parser, top.sub("faults"), scenario.faults);
+  readLaterDrive(parser, top.sub("later_drive"), scenario.later_drive);
   top.finish();
   scenario.source = source;
   if (const auto p = scenario.problem()) {

@@ -88,7 +88,8 @@ std::uintmax_t sizeOf(const fs::path& path) {
 /// Everything the run needs, built once.
 struct Setup {
   Scenario scenario;
-  std::uint32_t seed = 0;
+  std::uint32_t seed = 0;        ///< The world, the cameras' placement, the path.
+  std::uint32_t noise_seed = 0;  ///< Every random error (later_drive.noise_seed, else seed).
   std::optional<Camera> fisheye, env_camera;
   std::unique_ptr<World> world;
   std::unique_ptr<RobotPath> motion;
@@ -227,12 +228,32 @@ void sharePassErrors(std::vector<Event>& events, std::size_t first, const Camera
 // ---------------------------------------------------------------------------
 // Building the run
 
+/// The cameras a later drive finds moved (LaterDriveSpec).
+void moveCameras(const LaterDriveSpec& later, std::vector<EnvCameraPlacement>& placements) {
+  for (const CameraMove& move : later.moved) {
+    auto it = std::find_if(placements.begin(), placements.end(),
+                           [&](const EnvCameraPlacement& p) { return p.label == move.camera; });
+    if (it == placements.end()) {
+      throw Error("later_drive.moved: no camera '" + move.camera + "' in the scenario");
+    }
+    const Eigen::Vector3d rotation = move.rotate_deg * (M_PI / 180);
+    it->world_from_camera =
+        Rigid3d((it->world_from_camera.rotation *
+                 Eigen::Quaterniond(Eigen::AngleAxisd(
+                     rotation.norm(),
+                     rotation.norm() > 0 ? rotation.normalized() : Eigen::Vector3d::UnitX())))
+                    .normalized(),
+                it->world_from_camera.translation + move.translate_m);
+  }
+}
+
 Setup buildSetup(const SimulateOptions& options) {
   Setup setup;
   setup.scenario = loadScenario(options.scenario);
   const Scenario& sc = setup.scenario;
   setup.seed = options.seed.value_or(sc.seed);
   const std::uint32_t seed = setup.seed;
+  setup.noise_seed = sc.later_drive.noise_seed != 0 ? sc.later_drive.noise_seed : seed;
   setup.fisheye = loadCamera(sc.robot.fisheye.calibration);
   setup.env_camera = loadCamera(sc.cameras.calibration);
   WorldSpec world_spec = sc.world;
@@ -250,6 +271,7 @@ Setup buildSetup(const SimulateOptions& options) {
   setup.placements = placeEnvCameras(
       sc, *setup.motion, [&world](double x, double y) { return world.ceilingHeightAt(x, y); },
       seed);
+  moveCameras(sc.later_drive, setup.placements);
   for (const EnvCameraPlacement& p : setup.placements) {
     Housing housing;
     housing.label = p.label;
@@ -262,7 +284,7 @@ Setup buildSetup(const SimulateOptions& options) {
   setup.fisheye_from_marker = sc.robot.marker_mount.fisheyeFromMarker();
 
   // Clocks: every node off by 1-2 ms (either sign); sensors not triggered together.
-  std::mt19937 clocks(streamSeed(seed, "clocks"));
+  std::mt19937 clocks(streamSeed(setup.noise_seed, "clocks"));
   auto offset = [&]() {
     const double sign = uniform(clocks, 0, 1) < 0.5 ? -1.0 : 1.0;
     const double ms = uniform(clocks, sc.clocks.offset_min_ms, sc.clocks.offset_max_ms);
@@ -278,7 +300,7 @@ Setup buildSetup(const SimulateOptions& options) {
   }
 
   // Faults decided once.
-  std::mt19937 faults(streamSeed(seed, "faults"));
+  std::mt19937 faults(streamSeed(setup.noise_seed, "faults"));
   if (!sc.faults.clock_jump_node.empty()) {
     const TimeNs jump = static_cast<TimeNs>(std::llround(sc.faults.clock_jump_ms * 1e6));
     std::string node = sc.faults.clock_jump_node;
@@ -376,7 +398,7 @@ double blurAt(const Scenario& sc, double t) {
 void addFisheyeEvents(const Setup& setup, std::vector<Event>& events,
                       std::map<std::string, std::int64_t>& fault_counts) {
   const Scenario& sc = setup.scenario;
-  const std::uint32_t seed = setup.seed;
+  const std::uint32_t seed = setup.noise_seed;
   const double duration = setup.duration;
   const double fisheye_period = 1 / sc.robot.fisheye.rate_hz;
   for (std::int64_t k = 0;; ++k) {
@@ -423,7 +445,7 @@ void addReplayedOdometry(const Setup& setup, std::vector<Event>& events) {
 /// Wheel odometry: dead reckoning on the true planar increments.
 void addWheelOdometry(const Setup& setup, std::vector<Event>& events) {
   const Scenario& sc = setup.scenario;
-  const std::uint32_t seed = setup.seed;
+  const std::uint32_t seed = setup.noise_seed;
   const double duration = setup.duration;
   const OdometrySpec& o = sc.robot.odometry;
   std::mt19937 rng(streamSeed(seed, "odometry"));
@@ -480,7 +502,7 @@ bool simulateDetection(const Setup& setup, std::size_t c, std::int64_t k,
                        const Rigid3d& world_from_base, Event& e,
                        std::map<std::string, std::int64_t>& fault_counts) {
   const Scenario& sc = setup.scenario;
-  const std::uint32_t seed = setup.seed;
+  const std::uint32_t seed = setup.noise_seed;
   const EnvCameraPlacement& placement = setup.placements[c];
   const Rigid3d camera_from_world = placement.world_from_camera.inverse();
   const Rigid3d camera_from_marker =
@@ -528,7 +550,7 @@ void addEnvCameraEvents(const Setup& setup, const SimulateOptions& options,
                         std::vector<Event>& events,
                         std::map<std::string, std::int64_t>& fault_counts) {
   const Scenario& sc = setup.scenario;
-  const std::uint32_t seed = setup.seed;
+  const std::uint32_t seed = setup.noise_seed;
   const double duration = setup.duration;
   const double fisheye_period = 1 / sc.robot.fisheye.rate_hz;
   const double first_fisheye = setup.fisheye_phase;
@@ -584,7 +606,7 @@ void duplicateTimestamps(const Setup& setup, const SimulateOptions& options,
                          std::vector<Event>& events,
                          std::map<std::string, std::int64_t>& fault_counts) {
   const Scenario& sc = setup.scenario;
-  const std::uint32_t seed = setup.seed;
+  const std::uint32_t seed = setup.noise_seed;
   std::map<std::pair<int, int>, std::vector<size_t>> streams;  // (kind, camera) -> indices
   for (size_t i = 0; i < events.size(); ++i) {
     const Event& e = events[i];
@@ -696,7 +718,7 @@ void drawDecoy(cv::Mat& image, const Camera& camera, const Rigid3d& camera_from_
 std::shared_ptr<const std::vector<std::uint8_t>> renderEventImage(
     const Setup& setup, const Event& e, std::atomic<std::int64_t>& decoys) {
   const Scenario& sc = setup.scenario;
-  const std::uint32_t seed = setup.seed;
+  const std::uint32_t seed = setup.noise_seed;
   const Camera& fisheye = *setup.fisheye;
   const Camera& env = *setup.env_camera;
   const World& world = *setup.world;
@@ -754,7 +776,7 @@ BlobObservation simulatedBlobs(const Setup& setup, const Event& e) {
   obs.image_height = fisheye.height();
   const Rigid3d world_from_fisheye = setup.worldFromFisheye(e.t);
   const Rigid3d fisheye_from_world = world_from_fisheye.inverse();
-  std::mt19937 rng(itemSeed(setup.seed, "detect/" + fisheye_label, e.index));
+  std::mt19937 rng(itemSeed(setup.noise_seed, "detect/" + fisheye_label, e.index));
   const double sigma =
       std::sqrt(sc.noise.blob_sigma_px * sc.noise.blob_sigma_px + e.blur_px * e.blur_px / 12.0);
   for (size_t i = 0; i < world.housings().size(); ++i) {

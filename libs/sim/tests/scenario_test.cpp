@@ -111,6 +111,28 @@ TEST(Scenario, StoreRadiusAllKeepsEveryFrame) {
             "");
 }
 
+// A later drive of the same facility: another noise seed, moved cameras.
+TEST(Scenario, LaterDriveReadsItsSeedAndMoves) {
+  const Scenario s =
+      parse(std::string(kMinimal) +
+            "later_drive:\n  noise_seed: 11\n  moved:\n"
+            "    - {camera: cam01, translate_m: [0.03, 0, 0], rotate_deg: [0, 0, 1]}\n");
+  EXPECT_TRUE(s.later_drive.active());
+  EXPECT_EQ(s.later_drive.noise_seed, 11u);
+  ASSERT_EQ(s.later_drive.moved.size(), 1u);
+  EXPECT_EQ(s.later_drive.moved[0].camera, "cam01");
+  EXPECT_EQ(s.later_drive.moved[0].translate_m, Eigen::Vector3d(0.03, 0, 0));
+  EXPECT_EQ(s.later_drive.moved[0].rotate_deg, Eigen::Vector3d(0, 0, 1));
+  EXPECT_FALSE(parse(kMinimal).later_drive.active());
+  EXPECT_NE(parseError(std::string(kMinimal) + "later_drive:\n  noise_seed: 0\n")
+                .find("later_drive.noise_seed"),
+            std::string::npos);
+  EXPECT_NE(parseError(std::string(kMinimal) +
+                       "later_drive:\n  moved:\n    - {camera: cam01, shift: 1}\n")
+                .find("later_drive.moved[0].shift"),
+            std::string::npos);
+}
+
 TEST(Scenario, ErrorsNameTheFieldAndTheLine) {
   struct Case {
     std::string yaml, expected;

@@ -132,6 +132,23 @@ struct FaultSpec {
   bool any() const;
 };
 
+/// A camera moved since the first drive (LaterDriveSpec).
+struct CameraMove {
+  std::string camera;                                     ///< Its label ("cam03").
+  Eigen::Vector3d translate_m = Eigen::Vector3d::Zero();  ///< In the world frame [m].
+  Eigen::Vector3d rotate_deg = Eigen::Vector3d::Zero();   ///< Rotation vector, camera frame [deg].
+};
+
+/// The same facility on a later drive (`lookboth check`'s second drive): the
+/// world, the cameras' placement and the path come from `seed` as before;
+/// every random error (odometry, detections, clocks, faults) from
+/// `noise_seed`, and the cameras listed in `moved` have moved.
+struct LaterDriveSpec {
+  std::uint32_t noise_seed = 0;  ///< 0: the scenario's seed (the first drive).
+  std::vector<CameraMove> moved;
+  bool active() const { return noise_seed != 0 || !moved.empty(); }
+};
+
 struct Scenario {
   std::string name;
   std::string description;
@@ -144,6 +161,7 @@ struct Scenario {
   RenderSpec render;
   DetectionNoiseSpec noise;
   FaultSpec faults;
+  LaterDriveSpec later_drive;
   std::filesystem::path source;      ///< The file it was read from ("" when built in code).
   std::map<std::string, int> lines;  ///< Line of each field in `source` (for messages).
 

@@ -1,0 +1,74 @@
+// `lookboth check`: a later drive's registration against the one on record,
+// camera by camera (doc/formats.md, "Re-checking a facility").
+#include <iomanip>
+#include <iostream>
+
+#include "commands.h"
+#include "lookboth/core/error.h"
+#include "lookboth/core/text.h"
+#include "lookboth/registration/facility_check.h"
+#include "lookboth/registration/registration.h"
+
+namespace lookboth::app {
+namespace {
+
+struct CheckArgs {
+  std::string registration;
+  std::string against;
+  FacilityCheckOptions options;
+};
+
+void printCamera(const CameraCheck& c) {
+  std::cout << "  " << std::left << std::setw(12) << c.label << std::setw(11)
+            << cameraVerdictName(c.verdict) << std::right;
+  if (c.verdict == CameraVerdict::kMoved || c.verdict == CameraVerdict::kUnchanged) {
+    std::cout << std::setw(10) << formatFixed(c.moved_m.norm() * 1000, 1) << std::setw(9)
+              << formatFixed(std::sqrt(c.position_chi2), 1) << std::setw(10)
+              << formatFixed(c.rotated_deg, 3) << std::setw(9)
+              << formatFixed(std::sqrt(c.rotation_chi2), 1)
+              << (c.used_for_alignment ? "" : "   (left out of the alignment)");
+  }
+  std::cout << "\n";
+}
+
+int runCheck(const CheckArgs& args) {
+  if (const std::string why = args.options.check(); !why.empty()) throw Error(why);
+  const Registration fresh = loadRegistration(args.registration);
+  const Registration record = loadRegistration(args.against);
+  const FacilityCheck check = checkFacility(fresh, record, args.options);
+  std::cout << args.registration << " against " << args.against << "\n";
+  std::cout << "  camera      verdict     moved [mm]  sigmas  turned [deg]  sigmas\n";
+  for (const CameraCheck& c : check.cameras) printCamera(c);
+  std::cout << check.moved << " moved, " << check.unchanged << " unchanged, " << check.not_seen
+            << " not seen, " << check.added << " new (moved: more than "
+            << formatFixed(args.options.min_position_m * 1000, 1) << " mm or "
+            << formatFixed(args.options.min_rotation_deg, 2)
+            << " deg, and beyond both registrations' uncertainty)\n";
+  if (check.moved > 0) {
+    std::cout << "re-register the moved cameras: lookboth register <drive> and compare again\n";
+  }
+  return 0;
+}
+
+}  // namespace
+
+void registerCheckCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body) {
+  auto args = std::make_shared<CheckArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "check", "Which cameras moved: a later drive's registration against the one on record");
+  cmd->add_option("registration", args->registration, "The new drive's registration directory")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  cmd->add_option("--against", args->against, "The registration on record")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  cmd->add_option("--min-move-m", args->options.min_position_m,
+                  "Smaller position changes are 'unchanged' [m]")
+      ->capture_default_str();
+  cmd->add_option("--min-turn-deg", args->options.min_rotation_deg,
+                  "Smaller rotation changes are 'unchanged' [deg]")
+      ->capture_default_str();
+  cmd->callback([args, set_body] { set_body([args] { return runCheck(*args); }); });
+}
+
+}  // namespace lookboth::app
