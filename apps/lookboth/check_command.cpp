@@ -4,7 +4,9 @@
 #include <iostream>
 
 #include "commands.h"
+#include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
+#include "lookboth/core/output_path.h"
 #include "lookboth/core/text.h"
 #include "lookboth/registration/facility_check.h"
 #include "lookboth/registration/registration.h"
@@ -15,6 +17,8 @@ namespace {
 struct CheckArgs {
   std::string registration;
   std::string against;
+  std::string update_out;
+  bool overwrite = false;
   FacilityCheckOptions options;
 };
 
@@ -33,6 +37,9 @@ void printCamera(const CameraCheck& c) {
 
 int runCheck(const CheckArgs& args) {
   if (const std::string why = args.options.check(); !why.empty()) throw Error(why);
+  if (!args.update_out.empty()) {
+    checkOutputPath(args.update_out, {args.registration, args.against}, args.overwrite);
+  }
   const Registration fresh = loadRegistration(args.registration);
   const Registration record = loadRegistration(args.against);
   const FacilityCheck check = checkFacility(fresh, record, args.options);
@@ -44,8 +51,13 @@ int runCheck(const CheckArgs& args) {
             << formatFixed(args.options.min_position_m * 1000, 1) << " mm or "
             << formatFixed(args.options.min_rotation_deg, 2)
             << " deg, and beyond both registrations' uncertainty)\n";
-  if (check.moved > 0) {
-    std::cout << "re-register the moved cameras: lookboth register <drive> and compare again\n";
+  if (!args.update_out.empty()) {
+    const Registration updated = updateRegistration(record, fresh, check);
+    writeDirectoryAtomically(
+        args.update_out, [&](const std::filesystem::path& dir) { saveRegistration(updated, dir); });
+    std::cout << "wrote " << args.update_out << ": " << updated.notes.back() << "\n";
+  } else if (check.moved + check.added > 0) {
+    std::cout << "to update the record with them: --update-out <dir>\n";
   }
   return 0;
 }
@@ -68,6 +80,10 @@ void registerCheckCommand(CLI::App& app, const std::function<void(CommandBody)>&
   cmd->add_option("--min-turn-deg", args->options.min_rotation_deg,
                   "Smaller rotation changes are 'unchanged' [deg]")
       ->capture_default_str();
+  cmd->add_option("--update-out", args->update_out,
+                  "Write the record updated by this drive here: the moved and new cameras "
+                  "re-registered, the others kept, in the record's frame");
+  cmd->add_flag("--overwrite", args->overwrite, "Replace an existing --update-out");
   cmd->callback([args, set_body] { set_body([args] { return runCheck(*args); }); });
 }
 

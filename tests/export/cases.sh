@@ -165,6 +165,19 @@ recheck)
   "$L" check reg2 --against reg1 | tee check.log
   grep -q "^1 moved, 5 unchanged" check.log || fail "expected exactly one camera moved"
   grep -Eq "^  cam03 +moved" check.log || fail "cam03 is not the one flagged"
+  # The record updated: cam03 from the later drive, in the record's frame.
+  "$L" check reg2 --against reg1 --update-out updated >/dev/null
+  "$L" evaluate updated --ground-truth drive2.rawlog --json updated.json >/dev/null
+  "$L" evaluate reg1 --ground-truth drive2.rawlog --json stale.json >/dev/null
+  python3 - stale.json updated.json <<'PY'
+import json, sys
+def cam03(path):
+    return next(c for c in json.load(open(path))['ground_truth']['cameras'] if c['label'] == 'cam03')
+stale, updated = cam03(sys.argv[1])['position_error_m'], cam03(sys.argv[2])['position_error_m']
+print(f"cam03 against the later drive's truth: record {stale * 1000:.1f} mm, updated {updated * 1000:.1f} mm")
+if not (stale > 0.04 and updated < 0.015):
+    sys.exit("FAIL: the update did not bring cam03 back")
+PY
   # The simulator moved cam03 by exactly that and nothing else.
   python3 - drive1.yaml drive2.yaml <<'PY'
 import sys, yaml

@@ -5,8 +5,10 @@
 #include <cmath>
 
 #include "lookboth/core/error.h"
+#include "lookboth/core/text.h"
 #include "lookboth/geometry/lie.h"
 #include "lookboth/geometry/umeyama.h"
+#include "lookboth/registration/site_frame.h"
 
 namespace lookboth {
 
@@ -165,6 +167,38 @@ FacilityCheck checkFacility(const Registration& fresh, const Registration& recor
     }
   }
   return result;
+}
+
+Registration updateRegistration(const Registration& record, const Registration& fresh,
+                                const FacilityCheck& check) {
+  // The fresh registration in the record's frame; its frame description is the record's.
+  const Registration mapped =
+      reexpressRegistration(fresh, check.record_from_new, std::nullopt, record.world_frame);
+  Registration updated = record;
+  for (const CameraCheck& c : check.cameras) {
+    if (c.verdict != CameraVerdict::kMoved && c.verdict != CameraVerdict::kNew) continue;
+    const CameraRegistration* replacement = mapped.findCamera(c.label);
+    if (replacement == nullptr) continue;
+    CameraRegistration camera = *replacement;
+    camera.notes.push_back(c.verdict == CameraVerdict::kNew
+                               ? "update: a new camera, registered from " + fresh.dataset
+                               : "update: moved " + formatFixed(c.moved_m.norm() * 1000, 1) +
+                                     " mm and turned " + formatFixed(c.rotated_deg, 2) +
+                                     " deg since the record; re-registered from " + fresh.dataset);
+    bool replaced = false;
+    for (CameraRegistration& old : updated.cameras) {
+      if (old.label == camera.label) {
+        old = camera;
+        replaced = true;
+      }
+    }
+    if (!replaced) updated.cameras.push_back(camera);
+  }
+  updated.notes.push_back("update: " + std::to_string(check.moved) + " moved and " +
+                          std::to_string(check.added) + " new cameras taken from " + fresh.dataset +
+                          "; " + std::to_string(check.unchanged) + " unchanged and " +
+                          std::to_string(check.not_seen) + " not seen kept from the record");
+  return updated;
 }
 
 }  // namespace lookboth

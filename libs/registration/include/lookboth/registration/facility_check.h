@@ -49,4 +49,11 @@ struct FacilityCheck {
 FacilityCheck checkFacility(const Registration& fresh, const Registration& record,
                             const FacilityCheckOptions& options = {});
 
+/// The record updated by a later drive, in the record's frame: the cameras
+/// `check` found moved, and the new ones, take the fresh registration's pose
+/// and covariance (mapped by check.record_from_new); the others keep the
+/// record's. Each replaced camera gets a note saying so and by how much.
+Registration updateRegistration(const Registration& record, const Registration& fresh,
+                                const FacilityCheck& check);
+
 }  // namespace lookboth
