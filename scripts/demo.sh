@@ -13,7 +13,9 @@
 #      adjustment), with the visual trajectory and with the robot's wheel
 #      odometry; and once more with the paper's stages alone (config/paper.yaml);
 #   7. evaluate against the ground truth, compare the runs, draw the pictures
-#      and write the HTML report.
+#      and write the HTML report;
+#   8. express the registration in the floor's frame and export it for the
+#      systems that use it (COLMAP, JSON, OpenCV, ROS 2, MRPT).
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
@@ -60,5 +62,9 @@ echo
 echo "== The report: one self-contained HTML file"
 "$LOOKBOTH" report "$OUT/small.rawlog" "$OUT/registration" --out "$OUT/report.html" --overwrite \
   --ground-truth "$OUT/small.rawlog" --against "$OUT/registration_metric"
+echo
+echo "== Hand on: the registration in the floor's frame, exported for COLMAP, JSON, OpenCV, ROS 2, MRPT"
+"$LOOKBOTH" align "$OUT/registration" --floor --out "$OUT/registration_floor" --overwrite
+"$LOOKBOTH" export "$OUT/registration_floor" --format all --out "$OUT/exports" --overwrite
 echo
 echo "Outputs in $OUT. Open the report in a browser: file://$(cd "$OUT" && pwd)/report.html"
