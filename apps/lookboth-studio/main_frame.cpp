@@ -800,16 +800,7 @@ void MainFrame::exportFormats(const std::string& formats, const std::string& dir
     return;
   }
   try {
-    std::vector<ExportFormat> chosen;
-    if (formats == "all") chosen = allExportFormats();
-    for (std::size_t start = 0; formats != "all" && start <= formats.size();) {
-      const std::size_t comma = std::min(formats.find(',', start), formats.size());
-      const std::string name = formats.substr(start, comma - start);
-      const std::optional<ExportFormat> format = parseExportFormat(name);
-      if (!format) throw Error("unknown export format '" + name + "'");
-      chosen.push_back(*format);
-      start = comma + 1;
-    }
+    const std::vector<ExportFormat> chosen = parseExportFormats(formats);
     std::map<std::string, Camera> intrinsics;
     for (const CameraSensor& sensor : index_->manifest().cameras) {
       if (sensor.camera) intrinsics.emplace(sensor.label, *sensor.camera);

@@ -2,7 +2,6 @@
 // read (doc/formats.md, "Exports"), the intrinsics from the dataset that was
 // registered.
 #include <iostream>
-#include <sstream>
 
 #include "commands.h"
 #include "lookboth/core/error.h"
@@ -25,18 +24,11 @@ struct ExportArgs {
 };
 
 std::vector<ExportFormat> parseFormats(const std::string& text) {
-  if (text == "all") return allExportFormats();
-  std::vector<ExportFormat> formats;
-  std::istringstream names(text);
-  for (std::string name; std::getline(names, name, ',');) {
-    const std::optional<ExportFormat> format = parseExportFormat(name);
-    if (!format) {
-      throw Error("--format: unknown format '" + name +
-                  "' (colmap, json, opencv, ros, mrpt, or all; several separated by commas)");
-    }
-    formats.push_back(*format);
+  try {
+    return parseExportFormats(text);
+  } catch (const Error& e) {
+    throw Error(std::string("--format: ") + e.what());
   }
-  return formats;
 }
 
 std::map<std::string, Camera> datasetIntrinsics(const std::filesystem::path& dataset) {

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <sstream>
 
 #include "formats.h"
 #include "lookboth/core/atomic_file.h"
@@ -37,6 +38,21 @@ std::optional<ExportFormat> parseExportFormat(const std::string& name) {
     if (name == exportFormatName(format)) return format;
   }
   return std::nullopt;
+}
+
+std::vector<ExportFormat> parseExportFormats(const std::string& text) {
+  if (text == "all") return allExportFormats();
+  std::vector<ExportFormat> formats;
+  std::istringstream names(text);
+  for (std::string name; std::getline(names, name, ',');) {
+    const std::optional<ExportFormat> format = parseExportFormat(name);
+    if (!format) {
+      throw Error("unknown format '" + name +
+                  "' (colmap, json, opencv, ros, mrpt, or all; several separated by commas)");
+    }
+    formats.push_back(*format);
+  }
+  return formats;
 }
 
 std::string ExportOptions::check() const {

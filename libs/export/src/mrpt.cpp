@@ -96,8 +96,7 @@ Matrix6d motionCovariance(const MotionSigmas& s, double distance_m) {
   return covariance;
 }
 
-/// The trajectory pose nearest the camera in the floor's directions (the
-/// robot passes under it).
+/// The trajectory pose nearest the camera (the robot passes under it).
 std::size_t nearestPose(const std::vector<StampedPose>& trajectory, const Rigid3d& camera) {
   std::size_t best = 0;
   double best_distance = std::numeric_limits<double>::infinity();

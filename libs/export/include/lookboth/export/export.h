@@ -28,6 +28,9 @@ const char* exportFormatName(ExportFormat format);
 std::optional<ExportFormat> parseExportFormat(const std::string& name);
 /// Every format, in the order above.
 std::vector<ExportFormat> allExportFormats();
+/// "all", or names separated by commas ("colmap,ros"); lookboth::Error
+/// naming an unknown one and listing the others.
+std::vector<ExportFormat> parseExportFormats(const std::string& text);
 
 struct ExportOptions {
   ExportFormat format = ExportFormat::kJson;
