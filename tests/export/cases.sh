@@ -38,7 +38,8 @@ for line in lines[0::2]:
     qw = (float(r['qw']), float(r['qx']), float(r['qy']), float(r['qz']))
     # cam_from_world's rotation is world_from_camera's inverse.
     d = qmul(q, qw)
-    angle = 2 * math.acos(min(1.0, abs(d[0])))
+    # atan2 keeps full precision near zero, where acos(w) loses half the digits.
+    angle = 2 * math.atan2(math.sqrt(d[1]**2 + d[2]**2 + d[3]**2), abs(d[0]))
     if max(map(abs, residual)) > 1e-9 or angle > 1e-9:
         sys.exit(f"FAIL: {name}: COLMAP's pose differs from cameras.csv ({residual}, {angle} rad)")
     seen += 1
