@@ -22,7 +22,8 @@ TEST(BlobAssociation, ByColumnEqualsTheScan) {
     std::vector<std::pair<std::size_t, Eigen::Vector2d>> projected;
     const int n_cameras = cameras(rng);
     for (int c = 0; c < n_cameras; ++c) {
-      projected.emplace_back(static_cast<std::size_t>(c), Eigen::Vector2d(u(rng), v(rng)));
+      const double y = v(rng);
+      projected.emplace_back(static_cast<std::size_t>(c), Eigen::Vector2d(u(rng), y));
     }
     std::vector<Blob> blobs;
     const int n_blobs = count(rng);

@@ -7,6 +7,7 @@
 #include "../src/joint_adjustment.h"
 #include "../src/joint_costs.h"
 #include "lookboth/cameras/camera_io.h"
+#include "lookboth/geometry/random.h"
 
 namespace lookboth {
 namespace {
@@ -41,8 +42,8 @@ void expectNear(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& expected, 
 
 Rigid3d randomPose(std::mt19937& rng, double translation, double angle) {
   std::normal_distribution<double> n(0.0, 1.0);
-  const Eigen::Vector3d t(n(rng), n(rng), n(rng));
-  const Eigen::Vector3d w(n(rng), n(rng), n(rng));
+  const Eigen::Vector3d t = drawVector<3>([&] { return n(rng); });
+  const Eigen::Vector3d w = drawVector<3>([&] { return n(rng); });
   return Rigid3d(so3Exp(Eigen::Vector3d(w * angle)), t * translation);
 }
 
@@ -123,7 +124,7 @@ TEST(JointCosts, SmoothPositionsKeepsAQuadraticAndShrinksNoise) {
     Rigid3d pose(so3Exp(Eigen::Vector3d(0.01 * ts, 0.0, 0.3 * ts)), at(ts));
     if (i >= 150) pose.translation += Eigen::Vector3d(5, 0, 0);  // the far side of the gap
     clean.push_back({t, pose});
-    pose.translation += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    pose.translation += drawVector<3>([&] { return noise(rng); });
     noisy.push_back({t, pose});
   }
   const auto smoothed_clean = joint_detail::smoothPositions(clean, 0.2, 100'000'000);
@@ -475,7 +476,7 @@ TEST(JointClockSearch, SharedRotationRemovesTheMarkersRotationNoise) {
   std::vector<Eigen::Vector3d> marker_in_camera;
   for (int i = 0; i < 9; ++i) {
     const Eigen::Vector3d m(0.3 * (i % 3) - 0.3, 0.2 * (i / 3) - 0.2, 2.9);
-    const Eigen::Vector3d w(deg(rng), deg(rng), deg(rng));
+    const Eigen::Vector3d w = drawVector<3>([&] { return deg(rng); });
     // Rotated about the marker: the marker stays where the camera saw it.
     const Eigen::Vector3d marker_in_world = world_from_camera * m;
     const Eigen::Quaterniond rotation = so3Exp(w) * world_from_camera.rotation;

@@ -8,6 +8,7 @@
 #include "lookboth/calib/builtin_stages.h"
 #include "lookboth/core/error.h"
 #include "lookboth/geometry/lie.h"
+#include "lookboth/geometry/random.h"
 #include "lookboth/sim/marker_corners.h"
 #include "synthetic.h"
 
@@ -47,7 +48,7 @@ void addCorners(SyntheticScene& scene, double sigma_px, std::uint32_t seed) {
     for (const Eigen::Vector3d& c : corners) {
       const auto pixel = pinhole.project(camera_from_marker * c);
       ASSERT_TRUE(pixel);
-      m.corners_px.push_back(*pixel + sigma_px * Eigen::Vector2d(normal(rng), normal(rng)));
+      m.corners_px.push_back(*pixel + sigma_px * drawVector<2>([&] { return normal(rng); }));
     }
     m.corner_sigma_px = sigma_px > 0 ? sigma_px : 0.1;
   }
@@ -132,10 +133,13 @@ std::vector<StampedPose> driftedTrajectory(const std::vector<StampedPose>& truth
         std::sqrt(o.min_sigma_m * o.min_sigma_m + o.drift_m_per_sqrt_m * o.drift_m_per_sqrt_m * d);
     const double sr = std::sqrt(std::pow(o.min_sigma_deg * kDeg, 2) +
                                 std::pow(o.drift_deg_per_sqrt_m * kDeg, 2) * d);
-    const Eigen::Vector3d nt =
-        st * Eigen::Vector3d(normal(rng), normal(rng), o.drift_vertical_ratio * normal(rng));
-    const Eigen::Vector3d nr = sr * Eigen::Vector3d(o.drift_tilt_ratio * normal(rng),
-                                                    o.drift_tilt_ratio * normal(rng), normal(rng));
+    const Eigen::Vector3d nt = st * drawVector<3>([&] {
+                                      return normal(rng);
+                                    }).cwiseProduct(Eigen::Vector3d(1, 1, o.drift_vertical_ratio));
+    const Eigen::Vector3d nr =
+        sr * drawVector<3>([&] {
+               return normal(rng);
+             }).cwiseProduct(Eigen::Vector3d(o.drift_tilt_ratio, o.drift_tilt_ratio, 1));
     const Rigid3d noisy(delta.rotation * so3Exp(nr), delta.translation + nt);
     out.push_back({truth[i].t, out.back().world_from_body * noisy});
   }

@@ -4,6 +4,7 @@
 
 #include "lookboth/cameras/camera_io.h"
 #include "lookboth/geometry/lie.h"
+#include "lookboth/geometry/random.h"
 #include "lookboth/geometry/umeyama.h"
 
 namespace lookboth::testing {
@@ -135,13 +136,12 @@ SyntheticScene makeSyntheticScene(const SyntheticOptions& o) {
       m.camera_from_marker = world_from_camera.inverse() * world_from_marker;
       const double st = o.marker_translation_sigma_m, sr = o.marker_rotation_sigma_deg * kDeg;
       if (st > 0) {
-        m.camera_from_marker.translation +=
-            st * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+        m.camera_from_marker.translation += st * drawVector<3>([&] { return normal(rng); });
       }
       if (sr > 0) {
         m.camera_from_marker.rotation =
             m.camera_from_marker.rotation *
-            so3Exp(Eigen::Vector3d(sr * Eigen::Vector3d(normal(rng), normal(rng), normal(rng))));
+            so3Exp(Eigen::Vector3d(sr * drawVector<3>([&] { return normal(rng); })));
       }
       const double it = 1.0 / std::pow(st > 0 ? st : 0.001, 2);
       const double ir = 1.0 / std::pow(sr > 0 ? sr : 0.01, 2);
@@ -193,7 +193,8 @@ Rigid3d makeVisualOdometry(std::vector<StampedPose>& trajectory, double scale,
   for (StampedPose& p : trajectory) {
     const double d = (p.world_from_body.translation - previous).norm();
     previous = p.world_from_body.translation;
-    drift += drift_m_per_sqrt_m * std::sqrt(d) * Eigen::Vector3d(normal(rng), normal(rng), 0);
+    const Eigen::Vector2d step = drawVector<2>([&] { return normal(rng); });
+    drift += drift_m_per_sqrt_m * std::sqrt(d) * Eigen::Vector3d(step.x(), step.y(), 0);
     drift_yaw += drift_deg_per_sqrt_m * M_PI / 180 * std::sqrt(d) * normal(rng);
     Rigid3d vo = vo_from_world * p.world_from_body;
     vo.rotation =

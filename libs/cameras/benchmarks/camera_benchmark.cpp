@@ -47,7 +47,8 @@ Scene makeScene(Camera camera, unsigned seed) {
               cv::Matx33d(p[0], 0.0, p[2], 0.0, p[1], p[3], 0.0, 0.0, 1.0),
               std::vector<double>(p.begin() + 4, p.end())};
   while (scene.points.size() < static_cast<std::size_t>(kPoints)) {
-    const auto bearing = camera.unproject(Eigen::Vector2d(u(rng), v(rng)));
+    const double y = v(rng);
+    const auto bearing = camera.unproject(Eigen::Vector2d(u(rng), y));
     if (!bearing || bearing->z() < 0.1) continue;  // OpenCV needs z > 0
     const Eigen::Vector3d point = *bearing * depth(rng);
     const Eigen::Vector2d pixel = *camera.project(point);

@@ -41,8 +41,9 @@ CameraSelfCheck selfCheckCamera(const Camera& camera, const CameraSelfCheckOptio
   }
 
   for (int i = 0; i < options.num_pixels; ++i) {
-    const Eigen::Vector2d pixel(-0.5 + camera.width() * unit(rng),
-                                -0.5 + camera.height() * unit(rng));
+    // v first: one order of the draws on every compiler (lookboth/geometry/random.h).
+    const double v = -0.5 + camera.height() * unit(rng);
+    const Eigen::Vector2d pixel(-0.5 + camera.width() * unit(rng), v);
     const auto ray = camera.unproject(pixel);
     if (!ray) {
       ++result.pixels_without_ray;

@@ -17,6 +17,7 @@
 #include "lookboth/dataset/marker_dictionary.h"
 #include "lookboth/detect/detection_evaluation.h"
 #include "lookboth/geometry/lie.h"
+#include "lookboth/geometry/random.h"
 #include "lookboth/sim/render.h"
 #include "lookboth/sim/world.h"
 
@@ -73,8 +74,10 @@ Rigid3d randomMarkerPose(const Camera& camera, std::mt19937& rng, double max_off
                                     std::sin(angle) * std::sin(azimuth), std::cos(angle));
     // Facing the camera's axis (marker z towards -z of the camera), small tilt, any yaw.
     const Eigen::Quaterniond facing(Eigen::Matrix3d(Eigen::Vector3d(1, -1, -1).asDiagonal()));
+    const Eigen::Vector2d axis = drawVector<2>([&] { return u(rng); });
+    const double tilt_angle = 3 * kDeg * u(rng);
     const Eigen::Quaterniond tilt(
-        Eigen::AngleAxisd(3 * kDeg * u(rng), Eigen::Vector3d(u(rng), u(rng), 0).normalized()));
+        Eigen::AngleAxisd(tilt_angle, Eigen::Vector3d(axis.x(), axis.y(), 0).normalized()));
     const Rigid3d pose(facing * tilt * rotZ(3.14159 * u(rng)), distance * direction);
     bool inside = true;
     for (const Eigen::Vector2d& p : projectCorners(camera, pose, 0.2))
@@ -124,7 +127,7 @@ TEST(MarkerPose, CovarianceMatchesTheErrorsOfNoisyCorners) {
   for (int trial = 0; trial < 400; ++trial) {
     const Rigid3d truth = randomMarkerPose(camera, rng, 35);
     auto corners = projectCorners(camera, truth, 0.2);
-    for (Eigen::Vector2d& c : corners) c += Eigen::Vector2d(noise(rng), noise(rng));
+    for (Eigen::Vector2d& c : corners) c += drawVector<2>([&] { return noise(rng); });
     const auto hypotheses = detector.solvePose(corners);
     ASSERT_FALSE(hypotheses.empty());
     double best = 1e300;
@@ -161,7 +164,7 @@ TEST(MarkerPose, AmbiguityIsResolvedByTheTrack) {
     const Rigid3d truth(facing * tilt * rotZ(0.05 * frame),
                         Eigen::Vector3d(0.9 + 0.02 * frame, 0.3 * u(rng), 5.0));
     auto corners = projectCorners(camera, truth, 0.2);
-    for (Eigen::Vector2d& c : corners) c += Eigen::Vector2d(noise(rng), noise(rng));
+    for (Eigen::Vector2d& c : corners) c += drawVector<2>([&] { return noise(rng); });
     MarkerDetection d;
     d.hypotheses = detector.solvePose(corners);
     ASSERT_GE(d.hypotheses.size(), 1u);

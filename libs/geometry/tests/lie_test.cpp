@@ -3,6 +3,7 @@
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
 
+#include "lookboth/geometry/random.h"
 #include "lookboth/geometry/sim3.h"
 #include "test_utils.h"
 
@@ -49,7 +50,7 @@ TEST(Lie, So3ExpLogRoundTripIncludingSmallAndNearPiAngles) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (double angle : {0.0, 1e-12, 1e-7, 1e-3, 0.5, 2.0, M_PI - 1e-6}) {
     for (int trial = 0; trial < 20; ++trial) {
-      const Eigen::Vector3d axis = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized();
+      const Eigen::Vector3d axis = drawVector<3>([&] { return u(rng); }).normalized();
       const Eigen::Vector3d omega = angle * axis;
       const Eigen::Quaterniond q = so3Exp(omega);
       EXPECT_NEAR(q.norm(), 1.0, 1e-15);

@@ -4,19 +4,21 @@
 #include <random>
 
 #include "lookboth/geometry/lie.h"
+#include "lookboth/geometry/random.h"
 #include "lookboth/geometry/rigid3.h"
 
 namespace lookboth::testing {
 
 inline Eigen::Quaterniond randomRotation(std::mt19937& rng) {
   std::normal_distribution<double> n(0.0, 1.0);
-  Eigen::Quaterniond q(n(rng), n(rng), n(rng), n(rng));
-  return q.normalized();
+  const Eigen::Vector4d wxyz = drawVector<4>([&] { return n(rng); });
+  return Eigen::Quaterniond(wxyz[0], wxyz[1], wxyz[2], wxyz[3]).normalized();
 }
 
 inline Rigid3d randomPose(std::mt19937& rng, double translation_scale = 10.0) {
   std::uniform_real_distribution<double> u(-translation_scale, translation_scale);
-  return Rigid3d(randomRotation(rng), Eigen::Vector3d(u(rng), u(rng), u(rng)));
+  const Eigen::Vector3d t = drawVector<3>([&] { return u(rng); });
+  return Rigid3d(randomRotation(rng), t);
 }
 
 /// Rotation angle between the two poses' rotations [rad] and distance between translations.

@@ -1,4 +1,5 @@
 #include "lookboth/geometry/umeyama.h"
+#include "lookboth/geometry/random.h"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +11,9 @@ namespace {
 std::vector<Eigen::Vector3d> randomPoints(std::mt19937& rng, int n) {
   std::uniform_real_distribution<double> u(-20.0, 20.0);
   std::vector<Eigen::Vector3d> points;
-  for (int i = 0; i < n; ++i) points.emplace_back(u(rng), u(rng), u(rng) * 0.1);
+  for (int i = 0; i < n; ++i)
+    points.push_back(
+        drawVector<3>([&] { return u(rng); }).cwiseProduct(Eigen::Vector3d(1, 1, 0.1)));
   return points;
 }
 
@@ -53,8 +56,7 @@ TEST(Umeyama, NoisyPointsWithinABoundFromTheNoise) {
   const Sim3d truth(1.7, r.rotation, r.translation);
   const auto src = randomPoints(rng, 400);
   std::vector<Eigen::Vector3d> dst;
-  for (const auto& p : src)
-    dst.push_back(truth * p + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)));
+  for (const auto& p : src) dst.push_back(truth * p + drawVector<3>([&] { return noise(rng); }));
   const auto result = alignSim3(src, dst);
   ASSERT_TRUE(result);
   // The residual RMS estimates the 3-D noise: sigma * sqrt(3).

@@ -10,6 +10,7 @@
 
 #include "lookboth/core/error.h"
 #include "lookboth/geometry/lie.h"
+#include "lookboth/geometry/random.h"
 
 namespace lookboth {
 namespace {
@@ -24,8 +25,8 @@ Registration noisyCopy(const std::vector<Rigid3d>& truth, const Rigid3d& frame, 
     CameraRegistration c;
     c.label = "cam" + std::to_string(100 + i).substr(1);
     c.status = CameraStatus::kRegistered;
-    const Eigen::Vector3d dt(n(rng), n(rng), n(rng));
-    const Eigen::Vector3d dtheta(n(rng), n(rng), n(rng));
+    const Eigen::Vector3d dt = drawVector<3>([&] { return n(rng); });
+    const Eigen::Vector3d dtheta = drawVector<3>([&] { return n(rng); });
     const Rigid3d noisy(truth[i].rotation * so3Exp(Eigen::Vector3d(kSigmaRotation * dtheta)),
                         truth[i].translation + kSigmaPosition * dt);
     c.world_from_camera = frame * noisy;

@@ -6,6 +6,7 @@
 
 #include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
+#include "lookboth/geometry/random.h"
 #include "lookboth/registration/registration.h"
 
 namespace lookboth {
@@ -15,9 +16,9 @@ namespace fs = std::filesystem;
 
 Rigid3d randomPose(std::mt19937& rng) {
   std::normal_distribution<double> n(0.0, 1.0);
-  Eigen::Quaterniond q(n(rng), n(rng), n(rng), n(rng));
-  q.normalize();
-  return Rigid3d(q, Eigen::Vector3d(n(rng), n(rng), n(rng)) * 5.0);
+  const Eigen::Vector4d wxyz = drawVector<4>([&] { return n(rng); });
+  const Eigen::Quaterniond q = Eigen::Quaterniond(wxyz[0], wxyz[1], wxyz[2], wxyz[3]).normalized();
+  return Rigid3d(q, drawVector<3>([&] { return n(rng); }) * 5.0);
 }
 
 Matrix6d randomCovariance(std::mt19937& rng) {

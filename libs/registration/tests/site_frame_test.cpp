@@ -11,6 +11,7 @@
 
 #include "lookboth/core/error.h"
 #include "lookboth/geometry/lie.h"
+#include "lookboth/geometry/random.h"
 
 namespace lookboth {
 namespace {
@@ -118,8 +119,7 @@ TEST(SiteFrame, PredictedUncertaintyMatchesTheErrors) {
   const int trials = 400;
   for (int trial = 0; trial < trials; ++trial) {
     std::vector<ControlPoint> points = controlPoints(site, 0.005, 5);
-    for (ControlPoint& p : points)
-      p.p_in_site += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    for (ControlPoint& p : points) p.p_in_site += drawVector<3>([&] { return noise(rng); });
     const SiteAlignment aligned = alignToControlPoints(reg, points, "site.csv");
     // The error as the covariance's perturbation: truth = Exp(dtheta) estimate + dt.
     const Rigid3d truth = world_from_site.inverse();

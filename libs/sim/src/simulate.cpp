@@ -192,8 +192,9 @@ MarkerObservation noisyMarker(const Rigid3d& camera_from_marker, double side_px,
 /// place is not detectable.
 std::optional<Rigid3d> decoyWorldFromMarker(const Camera& camera, const Rigid3d& world_from_camera,
                                             std::mt19937& rng) {
-  const Eigen::Vector2d pixel(uniform(rng, 0.15, 0.85) * camera.width(),
-                              uniform(rng, 0.15, 0.85) * camera.height());
+  // v first: one order of the draws on every compiler (lookboth/geometry/random.h).
+  const double v = uniform(rng, 0.15, 0.85) * camera.height();
+  const Eigen::Vector2d pixel(uniform(rng, 0.15, 0.85) * camera.width(), v);
   const double yaw = uniform(rng, 0, 2 * kPi);
   const auto ray = camera.unproject(pixel);
   if (!ray) return std::nullopt;

@@ -13,6 +13,7 @@
 #include <random>
 #include <vector>
 
+#include "lookboth/geometry/random.h"
 #include "lookboth/solver/pose_block.h"
 #include "lookboth/solver/sparse_covariance.h"
 
@@ -62,8 +63,9 @@ std::unique_ptr<Scene> makeScene(int cameras) {
   std::mt19937 rng(7);
   std::normal_distribution<double> noise(0.0, 1.0);
   auto jitter = [&]() {
-    return Rigid3d(so3Exp(Eigen::Vector3d(0.01 * noise(rng), 0.01 * noise(rng), 0.01 * noise(rng))),
-                   Eigen::Vector3d(noise(rng), noise(rng), noise(rng)) * 0.01);
+    const Eigen::Vector3d dt = drawVector<3>([&] { return noise(rng); }) * 0.01;
+    const Eigen::Vector3d dr = drawVector<3>([&] { return noise(rng); }) * 0.01;
+    return Rigid3d(so3Exp(dr), dt);
   };
   auto node = [&](int i) {
     const double a = 2 * M_PI * i / per_lap, r = 3.5 * cameras / (2 * M_PI);

@@ -94,7 +94,10 @@ BlockPattern randomPattern(int blocks, int edges, unsigned seed) {
   std::uniform_int_distribution<int> size(1, 6), block(0, blocks - 1);
   for (int i = 0; i < blocks; ++i) p.block_size.push_back(size(rng));
   p.adjacent.resize(static_cast<std::size_t>(blocks));
-  for (int e = 0; e < edges; ++e) connect(p, block(rng), block(rng));
+  for (int e = 0; e < edges; ++e) {
+    const int to = block(rng);
+    connect(p, block(rng), to);
+  }
   return p;
 }
 

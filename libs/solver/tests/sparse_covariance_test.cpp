@@ -7,6 +7,7 @@
 #include <random>
 #include <string>
 
+#include "lookboth/geometry/random.h"
 #include "lookboth/solver/pose_block.h"
 
 namespace lookboth {
@@ -58,8 +59,8 @@ Chain makeChain(int n, bool fix_first, std::uint32_t seed) {
   for (auto& p : c.poses) c.problem->AddParameterBlock(p.data(), 7, newPoseManifold());
   auto edge = [&](int i, int j, bool robust) {
     auto* cost = new RelativePoseCost;
-    const Eigen::Vector3d dt(noise(rng), noise(rng), noise(rng));
-    const Eigen::Vector3d dr(noise(rng), noise(rng), noise(rng));
+    const Eigen::Vector3d dt = drawVector<3>([&] { return noise(rng); });
+    const Eigen::Vector3d dr = drawVector<3>([&] { return noise(rng); });
     cost->a_from_b =
         truth[i].inverse() * truth[j] * Rigid3d(so3Exp(Eigen::Vector3d(dr * 0.002)), dt * 0.01);
     c.problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RelativePoseCost, 6, 7, 7>(cost),
@@ -183,8 +184,9 @@ Facility makeFacility(int n_nodes, int n_cameras, int n_scales, std::uint32_t se
   std::normal_distribution<double> noise(0.0, 1.0);
   std::uniform_int_distribution<int> any_node(1, n_nodes - 1);
   auto jitter = [&](double t, double r) {
-    return Rigid3d(so3Exp(Eigen::Vector3d(Eigen::Vector3d(noise(rng), noise(rng), noise(rng)) * r)),
-                   Eigen::Vector3d(noise(rng), noise(rng), noise(rng)) * t);
+    const Eigen::Vector3d dt = drawVector<3>([&] { return noise(rng); }) * t;
+    const Eigen::Vector3d dr = drawVector<3>([&] { return noise(rng); }) * r;
+    return Rigid3d(so3Exp(dr), dt);
   };
   Facility f;
   std::vector<Rigid3d> node_truth, camera_truth;

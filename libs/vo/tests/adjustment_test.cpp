@@ -9,6 +9,7 @@
 
 #include "../src/map.h"
 #include "lookboth/geometry/lie.h"
+#include "lookboth/geometry/random.h"
 #include "lookboth/geometry/sim3.h"
 #include "lookboth/geometry/umeyama.h"
 #include "lookboth/vo/bearing_geometry.h"
@@ -73,16 +74,16 @@ Scene makeScene(int keyframes, double sigma_m, double drift, unsigned seed) {
   for (Keyframe& kf : s.perturbed.keyframes) {
     if (kf.id == 0) continue;
     const Sim3d& e = error[size_t(kf.id)];
-    kf.world_from_camera =
-        Rigid3d(e.rotation * kf.world_from_camera.rotation *
-                    so3Exp(Eigen::Vector3d(Eigen::Vector3d(n(rng), n(rng), n(rng)) / 4)),
-                e * kf.world_from_camera.translation + Eigen::Vector3d(n(rng), n(rng), n(rng)));
+    const Eigen::Vector3d dt = drawVector<3>([&] { return n(rng); });
+    const Eigen::Vector3d dr = drawVector<3>([&] { return n(rng); }) / 4;
+    kf.world_from_camera = Rigid3d(e.rotation * kf.world_from_camera.rotation * so3Exp(dr),
+                                   e * kf.world_from_camera.translation + dt);
   }
   // (A point seen once is held where it is by the adjustment: left exact.)
   for (Landmark& l : s.perturbed.landmarks) {
     if (l.observations.size() < 2) continue;
-    l.p_in_world = error[size_t(l.reference_keyframe)] * l.p_in_world +
-                   Eigen::Vector3d(n(rng), n(rng), n(rng));
+    l.p_in_world =
+        error[size_t(l.reference_keyframe)] * l.p_in_world + drawVector<3>([&] { return n(rng); });
   }
   return s;
 }

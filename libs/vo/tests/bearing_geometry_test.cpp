@@ -7,6 +7,7 @@
 #include <random>
 
 #include "lookboth/geometry/lie.h"
+#include "lookboth/geometry/random.h"
 
 namespace lookboth::vo {
 namespace {
@@ -28,8 +29,9 @@ std::vector<Eigen::Vector3d> ceilingPoints(std::mt19937& rng, int n, double reli
 
 Rigid3d randomMotion(std::mt19937& rng, double translation, double rotation) {
   std::normal_distribution<double> n(0, 1);
-  const Eigen::Vector3d w(n(rng), n(rng), n(rng));
-  const Eigen::Vector3d t(n(rng), n(rng), 0.2 * n(rng));
+  const Eigen::Vector3d w = drawVector<3>([&] { return n(rng); });
+  const Eigen::Vector3d t =
+      drawVector<3>([&] { return n(rng); }).cwiseProduct(Eigen::Vector3d(1, 1, 0.2));
   return Rigid3d(so3Exp<double>(rotation * w.normalized()), translation * t.normalized());
 }
 
@@ -72,12 +74,12 @@ TEST(RelativePoseTest, NoisyWithOutliersWithinBound) {
   std::normal_distribution<double> noise(0, 0.002);  // ~0.4 px at 200 px/rad
   Bearings b1, b2;
   for (size_t i = 0; i < points.size(); ++i) {
-    b1.push_back((bearingIn(Rigid3d::Identity(), points[i]) +
-                  Eigen::Vector3d(noise(rng), noise(rng), noise(rng)))
-                     .normalized());
+    b1.push_back((bearingIn(Rigid3d::Identity(), points[i]) + drawVector<3>([&] {
+                    return noise(rng);
+                  })).normalized());
     Eigen::Vector3d b = bearingIn(world_from_cam2, points[i]);
     if (i % 5 == 0) b = (b + Eigen::Vector3d(0.3, -0.2, 0.1)).normalized();  // 20 % outliers
-    b2.push_back((b + Eigen::Vector3d(noise(rng), noise(rng), noise(rng))).normalized());
+    b2.push_back((b + drawVector<3>([&] { return noise(rng); })).normalized());
   }
   RansacOptions options;
   options.threshold_rad = 0.01;
