@@ -15,7 +15,8 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   librosbag-storage-dev libroscpp-core-dev
-  libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev libstd-msgs-dev
+  libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev libstd-msgs-dev libtf2-msgs-dev
+  libfastcdr-dev libsqlite3-dev liblz4-dev libzstd-dev zlib1g-dev  # ROS 2 bags (libs/dataset/src/ros2_*.cpp)
   chromium xvfb xauth
   python3 python3-yaml  # scripts/*.py (benchmark helpers)
   colmap liburdfdom-tools python3-jsonschema  # exports read by their consumers (tests/export)

@@ -205,7 +205,7 @@ wxMenu* MainFrame::buildFileMenu() {
   file->Append(kIdOpenFolder, "Open &folder dataset...\tCtrl+Shift+O",
                "Open a dataset in the plain folder layout (doc/formats.md)");
   file->Append(kIdImportBag, "&Import ROS bag...\tCtrl+I",
-               "Convert a ROS 1 bag to a dataset with a topic mapping file, then open it");
+               "Convert a ROS 1 or ROS 2 bag to a dataset with a topic mapping file, then open it");
   auto* simulate = new wxMenu;
   const auto scenarios = sim::builtinScenarioNames();
   for (size_t i = 0; i < scenarios.size() && i < 50; ++i)
@@ -482,7 +482,10 @@ void MainFrame::simulateScenario(const std::string& scenario, bool detections_on
 }
 
 void MainFrame::importBag() {
-  wxFileDialog bag_dialog(this, "ROS 1 bag to import", "", "", "ROS bags (*.bag)|*.bag|All files|*",
+  // A ROS 2 bag folder is opened by its metadata.yaml.
+  wxFileDialog bag_dialog(this, "ROS bag to import", "", "",
+                          "ROS bags (*.bag;*.mcap;*.db3;metadata.yaml)|*.bag;*.mcap;*.db3;"
+                          "metadata.yaml|All files|*",
                           wxFD_OPEN | wxFD_FILE_MUST_EXIST);
   if (bag_dialog.ShowModal() != wxID_OK) return;
   wxFileDialog mapping_dialog(this, "Topic mapping (YAML, see the user guide)", "", "",

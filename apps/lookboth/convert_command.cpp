@@ -1,5 +1,5 @@
 // `lookboth convert`: datasets between the rawlog and folder layouts, TUM
-// trajectories in and out, ROS 1 bags in.
+// trajectories in and out, ROS 1 and ROS 2 bags in.
 #include <iostream>
 
 #include "commands.h"
@@ -174,12 +174,14 @@ int runConvert(const ConvertArgs& args) {
 
 void registerConvertCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body) {
   auto args = std::make_shared<ConvertArgs>();
-  CLI::App* cmd = app.add_subcommand(
-      "convert",
-      "Convert between dataset layouts (rawlog, folder), TUM trajectories and ROS 1 bags");
+  CLI::App* cmd =
+      app.add_subcommand("convert",
+                         "Convert between dataset layouts (rawlog, folder), TUM trajectories and "
+                         "ROS bags (ROS 1 .bag; ROS 2 .mcap, .db3 or a bag folder)");
   const auto kinds = CLI::IsMember({"auto", "rawlog", "folder", "bag", "tum"});
   cmd->add_option("--from", args->from,
-                  "Input: x.rawlog (with x.yaml beside it), a folder, x.bag, x.tum");
+                  "Input: x.rawlog (with x.yaml beside it), a folder, x.bag, x.mcap, x.db3, a ROS "
+                  "2 bag folder, x.tum");
   cmd->add_option("--to,--out", args->to, "Output: x.rawlog, a folder, or x.tum (a trajectory)")
       ->required();
   cmd->add_option("--merge", args->merge,
@@ -200,9 +202,10 @@ void registerConvertCommand(CLI::App& app, const std::function<void(CommandBody)
                   "Add a TUM trajectory to the output dataset: FILE.tum=LABEL[:metric|:scaled]");
   cmd->add_option("--topics", args->topics_yaml, "ROS bag: topic mapping YAML (doc/formats.md)")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--topic", args->topics,
-                  "ROS bag: /topic=LABEL:ROLE[:nonmetric] (roles: fisheye, "
-                  "env_camera, odometry, ground_truth)");
+  cmd->add_option(
+      "--topic", args->topics,
+      "ROS bag: /topic=LABEL:ROLE[:nonmetric][:child=FRAME[:parent=FRAME]] (roles: fisheye, "
+      "env_camera, odometry, ground_truth)");
   cmd->add_option("--marker", args->marker, "ROS bag: the robot's marker, DICTIONARY:ID:SIZE_M");
   cmd->add_option("--calibration", args->calibrations,
                   "ROS bag: LABEL=FILE, a calibration overriding CameraInfo");

@@ -108,13 +108,27 @@ inline void writeSampleRawlog(const std::filesystem::path& rawlog, bool calibrat
 inline RosbagImportOptions fuzzBagOptions() {
   RosbagImportOptions options;
   options.topics = {
-      {"/fisheye/image_raw", "", "fisheye", true},
-      {"/fisheye/camera_info", "", "fisheye", true},
-      {"/cam03/image/compressed", "cam03", "env_camera", true},
-      {"/cam03/camera_info", "cam03", "env_camera", true},
-      {"/odom", "", "odometry", false},
-      {"/ground_truth/pose", "", "ground_truth", true},
+      {"/fisheye/image_raw", "", "fisheye", true, "", ""},
+      {"/fisheye/camera_info", "", "fisheye", true, "", ""},
+      {"/cam03/image/compressed", "cam03", "env_camera", true, "", ""},
+      {"/cam03/camera_info", "cam03", "env_camera", true, "", ""},
+      {"/odom", "", "odometry", false, "", ""},
+      {"/ground_truth/pose", "", "ground_truth", true, "", ""},
   };
+  options.on_warning = [](const std::string&) {};
+  return options;
+}
+
+/// The mapping of the ROS 2 fixtures' topics (tests/data/ros2), every type lookboth reads.
+inline RosbagImportOptions fuzzRos2Options() {
+  RosbagImportOptions options;
+  for (const char* mapping :
+       {"/fisheye/image_raw=fisheye:fisheye", "/env_cam/image/compressed=env_cam:env_camera",
+        "/odom=odometry:odometry", "/ground_truth/pose=ground_truth:ground_truth",
+        "/initialpose=initial:odometry", "/tf=tf_base:odometry:child=base_link"}) {
+    options.topics.push_back(parseTopicMapping(mapping));
+  }
+  options.marker = MarkerSpec{"DICT_4X4_50", 0, 0.2};
   options.on_warning = [](const std::string&) {};
   return options;
 }

@@ -209,6 +209,12 @@ int main(int argc, char** argv) {
       folderSeeds(dir);
     } else if (target == "rosbag") {
       rosbagSeeds(dir);
+    } else if (target == "mcap") {
+      // The MCAP fixtures written by the npm MCAP library (tests/data/ros2).
+      for (const char* name : {"sample_uncompressed.mcap", "sample_lz4.mcap", "sample_zstd.mcap",
+                               "sample_unchunked.mcap", "sample_nosummary.mcap"}) {
+        fs::copy_file(kTestData / "ros2" / name, dir / name, fs::copy_options::overwrite_existing);
+      }
     } else if (target == "config") {
       configSeeds(dir);
     } else if (target == "camera") {

@@ -35,7 +35,11 @@ std::optional<DataKind> parseDataKind(const std::string& name) {
 
 DataKind detectDataKind(const fs::path& path) {
   const std::string ext = path.extension().string();
-  if (ext == ".bag") return DataKind::kBag;
+  // ROS 1 (.bag) and ROS 2 bags: one .mcap or .db3 file, or a rosbag2 folder.
+  if (ext == ".bag" || ext == ".mcap" || ext == ".db3") return DataKind::kBag;
+  std::error_code ec;
+  if (path.filename() == "metadata.yaml" || fs::exists(path / "metadata.yaml", ec))
+    return DataKind::kBag;
   if (ext == ".tum" || ext == ".txt") return DataKind::kTum;
   return detectDatasetKind(path) == DatasetKind::kRawlog ? DataKind::kRawlog : DataKind::kFolder;
 }

@@ -1,16 +1,5 @@
 #include "lookboth/dataset/rosbag_import.h"
 
-#include <bzlib.h>
-#include <geometry_msgs/PoseStamped.h>
-#include <nav_msgs/Odometry.h>
-#include <ros/serialization.h>
-#include <rosbag/bag.h>
-#include <rosbag/exceptions.h>
-#include <rosbag/view.h>
-#include <roslz4/lz4s.h>
-#include <sensor_msgs/CameraInfo.h>
-#include <sensor_msgs/CompressedImage.h>
-#include <sensor_msgs/Image.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -27,6 +16,7 @@
 #include <set>
 #include <type_traits>
 
+#include "bag_source.h"
 #include "lookboth/cameras/camera_io.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
@@ -37,11 +27,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr const char* kImageType = "sensor_msgs/Image";
-constexpr const char* kCompressedImageType = "sensor_msgs/CompressedImage";
-constexpr const char* kCameraInfoType = "sensor_msgs/CameraInfo";
-constexpr const char* kOdometryType = "nav_msgs/Odometry";
-constexpr const char* kPoseStampedType = "geometry_msgs/PoseStamped";
+using bag::MessageKind;
 
 bool isCameraRole(const std::string& role) { return role == "fisheye" || role == "env_camera"; }
 bool isTrajectoryRole(const std::string& role) {
@@ -112,6 +98,15 @@ std::string RosbagImportOptions::check() const {
                it->second.second;
       }
     }
+    if (!m.child_frame.empty() && !isTrajectoryRole(m.role)) {
+      return "'" + field +
+             ".child_frame': a transform topic gives a trajectory (role odometry "
+             "or ground_truth), not role " +
+             m.role;
+    }
+    if (!m.parent_frame.empty() && m.child_frame.empty()) {
+      return "'" + field + ".parent_frame': given without child_frame";
+    }
     if (m.role == "fisheye") {
       if (!fisheye_label.empty() && fisheye_label != label) {
         return "'" + field + ".label': a second fisheye '" + label + "' (the fisheye is '" +
@@ -134,7 +129,8 @@ std::string RosbagImportOptions::check() const {
 RosTopicMapping parseTopicMapping(const std::string& text) {
   const ErrorContext where{"", 0, "topic mapping", ""};
   const std::string usage =
-      " (expected /topic=label:role[:nonmetric], roles: " + joined(rosTopicRoles()) + ")";
+      " (expected /topic=label:role[:nonmetric][:child=<frame>[:parent=<frame>]], roles: " +
+      joined(rosTopicRoles()) + ")";
   const size_t equals = text.find('=');
   if (equals == std::string::npos) throw Error(where, "'" + text + "': no '='" + usage);
   if (equals == 0) throw Error(where, "'" + text + "': no topic before '='" + usage);
@@ -149,26 +145,28 @@ RosTopicMapping parseTopicMapping(const std::string& text) {
     if (colon == std::string::npos) break;
     start = colon + 1;
   }
-  if (parts.size() < 2 || parts.size() > 3)
-    throw Error(where, "'" + text + "': expected label:role" + usage);
+  if (parts.size() < 2) throw Error(where, "'" + text + "': expected label:role" + usage);
   mapping.label = parts[0];
   mapping.role = parts[1];
   const auto& roles = rosTopicRoles();
   if (std::find(roles.begin(), roles.end(), mapping.role) == roles.end()) {
     throw Error(where, "'" + text + "': unknown role '" + mapping.role + "'" + usage);
   }
-  if (parts.size() == 3) {
-    if (parts[2] == "nonmetric") {
-      mapping.metric = false;
-    } else if (parts[2] == "metric") {
-      mapping.metric = true;
+  for (size_t i = 2; i < parts.size(); ++i) {
+    const std::string& flag = parts[i];
+    if (flag == "nonmetric" || flag == "metric") {
+      mapping.metric = flag == "metric";
+    } else if (flag.rfind("child=", 0) == 0 && flag.size() > 6) {
+      mapping.child_frame = flag.substr(6);
+    } else if (flag.rfind("parent=", 0) == 0 && flag.size() > 7) {
+      mapping.parent_frame = flag.substr(7);
     } else {
-      throw Error(where,
-                  "'" + text + "': unknown flag '" + parts[2] + "' (metric, nonmetric)" + usage);
+      throw Error(where, "'" + text + "': unknown flag '" + flag +
+                             "' (metric, nonmetric, child=<frame>, parent=<frame>)" + usage);
     }
     if (!isTrajectoryRole(mapping.role)) {
-      throw Error(
-          where, "'" + text + "': '" + parts[2] + "' is for trajectories (odometry, ground_truth)");
+      throw Error(where,
+                  "'" + text + "': '" + flag + "' is for trajectories (odometry, ground_truth)");
     }
   }
   return mapping;
@@ -253,7 +251,7 @@ RosbagImportOptions loadRosbagMapping(const fs::path& yaml) {
     const std::string field = "topics." + mapping.topic;
     const YAML::Node node = entry.second;
     r.requireMap(node, field);
-    r.rejectUnknownKeys(node, {"label", "role", "metric"}, field);
+    r.rejectUnknownKeys(node, {"label", "role", "metric", "child_frame", "parent_frame"}, field);
     mapping.role = r.text(r.require(node, "role", field + ".role"), field + ".role");
     const auto& roles = rosTopicRoles();
     if (std::find(roles.begin(), roles.end(), mapping.role) == roles.end()) {
@@ -262,6 +260,10 @@ RosbagImportOptions loadRosbagMapping(const fs::path& yaml) {
     }
     if (node["label"]) mapping.label = r.text(node["label"], field + ".label");
     if (node["metric"]) mapping.metric = r.boolean(node["metric"], field + ".metric");
+    if (node["child_frame"])
+      mapping.child_frame = r.text(node["child_frame"], field + ".child_frame");
+    if (node["parent_frame"])
+      mapping.parent_frame = r.text(node["parent_frame"], field + ".parent_frame");
     options.topics.push_back(std::move(mapping));
   }
 
@@ -299,15 +301,8 @@ RosbagImportOptions loadRosbagMapping(const fs::path& yaml) {
 
 namespace {
 
-/// Why a message cannot be converted; the caller adds the bag, topic and message.
-struct Problem {
-  explicit Problem(std::string why_) : why(std::move(why_)) {}
-  std::string why;
-};
-
-TimeNs rosTimeToNs(const ros::Time& t) {
-  return static_cast<TimeNs>(t.sec) * kNanosecondsPerSecond + static_cast<TimeNs>(t.nsec);
-}
+using bag::Problem;
+using bag::rosTimeToNs;
 
 /// Width and height from a PNG's IHDR or a JPEG's SOF segment, without decoding.
 bool peekImageSize(const std::vector<std::uint8_t>& d, int* width, int* height) {
@@ -546,545 +541,15 @@ Rigid3d poseFromRos(const geometry_msgs::Pose& pose) {
   return Rigid3d(q, Eigen::Vector3d(p.x, p.y, p.z));
 }
 
-// ---------------------------------------------------------------------------
-// Structure check of a ROS bag 2.0 before rosbag_storage reads it.
-//
-// rosbag_storage trusts the lengths and positions written in a bag: a
-// corrupt length makes it read or parse past its buffers and crash, which no
-// exception handler can catch. So the bag is first walked here the way
-// rosbag_storage will walk it (file header -> index position -> connection
-// and chunk info records -> each chunk and the index records after it ->
-// the message records the indexes point to), with every length bounded by
-// the bytes that are really there. A bag that passes holds nothing that
-// makes rosbag_storage read outside what it allocated.
-
-constexpr std::uint8_t kOpMessageData = 0x02;
-constexpr std::uint8_t kOpFileHeader = 0x03;
-constexpr std::uint8_t kOpIndexData = 0x04;
-constexpr std::uint8_t kOpChunk = 0x05;
-constexpr std::uint8_t kOpChunkInfo = 0x06;
-constexpr std::uint8_t kOpConnection = 0x07;
-
-/// Largest uncompressed chunk accepted: rosbag_storage allocates the size a
-/// chunk declares before decompressing it (recorders write chunks of about
-/// 768 KiB; one message larger than that makes one chunk as large).
-constexpr std::uint32_t kMaxChunkBytes = 1u << 30;
-
-std::uint32_t le32(const std::uint8_t* p) {
-  return static_cast<std::uint32_t>(p[0]) | static_cast<std::uint32_t>(p[1]) << 8 |
-         static_cast<std::uint32_t>(p[2]) << 16 | static_cast<std::uint32_t>(p[3]) << 24;
-}
-
-std::uint64_t le64(const std::uint8_t* p) {
-  return static_cast<std::uint64_t>(le32(p)) | static_cast<std::uint64_t>(le32(p + 4)) << 32;
-}
-
-/// Bytes that records are read from: the bag file, or one uncompressed chunk.
-class ByteSource {
- public:
-  virtual ~ByteSource() = default;
-  virtual std::uint64_t size() const = 0;
-  /// Reads exactly `n` bytes at `offset` (the caller has checked the range).
-  virtual void read(std::uint64_t offset, std::size_t n, std::uint8_t* out) = 0;
-};
-
-class FileSource final : public ByteSource {
- public:
-  FileSource(const fs::path& path, std::uint64_t size)
-      : path_(path), in_(path, std::ios::binary), size_(size) {
-    if (!in_) throw Error({path.string(), 0, "", ""}, "cannot open for reading");
-  }
-  std::uint64_t size() const override { return size_; }
-  void read(std::uint64_t offset, std::size_t n, std::uint8_t* out) override {
-    in_.seekg(static_cast<std::streamoff>(offset));
-    in_.read(reinterpret_cast<char*>(out), static_cast<std::streamsize>(n));
-    if (!in_) {
-      throw Error({path_.string(), 0, "", ""},
-                  "cannot read " + std::to_string(n) + " bytes at byte " + std::to_string(offset));
-    }
-  }
-
- private:
-  fs::path path_;
-  std::ifstream in_;
-  std::uint64_t size_;
-};
-
-/// A window [begin, begin + size) of another source.
-class WindowSource final : public ByteSource {
- public:
-  WindowSource(ByteSource& base, std::uint64_t begin, std::uint64_t size)
-      : base_(base), begin_(begin), size_(size) {}
-  std::uint64_t size() const override { return size_; }
-  void read(std::uint64_t offset, std::size_t n, std::uint8_t* out) override {
-    base_.read(begin_ + offset, n, out);
-  }
-
- private:
-  ByteSource& base_;
-  std::uint64_t begin_, size_;
-};
-
-class MemorySource final : public ByteSource {
- public:
-  explicit MemorySource(std::vector<std::uint8_t> bytes) : bytes_(std::move(bytes)) {}
-  std::uint64_t size() const override { return bytes_.size(); }
-  void read(std::uint64_t offset, std::size_t n, std::uint8_t* out) override {
-    std::memcpy(out, bytes_.data() + offset, n);
-  }
-
- private:
-  std::vector<std::uint8_t> bytes_;
-};
-
-/// One record: <header length><header fields><data length><data>.
-struct BagRecord {
-  std::uint64_t offset = 0;  ///< Of the header length, in its source.
-  std::map<std::string, std::string> fields;
-  std::uint64_t data_offset = 0;
-  std::uint32_t data_length = 0;
-  std::uint64_t end() const { return data_offset + data_length; }
-};
-
-class BagStructureCheck {
- public:
-  explicit BagStructureCheck(const fs::path& path) : path_(path) {}
-
-  void run() {
-    std::error_code ec;
-    const std::uintmax_t size = fs::file_size(path_, ec);
-    if (ec) throw Error({path_.string(), 0, "", ""}, "cannot read its size: " + ec.message());
-    FileSource file(path_, size);
-    checkVersion(file);
-    const BagRecord header = readRecord(file, 13, "the file header record");
-    requireOp(header, kOpFileHeader, "the file header record");
-    if (const auto it = header.fields.find("encryptor");
-        it != header.fields.end() && !it->second.empty()) {
-      throw Error(context(), "the bag is encrypted ('" + it->second +
-                                 "'); lookboth reads unencrypted bags only (decrypt it first)");
-    }
-    const std::uint64_t index_position = u64(header, "index_pos", "the file header record");
-    if (index_position == 0) return;  // unindexed: rosbag_storage says so before reading on
-    const std::uint32_t connection_count = u32(header, "conn_count", "the file header record");
-    const std::uint32_t chunk_count = u32(header, "chunk_count", "the file header record");
-    if (index_position < header.end() || index_position >= size) {
-      throw Error(context(), "the file header record gives the index position " +
-                                 std::to_string(index_position) + ", outside the file's " +
-                                 std::to_string(header.end()) + ".." + std::to_string(size) +
-                                 " bytes (a truncated bag? 'rosbag reindex' may repair it)");
-    }
-
-    std::uint64_t offset = index_position;
-    for (std::uint32_t i = 0; i < connection_count; ++i) {
-      const std::string what = "connection record " + std::to_string(i + 1) + " of " +
-                               std::to_string(connection_count) + " (index section)";
-      const BagRecord record = readRecord(file, offset, what);
-      checkConnection(file, record, what, 0, true);
-      offset = record.end();
-    }
-    std::vector<std::pair<std::uint64_t, std::set<std::uint32_t>>> chunks;  // position, connections
-    for (std::uint32_t i = 0; i < chunk_count; ++i) {
-      const std::string what =
-          "chunk info record " + std::to_string(i + 1) + " of " + std::to_string(chunk_count);
-      const BagRecord record = readRecord(file, offset, what);
-      chunks.emplace_back(checkChunkInfo(file, record, what));
-      offset = record.end();
-    }
-    for (size_t i = 0; i < chunks.size(); ++i) {
-      const auto& [position, connections] = chunks[i];
-      const std::string what =
-          "chunk " + std::to_string(i + 1) + " of " + std::to_string(chunks.size());
-      if (position < header.end() || position >= index_position) {
-        corrupt(what, position,
-                "its position lies outside the chunk section (bytes " +
-                    std::to_string(header.end()) + ".." + std::to_string(index_position) + ")");
-      }
-      checkChunk(file, position, connections.size(), index_position, what);
-    }
-  }
-
- private:
-  ErrorContext context() const { return {path_.string(), 0, "", ""}; }
-
-  [[noreturn]] void corrupt(const std::string& what, std::uint64_t offset,
-                            const std::string& why) const {
-    throw Error(context(),
-                "corrupt ROS bag: " + what + " at byte " + std::to_string(offset) + ": " + why);
-  }
-
-  void checkVersion(ByteSource& file) const {
-    static const std::string kVersion = "#ROSBAG V2.0\n";
-    std::string line(kVersion.size(), '\0');
-    if (file.size() >= line.size())
-      file.read(0, line.size(), reinterpret_cast<std::uint8_t*>(line.data()));
-    if (line == kVersion) return;
-    if (line.rfind("#ROSBAG V", 0) == 0) {
-      throw Error(context(), "a ROS bag of format " + line.substr(9, 3) +
-                                 "; lookboth reads format 2.0 ('rosbag fix' converts old bags)");
-    }
-    throw Error(context(), "not a ROS 1 bag (it does not start with '#ROSBAG V2.0')");
-  }
-
-  /// Reads and bounds one record of `source` at `offset`.
-  BagRecord readRecord(ByteSource& source, std::uint64_t offset, const std::string& what,
-                       std::uint64_t base = 0) const {
-    BagRecord record;
-    record.offset = offset;
-    const std::uint64_t size = source.size();
-    auto at = [&](std::uint64_t o) { return base + o; };
-    if (offset > size || size - offset < 4) {
-      corrupt(what, at(offset),
-              "the record's header length lies past the end (" +
-                  std::to_string(size - std::min(size, offset)) + " bytes left)");
-    }
-    std::uint8_t word[8];
-    source.read(offset, 4, word);
-    const std::uint32_t header_length = le32(word);
-    const std::uint64_t left = size - offset - 4;
-    if (header_length > left || left - header_length < 4) {
-      corrupt(what, at(offset),
-              "the header length " + std::to_string(header_length) + " leaves no room for it and " +
-                  "the data length in the " + std::to_string(left) + " bytes left");
-    }
-    std::vector<std::uint8_t> header(header_length);
-    if (header_length > 0) source.read(offset + 4, header_length, header.data());
-    std::size_t i = 0;
-    while (i < header.size()) {
-      if (header.size() - i < 4) corrupt(what, at(offset), "a header field's length is cut off");
-      const std::uint32_t field_length = le32(header.data() + i);
-      i += 4;
-      if (field_length > header.size() - i) {
-        corrupt(what, at(offset),
-                "a header field of " + std::to_string(field_length) + " bytes runs past the " +
-                    std::to_string(header_length) + "-byte header");
-      }
-      const std::string field(reinterpret_cast<const char*>(header.data() + i), field_length);
-      i += field_length;
-      const size_t equals = field.find('=');
-      if (equals == std::string::npos)
-        corrupt(what, at(offset), "a header field has no '=' (not a record header)");
-      record.fields[field.substr(0, equals)] = field.substr(equals + 1);
-    }
-    source.read(offset + 4 + header_length, 4, word);
-    record.data_length = le32(word);
-    record.data_offset = offset + 4 + header_length + 4;
-    if (record.data_length > size - record.data_offset) {
-      corrupt(what, at(offset),
-              "the data length " + std::to_string(record.data_length) + " runs past the end (" +
-                  std::to_string(size - record.data_offset) + " bytes left)");
-    }
-    return record;
-  }
-
-  const std::string& field(const BagRecord& record, const std::string& name, std::size_t length,
-                           const std::string& what, std::uint64_t base = 0) const {
-    const auto it = record.fields.find(name);
-    if (it == record.fields.end())
-      corrupt(what, base + record.offset, "its header has no '" + name + "' field");
-    if (length > 0 && it->second.size() != length) {
-      corrupt(what, base + record.offset,
-              "its '" + name + "' field has " + std::to_string(it->second.size()) +
-                  " bytes, expected " + std::to_string(length));
-    }
-    return it->second;
-  }
-  std::uint8_t op(const BagRecord& record, const std::string& what, std::uint64_t base = 0) const {
-    return static_cast<std::uint8_t>(field(record, "op", 1, what, base)[0]);
-  }
-  void requireOp(const BagRecord& record, std::uint8_t expected, const std::string& what,
-                 std::uint64_t base = 0) const {
-    const std::uint8_t found = op(record, what, base);
-    if (found != expected) {
-      corrupt(
-          what, base + record.offset,
-          "record type (op) " + std::to_string(found) + ", expected " + std::to_string(expected));
-    }
-  }
-  std::uint32_t u32(const BagRecord& record, const std::string& name, const std::string& what,
-                    std::uint64_t base = 0) const {
-    return le32(reinterpret_cast<const std::uint8_t*>(field(record, name, 4, what, base).data()));
-  }
-  std::uint64_t u64(const BagRecord& record, const std::string& name, const std::string& what,
-                    std::uint64_t base = 0) const {
-    return le64(reinterpret_cast<const std::uint8_t*>(field(record, name, 8, what, base).data()));
-  }
-
-  /// A connection record: its header names the connection, its data is the
-  /// connection header (type, md5sum, message definition...).
-  /// The connections rosbag_storage knows are those of the index section
-  /// (`known`); the copies inside chunks are only checked.
-  void checkConnection(ByteSource& source, const BagRecord& record, const std::string& what,
-                       std::uint64_t base, bool known) {
-    requireOp(record, kOpConnection, what, base);
-    const std::uint32_t id = u32(record, "conn", what, base);
-    if (known) connections_.insert(id);
-    field(record, "topic", 0, what, base);
-    // rosbag_storage reads the data length and data as one more header:
-    // <length><fields>.
-    WindowSource data(source, record.data_offset - 4, std::uint64_t{record.data_length} + 4);
-    checkFields(data, what + " (connection header)", base + record.data_offset - 4);
-  }
-
-  /// <length><fields> at the start of `source`, bounded by it.
-  void checkFields(ByteSource& source, const std::string& what, std::uint64_t base) const {
-    std::uint8_t word[4];
-    source.read(0, 4, word);
-    const std::uint32_t length = le32(word);
-    if (length > source.size() - 4) {
-      corrupt(what, base,
-              "a header of " + std::to_string(length) + " bytes in " +
-                  std::to_string(source.size() - 4));
-    }
-    std::vector<std::uint8_t> bytes(length);
-    if (length > 0) source.read(4, length, bytes.data());
-    std::size_t i = 0;
-    while (i < bytes.size()) {
-      if (bytes.size() - i < 4) corrupt(what, base, "a header field's length is cut off");
-      const std::uint32_t field_length = le32(bytes.data() + i);
-      i += 4;
-      if (field_length > bytes.size() - i)
-        corrupt(what, base, "a header field runs past the header");
-      if (std::memchr(bytes.data() + i, '=', field_length) == nullptr)
-        corrupt(what, base, "a header field has no '='");
-      i += field_length;
-    }
-  }
-
-  /// The data of a record that lists `count` entries of `entry_bytes` each
-  /// (a chunk info's connections, an index's messages): the count must
-  /// account for the data exactly, before anything is read or allocated.
-  std::vector<std::uint8_t> readEntries(ByteSource& file, const BagRecord& record,
-                                        std::uint32_t count, std::uint64_t entry_bytes,
-                                        const char* noun, const std::string& what) {
-    if (std::uint64_t{count} * entry_bytes != record.data_length) {
-      corrupt(what, record.offset,
-              "it lists " + std::to_string(count) + " " + noun + " (" +
-                  std::to_string(count * entry_bytes) + " bytes) in " +
-                  std::to_string(record.data_length) + " bytes of data");
-    }
-    std::vector<std::uint8_t> data(record.data_length);
-    if (!data.empty()) file.read(record.data_offset, data.size(), data.data());
-    return data;
-  }
-
-  std::pair<std::uint64_t, std::set<std::uint32_t>> checkChunkInfo(ByteSource& file,
-                                                                   const BagRecord& record,
-                                                                   const std::string& what) {
-    requireOp(record, kOpChunkInfo, what);
-    if (const std::uint32_t version = u32(record, "ver", what); version != 1)
-      corrupt(what, record.offset,
-              "chunk info version " + std::to_string(version) + ", expected 1");
-    const std::uint64_t position = u64(record, "chunk_pos", what);
-    u64(record, "start_time", what);
-    u64(record, "end_time", what);
-    const std::uint32_t count = u32(record, "count", what);
-    const std::vector<std::uint8_t> data = readEntries(file, record, count, 8, "connections", what);
-    std::set<std::uint32_t> connections;
-    for (std::uint32_t i = 0; i < count; ++i) {
-      const std::uint32_t id = le32(data.data() + 8 * i);
-      if (!connections_.count(id))
-        corrupt(what, record.offset,
-                "it names connection " + std::to_string(id) + ", not in the bag");
-      connections.insert(id);
-    }
-    return {position, connections};
-  }
-
-  /// The chunk record at `position`, the `index_records` index records after
-  /// it, and the message records they point to.
-  void checkChunk(ByteSource& file, std::uint64_t position, std::size_t index_records,
-                  std::uint64_t index_position, const std::string& what) {
-    const BagRecord chunk = readRecord(file, position, what);
-    requireOp(chunk, kOpChunk, what);
-    const std::string compression = field(chunk, "compression", 0, what);
-    const std::uint32_t size = u32(chunk, "size", what);
-    if (chunk.end() > index_position)
-      corrupt(what, position, "its data runs into the index section");
-
-    // index data records: connection -> (offset in the uncompressed chunk)
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> entries;
-    std::uint64_t offset = chunk.end();
-    for (std::size_t i = 0; i < index_records; ++i) {
-      const std::string index_what = "index record " + std::to_string(i + 1) + " of " + what;
-      const BagRecord record = readRecord(file, offset, index_what);
-      requireOp(record, kOpIndexData, index_what);
-      if (const std::uint32_t version = u32(record, "ver", index_what); version != 1) {
-        corrupt(index_what, record.offset,
-                "index version " + std::to_string(version) + ", expected 1");
-      }
-      const std::uint32_t connection = u32(record, "conn", index_what);
-      if (!connections_.count(connection)) {
-        corrupt(index_what, record.offset,
-                "it indexes connection " + std::to_string(connection) + ", not in the bag");
-      }
-      const std::uint32_t count = u32(record, "count", index_what);
-      const std::vector<std::uint8_t> data =
-          readEntries(file, record, count, 12, "messages", index_what);
-      for (std::uint32_t k = 0; k < count; ++k)
-        entries.emplace_back(connection, le32(data.data() + 12 * k + 8));
-      offset = record.end();
-    }
-
-    // The uncompressed chunk, and its records: message data and connections.
-    std::unique_ptr<ByteSource> body;
-    if (compression == "none") {
-      if (size != chunk.data_length) {
-        corrupt(what, position,
-                "uncompressed, yet its size field says " + std::to_string(size) + " bytes and " +
-                    "its data has " + std::to_string(chunk.data_length));
-      }
-      body = std::make_unique<WindowSource>(file, chunk.data_offset, chunk.data_length);
-    } else if (compression == "bz2" || compression == "lz4") {
-      if (size > kMaxChunkBytes) {
-        corrupt(what, position,
-                "it declares " + std::to_string(size) + " uncompressed bytes (more than " +
-                    std::to_string(kMaxChunkBytes) + ")");
-      }
-      std::vector<std::uint8_t> packed(chunk.data_length);
-      if (!packed.empty()) file.read(chunk.data_offset, packed.size(), packed.data());
-      std::vector<std::uint8_t> unpacked(size);
-      unsigned int produced = size;
-      bool ok = false;
-      if (compression == "bz2") {
-        ok = BZ2_bzBuffToBuffDecompress(reinterpret_cast<char*>(unpacked.data()), &produced,
-                                        reinterpret_cast<char*>(packed.data()),
-                                        static_cast<unsigned int>(packed.size()), 0, 0) == BZ_OK;
-      } else {
-        ok = roslz4_buffToBuffDecompress(
-                 reinterpret_cast<char*>(packed.data()), static_cast<unsigned int>(packed.size()),
-                 reinterpret_cast<char*>(unpacked.data()), &produced) == ROSLZ4_OK;
-      }
-      if (!ok) corrupt(what, position, "its " + compression + " data cannot be decompressed");
-      if (produced != size) {
-        corrupt(what, position,
-                "it decompresses to " + std::to_string(produced) + " bytes, not the " +
-                    std::to_string(size) + " its size field says");
-      }
-      body = std::make_unique<MemorySource>(std::move(unpacked));
-    } else {
-      corrupt(what, position, "unknown compression '" + compression + "'");
-    }
-
-    // Offsets in errors: of the file for an uncompressed chunk; of the
-    // chunk's uncompressed bytes otherwise (said so in the message).
-    const bool plain = compression == "none";
-    const std::uint64_t base = plain ? chunk.data_offset : 0;
-    const std::string inside = plain ? "a record inside " + what
-                                     : "a record of the uncompressed " + what + ", at its offset";
-    std::map<std::uint64_t, std::uint32_t> messages;  // offset in the chunk -> connection
-    for (std::uint64_t at = 0; at < body->size();) {
-      const BagRecord record = readRecord(*body, at, inside, base);
-      const std::uint8_t record_op = op(record, inside, base);
-      if (record_op == kOpMessageData) {
-        const std::uint32_t connection = u32(record, "conn", inside, base);
-        u64(record, "time", inside, base);
-        messages.emplace(at, connection);
-      } else if (record_op == kOpConnection) {
-        checkConnection(*body, record, inside, base, false);
-      } else {
-        corrupt(inside, base + at,
-                "record type (op) " + std::to_string(record_op) +
-                    " inside a chunk (expected message data or a connection)");
-      }
-      at = record.end();
-    }
-    for (const auto& [connection, message_offset] : entries) {
-      const auto it = messages.find(message_offset);
-      if (it == messages.end()) {
-        corrupt(what, position,
-                "an index entry of connection " + std::to_string(connection) +
-                    " points to chunk offset " + std::to_string(message_offset) +
-                    ", where no message record starts");
-      }
-      if (it->second != connection) {
-        corrupt(what, position,
-                "the message at chunk offset " + std::to_string(message_offset) +
-                    " belongs to connection " + std::to_string(it->second) +
-                    ", its index entry says " + std::to_string(connection));
-      }
-    }
-  }
-
-  fs::path path_;
-  std::set<std::uint32_t> connections_;
-};
-
-// Bounds of a serialized message of the types lookboth converts: every
-// string and array length within the message's bytes, so that deserializing
-// never allocates more than the message holds.
-class MessageBounds {
- public:
-  MessageBounds(const std::uint8_t* data, std::size_t size) : data_(data), size_(size) {}
-
-  void skip(std::size_t n, const char* what) {
-    if (n > size_ - at_) fail(what, n);
-    at_ += n;
-  }
-  std::uint32_t u32(const char* what) {
-    if (size_ - at_ < 4) fail(what, 4);
-    const std::uint32_t value = le32(data_ + at_);
-    at_ += 4;
-    return value;
-  }
-  void array(std::size_t element, const char* what) {
-    const std::uint32_t count = u32(what);
-    if (count > (size_ - at_) / element) fail(what, std::uint64_t{count} * element);
-    at_ += count * element;
-  }
-  void header() {
-    skip(4 + 8, "header.seq/stamp");
-    array(1, "header.frame_id");
-  }
-
- private:
-  [[noreturn]] void fail(const char* what, std::uint64_t needed) const {
-    throw Problem(std::string("the message is corrupt: '") + what + "' needs " +
-                  std::to_string(needed) + " bytes at byte " + std::to_string(at_) + " of " +
-                  std::to_string(size_));
-  }
-
-  const std::uint8_t* data_;
-  std::size_t size_;
-  std::size_t at_ = 0;
-};
-
-/// Throws Problem when a length in the serialized `T` runs past its bytes.
-template <typename T>
-void checkMessageBounds(const std::vector<std::uint8_t>& bytes) {
-  MessageBounds m(bytes.data(), bytes.size());
-  m.header();
-  if constexpr (std::is_same_v<T, sensor_msgs::Image>) {
-    m.skip(8, "height/width");
-    m.array(1, "encoding");
-    m.skip(1 + 4, "is_bigendian/step");
-    m.array(1, "data");
-  } else if constexpr (std::is_same_v<T, sensor_msgs::CompressedImage>) {
-    m.array(1, "format");
-    m.array(1, "data");
-  } else if constexpr (std::is_same_v<T, sensor_msgs::CameraInfo>) {
-    m.skip(8, "height/width");
-    m.array(1, "distortion_model");
-    m.array(8, "D");
-    m.skip(8 * (9 + 9 + 12) + 4 * 2 + 4 * 4 + 1, "K/R/P/binning/roi");
-  } else if constexpr (std::is_same_v<T, nav_msgs::Odometry>) {
-    m.array(1, "child_frame_id");
-    m.skip(8 * (7 + 36 + 6 + 36), "pose/twist");
-  } else {
-    static_assert(std::is_same_v<T, geometry_msgs::PoseStamped>, "a message type lookboth reads");
-    m.skip(8 * 7, "pose");
-  }
-}
-
-enum class TopicKind { kImage, kCompressedImage, kCameraInfo, kOdometry, kPoseStamped };
-
 struct TopicPlan {
   RosTopicMapping mapping;
   std::string label;
   std::string type;
-  TopicKind kind = TopicKind::kImage;
+  MessageKind kind = MessageKind::kImage;
   std::int64_t messages = 0;
   bool info_uncalibrated_warned = false;
   bool info_changed_warned = false;
+  bool parent_mismatch_warned = false;
 };
 
 struct CameraState {
@@ -1122,38 +587,37 @@ class Importer {
     return {bag_path_.string(), 0, "", subject};
   }
 
-  std::string bag_name() const { return bag_path_.filename().string(); }
+  std::string bag_name() const {
+    fs::path normal = bag_path_.lexically_normal();
+    if (normal.filename().empty()) normal = normal.parent_path();
+    return normal.filename().string();
+  }
 
+  /// A folder, .mcap or .db3 is a ROS 2 bag; anything else is read as ROS 1.
   void open() {
     if (!fs::exists(bag_path_)) throw Error(bagContext(), "no such file");
-    const std::string extension = bag_path_.extension().string();
-    if (fs::is_directory(bag_path_) || extension == ".db3" || extension == ".mcap") {
-      throw Error(
-          bagContext(),
-          "looks like a ROS 2 bag (a folder, .db3 or .mcap); lookboth reads ROS 1 bags (.bag)");
+    source_ = bag::looksLikeRos2Bag(bag_path_) ? bag::openRos2Bag(bag_path_)
+                                               : bag::openRos1Bag(bag_path_);
+  }
+
+  /// A transform topic needs the frame it is to follow; other topics have no frames.
+  void checkTransformMapping(const TopicPlan& plan) const {
+    const bool transforms = plan.kind == MessageKind::kTransforms;
+    if (transforms && plan.mapping.child_frame.empty()) {
+      throw Error(bagContext(), "topic " + plan.mapping.topic + " (" + plan.type +
+                                    ") holds transforms between frames: name the frame to follow "
+                                    "(child_frame in the mapping file, or :child=<frame>)");
     }
-    BagStructureCheck(bag_path_).run();
-    try {
-      bag_.open(bag_path_.string(), rosbag::bagmode::Read);
-    } catch (const rosbag::BagUnindexedException&) {
-      throw Error(bagContext(),
-                  "not a usable ROS bag: it has no index (an interrupted recording?); "
-                  "run 'rosbag reindex' on it first");
-    } catch (const std::exception& e) {
-      throw Error(
-          bagContext(),
-          std::string("cannot read it as a ROS 1 bag (corrupt or truncated?): ") + e.what());
+    if (!transforms && !plan.mapping.child_frame.empty()) {
+      throw Error(bagContext(), "topic " + plan.mapping.topic + " (" + plan.type +
+                                    ") is not a transform topic; child_frame is for " +
+                                    "tf2_msgs/TFMessage topics");
     }
   }
 
   /// Matches the mapping with the bag's topics; throws for missing topics and unsupported types.
   void plan() {
-    std::map<std::string, std::set<std::string>> present;
-    {
-      rosbag::View all(bag_);
-      for (const rosbag::ConnectionInfo* c : all.getConnections())
-        present[c->topic].insert(c->datatype);
-    }
+    const std::map<std::string, std::set<std::string>> present = source_->topicTypes();
     auto listPresent = [&] {
       std::string out;
       for (const auto& [topic, types] : present) {
@@ -1184,25 +648,17 @@ class Importer {
       plan.mapping = m;
       plan.label = RosbagImportOptions::effectiveLabel(m);
       plan.type = *types.begin();
-      if (plan.type == kImageType) {
-        plan.kind = TopicKind::kImage;
-      } else if (plan.type == kCompressedImageType) {
-        plan.kind = TopicKind::kCompressedImage;
-      } else if (plan.type == kCameraInfoType) {
-        plan.kind = TopicKind::kCameraInfo;
-      } else if (plan.type == kOdometryType) {
-        plan.kind = TopicKind::kOdometry;
-      } else if (plan.type == kPoseStampedType) {
-        plan.kind = TopicKind::kPoseStamped;
-      } else {
-        throw Error(bagContext(), "topic " + m.topic + " has the unsupported message type " +
-                                      plan.type + " (supported: " + kImageType + ", " +
-                                      kCompressedImageType + ", " + kCameraInfoType + ", " +
-                                      kOdometryType + ", " + kPoseStampedType + ")");
+      const std::optional<MessageKind> kind = bag::kindOfType(plan.type);
+      if (!kind) {
+        throw Error(bagContext(),
+                    "topic " + m.topic + " has the unsupported message type " + plan.type +
+                        " (supported: " + joined(bag::supportedTypeNames(source_->ros2())) + ")");
       }
-      const bool camera_type = plan.kind == TopicKind::kImage ||
-                               plan.kind == TopicKind::kCompressedImage ||
-                               plan.kind == TopicKind::kCameraInfo;
+      plan.kind = *kind;
+      checkTransformMapping(plan);
+      const bool camera_type = plan.kind == MessageKind::kImage ||
+                               plan.kind == MessageKind::kCompressedImage ||
+                               plan.kind == MessageKind::kCameraInfo;
       if (camera_type && !isCameraRole(m.role)) {
         throw Error(bagContext(), "topic " + m.topic + " (" + plan.type + ") is mapped with role " +
                                       m.role +
@@ -1213,7 +669,7 @@ class Importer {
                                       m.role +
                                       "; a pose topic takes the role odometry or ground_truth");
       }
-      if (plan.kind == TopicKind::kImage || plan.kind == TopicKind::kCompressedImage) {
+      if (plan.kind == MessageKind::kImage || plan.kind == MessageKind::kCompressedImage) {
         const auto [it, inserted] = image_topic_of_label.emplace(plan.label, m.topic);
         if (!inserted) {
           throw Error(bagContext(), "topics " + it->second + " and " + m.topic +
@@ -1221,7 +677,7 @@ class Importer {
                                         "'; map one image topic per camera");
         }
       }
-      if (plan.kind == TopicKind::kCameraInfo) {
+      if (plan.kind == MessageKind::kCameraInfo) {
         const auto [it, inserted] = info_topic_of_label.emplace(plan.label, m.topic);
         if (!inserted) {
           throw Error(bagContext(), "topics " + it->second + " and " + m.topic +
@@ -1285,21 +741,21 @@ class Importer {
   /// checked against them.
   void readFirstCalibrations() {
     for (const auto& [topic, plan] : plans_) {
-      if (plan.kind != TopicKind::kCameraInfo) continue;
+      if (plan.kind != MessageKind::kCameraInfo) continue;
       CameraState& state = cameras_.at(plan.label);
       if (state.from_file) continue;
       TopicPlan probe = plan;
       try {
-        rosbag::View view(bag_, rosbag::TopicQuery(topic));
-        for (const rosbag::MessageInstance& message : view) {
+        source_->forEach({topic}, [&](const bag::BagMessage& message) {
           ++probe.messages;
-          const auto msg = instantiate<sensor_msgs::CameraInfo>(message, probe);
-          if (std::optional<Camera> camera = convertInfo(probe, *msg)) {
+          const auto msg = decode(probe, [&] { return message.cameraInfo(); });
+          if (std::optional<Camera> camera = convertInfo(probe, msg)) {
             state.camera = std::move(camera);
             state.calibration_source = "CameraInfo on " + topic;
-            break;
+            return false;
           }
-        }
+          return true;
+        });
       } catch (const Error&) {
         throw;
       } catch (const std::exception& e) {
@@ -1326,19 +782,19 @@ class Importer {
     std::int64_t total = 0;
     std::string topic;
     try {
-      rosbag::View view(bag_, rosbag::TopicQuery(topics));
-      total = view.size();
+      total = std::max<std::int64_t>(source_->count(topics), 0);  // 0: unknown
       progress.report("import", 0, total, bag_name());
-      for (const rosbag::MessageInstance& message : view) {
+      source_->forEach(topics, [&](const bag::BagMessage& message) {
         progress.checkStop();
-        topic = message.getTopic();
+        topic = message.topic();
         TopicPlan& plan = plans_.at(topic);
         ++plan.messages;
         ++stats_->messages_per_topic[topic];
         handle(message, plan, writer);
         ++done;
         progress.report("import", done, total);
-      }
+        return true;
+      });
     } catch (const Error&) {
       throw;
     } catch (const StopRequested&) {
@@ -1381,9 +837,9 @@ class Importer {
                                             std::to_string(plan.messages) + ": " + why);
   }
 
-  TimeNs messageTime(const rosbag::MessageInstance& message, const TopicPlan& plan,
+  TimeNs messageTime(const bag::BagMessage& message, const TopicPlan& plan,
                      const ros::Time& stamp) const {
-    if (!options_.use_header_stamp) return rosTimeToNs(message.getTime());
+    if (!options_.use_header_stamp) return message.receiveTime();
     if (stamp.sec == 0 && stamp.nsec == 0) {
       fail(
           plan,
@@ -1393,27 +849,14 @@ class Importer {
     return rosTimeToNs(stamp);
   }
 
-  /// The message, deserialized once its lengths are known to stay within its bytes.
-  template <typename T>
-  boost::shared_ptr<T> instantiate(const rosbag::MessageInstance& message,
-                                   const TopicPlan& plan) const {
-    if (!message.isType<T>()) {
-      fail(plan, "the message definition of " + plan.type + " in the bag (md5sum " +
-                     message.getMD5Sum() + ") differs from the one lookboth knows (" +
-                     ros::message_traits::MD5Sum<T>::value() + ")");
-    }
-    std::vector<std::uint8_t> bytes(message.size());
-    ros::serialization::OStream out(bytes.data(), static_cast<std::uint32_t>(bytes.size()));
-    message.write(out);
+  /// The message `decoder` returns, or an error naming the bag, topic and message.
+  template <typename Decode>
+  auto decode(const TopicPlan& plan, Decode&& decoder) const -> decltype(decoder()) {
     try {
-      checkMessageBounds<T>(bytes);
+      return decoder();
     } catch (const Problem& problem) {
       fail(plan, problem.why);
     }
-    auto msg = boost::make_shared<T>();
-    ros::serialization::IStream in(bytes.data(), static_cast<std::uint32_t>(bytes.size()));
-    ros::serialization::deserialize(in, *msg);
-    return msg;
   }
 
   /// False for a record to drop (its stream already has that timestamp).
@@ -1458,98 +901,132 @@ class Importer {
     }
   }
 
-  void handle(const rosbag::MessageInstance& message, TopicPlan& plan, DatasetWriter& writer) {
+  void handle(const bag::BagMessage& message, TopicPlan& plan, DatasetWriter& writer) {
     switch (plan.kind) {
-      case TopicKind::kImage: {
-        const auto msg = instantiate<sensor_msgs::Image>(message, plan);
-        const TimeNs t = messageTime(message, plan, msg->header.stamp);
-        checkImageSize(plan, static_cast<int>(msg->width), static_cast<int>(msg->height));
-        if (!acceptTime("images", plan.label, t)) return;
-        ImageFrame frame;
-        frame.t = t;
-        frame.sensor = plan.label;
-        try {
-          frame.encoded =
-              std::make_shared<const std::vector<std::uint8_t>>(encodeRawImageAsPng(*msg));
-        } catch (const Problem& problem) {
-          fail(plan, problem.why);
-        }
-        frame.extension = ".png";
-        write(writer, std::move(frame));
-        return;
+      case MessageKind::kImage:
+        return handleImage(message, plan, writer);
+      case MessageKind::kCompressedImage:
+        return handleCompressedImage(message, plan, writer);
+      case MessageKind::kCameraInfo:
+        return handleCameraInfo(message, plan);
+      case MessageKind::kOdometry: {
+        const auto msg = decode(plan, [&] { return message.odometry(); });
+        return writePose(message, plan, writer, msg.header.stamp, msg.pose.pose);
       }
-      case TopicKind::kCompressedImage: {
-        const auto msg = instantiate<sensor_msgs::CompressedImage>(message, plan);
-        const TimeNs t = messageTime(message, plan, msg->header.stamp);
-        if (msg->format.find("compressedDepth") != std::string::npos) {
-          fail(plan, "compressed depth images (format '" + msg->format + "') are not supported");
-        }
-        const std::string extension = compressedExtension(msg->data);
-        if (extension.empty()) {
-          fail(plan, "the image bytes (format '" + msg->format + "') are neither PNG nor JPEG");
-        }
-        int width = 0;
-        int height = 0;
-        if (!peekImageSize(msg->data, &width, &height)) {
-          const cv::Mat decoded = cv::imdecode(msg->data, cv::IMREAD_UNCHANGED);
-          if (decoded.empty())
-            fail(plan, "the image bytes (format '" + msg->format + "') cannot be decoded");
-          width = decoded.cols;
-          height = decoded.rows;
-        }
-        checkImageSize(plan, width, height);
-        if (!acceptTime("images", plan.label, t)) return;
-        ImageFrame frame;
-        frame.t = t;
-        frame.sensor = plan.label;
-        frame.encoded = std::make_shared<const std::vector<std::uint8_t>>(std::move(msg->data));
-        frame.extension = extension;
-        write(writer, std::move(frame));
-        return;
+      case MessageKind::kPoseStamped: {
+        const auto msg = decode(plan, [&] { return message.poseStamped(); });
+        return writePose(message, plan, writer, msg.header.stamp, msg.pose);
       }
-      case TopicKind::kCameraInfo: {
-        const auto msg = instantiate<sensor_msgs::CameraInfo>(message, plan);
-        const std::optional<Camera> camera = convertInfo(plan, *msg);
-        const CameraState& state = cameras_.at(plan.label);
-        if (!camera) {
-          if (!plan.info_uncalibrated_warned && !state.from_file) {
-            warn("topic " + plan.mapping.topic +
-                 ": CameraInfo holds no calibration (K is all zero); ignored");
-          }
-          plan.info_uncalibrated_warned = true;
-          return;
-        }
-        // readFirstCalibrations() set the calibration from the first usable message.
-        if (!plan.info_changed_warned && state.camera && !sameCamera(*camera, *state.camera)) {
-          if (state.from_file) {
-            warn("topic " + plan.mapping.topic + ": CameraInfo (" + camera->description() +
-                 ") differs from the " + state.calibration_source + " (" +
-                 state.camera->description() + "); using the file");
-          } else {
-            warn("topic " + plan.mapping.topic +
-                 ": CameraInfo changes during the recording (message " +
-                 std::to_string(plan.messages) + ": " + camera->description() +
-                 "); keeping the first one (" + state.camera->description() + ")");
-          }
-          plan.info_changed_warned = true;
-        }
-        return;
+      case MessageKind::kPoseWithCovarianceStamped: {
+        const auto msg = decode(plan, [&] { return message.poseWithCovarianceStamped(); });
+        return writePose(message, plan, writer, msg.header.stamp, msg.pose.pose);
       }
-      case TopicKind::kOdometry: {
-        const auto msg = instantiate<nav_msgs::Odometry>(message, plan);
-        writePose(message, plan, writer, msg->header.stamp, msg->pose.pose);
-        return;
-      }
-      case TopicKind::kPoseStamped: {
-        const auto msg = instantiate<geometry_msgs::PoseStamped>(message, plan);
-        writePose(message, plan, writer, msg->header.stamp, msg->pose);
-        return;
-      }
+      case MessageKind::kTransforms:
+        return handleTransforms(message, plan, writer);
     }
   }
 
-  void writePose(const rosbag::MessageInstance& message, const TopicPlan& plan,
-                 DatasetWriter& writer, const ros::Time& stamp, const geometry_msgs::Pose& pose) {
+  void handleImage(const bag::BagMessage& message, TopicPlan& plan, DatasetWriter& writer) {
+    const auto msg = decode(plan, [&] { return message.image(); });
+    const TimeNs t = messageTime(message, plan, msg.header.stamp);
+    checkImageSize(plan, static_cast<int>(msg.width), static_cast<int>(msg.height));
+    if (!acceptTime("images", plan.label, t)) return;
+    ImageFrame frame;
+    frame.t = t;
+    frame.sensor = plan.label;
+    try {
+      frame.encoded = std::make_shared<const std::vector<std::uint8_t>>(encodeRawImageAsPng(msg));
+    } catch (const Problem& problem) {
+      fail(plan, problem.why);
+    }
+    frame.extension = ".png";
+    write(writer, std::move(frame));
+  }
+
+  void handleCompressedImage(const bag::BagMessage& message, TopicPlan& plan,
+                             DatasetWriter& writer) {
+    auto msg = decode(plan, [&] { return message.compressedImage(); });
+    const TimeNs t = messageTime(message, plan, msg.header.stamp);
+    if (msg.format.find("compressedDepth") != std::string::npos) {
+      fail(plan, "compressed depth images (format '" + msg.format + "') are not supported");
+    }
+    const std::string extension = compressedExtension(msg.data);
+    if (extension.empty()) {
+      fail(plan, "the image bytes (format '" + msg.format + "') are neither PNG nor JPEG");
+    }
+    int width = 0;
+    int height = 0;
+    if (!peekImageSize(msg.data, &width, &height)) {
+      const cv::Mat decoded = cv::imdecode(msg.data, cv::IMREAD_UNCHANGED);
+      if (decoded.empty())
+        fail(plan, "the image bytes (format '" + msg.format + "') cannot be decoded");
+      width = decoded.cols;
+      height = decoded.rows;
+    }
+    checkImageSize(plan, width, height);
+    if (!acceptTime("images", plan.label, t)) return;
+    ImageFrame frame;
+    frame.t = t;
+    frame.sensor = plan.label;
+    frame.encoded = std::make_shared<const std::vector<std::uint8_t>>(std::move(msg.data));
+    frame.extension = extension;
+    write(writer, std::move(frame));
+  }
+
+  void handleCameraInfo(const bag::BagMessage& message, TopicPlan& plan) {
+    const auto msg = decode(plan, [&] { return message.cameraInfo(); });
+    const std::optional<Camera> camera = convertInfo(plan, msg);
+    const CameraState& state = cameras_.at(plan.label);
+    if (!camera) {
+      if (!plan.info_uncalibrated_warned && !state.from_file) {
+        warn("topic " + plan.mapping.topic +
+             ": CameraInfo holds no calibration (K is all zero); ignored");
+      }
+      plan.info_uncalibrated_warned = true;
+      return;
+    }
+    // readFirstCalibrations() set the calibration from the first usable message.
+    if (!plan.info_changed_warned && state.camera && !sameCamera(*camera, *state.camera)) {
+      if (state.from_file) {
+        warn("topic " + plan.mapping.topic + ": CameraInfo (" + camera->description() +
+             ") differs from the " + state.calibration_source + " (" + state.camera->description() +
+             "); using the file");
+      } else {
+        warn("topic " + plan.mapping.topic + ": CameraInfo changes during the recording (message " +
+             std::to_string(plan.messages) + ": " + camera->description() +
+             "); keeping the first one (" + state.camera->description() + ")");
+      }
+      plan.info_changed_warned = true;
+    }
+  }
+
+  /// The transforms of a TFMessage to the mapping's child frame (from its
+  /// parent frame, when the mapping names one), each as a pose.
+  void handleTransforms(const bag::BagMessage& message, TopicPlan& plan, DatasetWriter& writer) {
+    const auto transforms = decode(plan, [&] { return message.transforms(); });
+    for (const geometry_msgs::TransformStamped& transform : transforms) {
+      if (transform.child_frame_id != plan.mapping.child_frame) continue;
+      if (!plan.mapping.parent_frame.empty() &&
+          transform.header.frame_id != plan.mapping.parent_frame) {
+        if (!plan.parent_mismatch_warned) {
+          warn("topic " + plan.mapping.topic + ": the transform to '" + transform.child_frame_id +
+               "' is from '" + transform.header.frame_id + "', not '" + plan.mapping.parent_frame +
+               "'; skipped");
+        }
+        plan.parent_mismatch_warned = true;
+        continue;
+      }
+      geometry_msgs::Pose pose;
+      pose.position.x = transform.transform.translation.x;
+      pose.position.y = transform.transform.translation.y;
+      pose.position.z = transform.transform.translation.z;
+      pose.orientation = transform.transform.rotation;
+      writePose(message, plan, writer, transform.header.stamp, pose);
+    }
+  }
+
+  void writePose(const bag::BagMessage& message, const TopicPlan& plan, DatasetWriter& writer,
+                 const ros::Time& stamp, const geometry_msgs::Pose& pose) {
     const TimeNs t = messageTime(message, plan, stamp);
     PoseSample sample;
     sample.t = t;
@@ -1571,7 +1048,7 @@ class Importer {
   fs::path bag_path_;
   const RosbagImportOptions& options_;
   RosbagImportStats* stats_;
-  rosbag::Bag bag_;
+  std::unique_ptr<bag::BagSource> source_;
   std::map<std::string, TopicPlan> plans_;
   std::map<std::string, CameraState> cameras_;
   std::vector<std::string> camera_order_;
@@ -1623,3 +1100,38 @@ RosbagImportStats importRosbag(const fs::path& bag, const fs::path& out, Dataset
 }
 
 }  // namespace lookboth
+
+namespace lookboth::bag {
+
+std::optional<MessageKind> kindOfType(const std::string& type) {
+  // ROS 2 names carry "/msg/" between package and message.
+  std::string ros1 = type;
+  if (const size_t at = ros1.find("/msg/"); at != std::string::npos) ros1.erase(at, 4);
+  static const std::map<std::string, MessageKind> kinds = {
+      {"sensor_msgs/Image", MessageKind::kImage},
+      {"sensor_msgs/CompressedImage", MessageKind::kCompressedImage},
+      {"sensor_msgs/CameraInfo", MessageKind::kCameraInfo},
+      {"nav_msgs/Odometry", MessageKind::kOdometry},
+      {"geometry_msgs/PoseStamped", MessageKind::kPoseStamped},
+      {"geometry_msgs/PoseWithCovarianceStamped", MessageKind::kPoseWithCovarianceStamped},
+      {"tf2_msgs/TFMessage", MessageKind::kTransforms},
+  };
+  const auto it = kinds.find(ros1);
+  if (it == kinds.end()) return std::nullopt;
+  return it->second;
+}
+
+std::vector<std::string> supportedTypeNames(bool ros2) {
+  std::vector<std::string> names;
+  for (const char* type :
+       {"sensor_msgs/Image", "sensor_msgs/CompressedImage", "sensor_msgs/CameraInfo",
+        "nav_msgs/Odometry", "geometry_msgs/PoseStamped", "geometry_msgs/PoseWithCovarianceStamped",
+        "tf2_msgs/TFMessage"}) {
+    std::string name = type;
+    if (ros2) name.insert(name.find('/'), "/msg");
+    names.push_back(name);
+  }
+  return names;
+}
+
+}  // namespace lookboth::bag

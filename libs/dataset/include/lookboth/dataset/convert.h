@@ -18,7 +18,8 @@ enum class DataKind { kAuto, kRawlog, kFolder, kBag, kTum };
 const char* dataKindName(DataKind kind);
 /// "rawlog", "folder", "bag", "tum" (or "auto") to a kind; nullopt otherwise.
 std::optional<DataKind> parseDataKind(const std::string& name);
-/// From the path: ".rawlog" (or its manifest) -> rawlog, ".bag" -> bag, ".tum"/".txt" -> tum,
+/// From the path: ".rawlog" (or its manifest) -> rawlog, ".bag", ".mcap", ".db3", a folder with
+/// a metadata.yaml (rosbag2) -> bag, ".tum"/".txt" -> tum,
 /// a directory or no extension -> folder. Throws lookboth::Error naming the path otherwise.
 DataKind detectDataKind(const std::filesystem::path& path);
 

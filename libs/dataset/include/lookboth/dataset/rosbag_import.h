@@ -1,16 +1,20 @@
-// ROS 1 bag -> lookboth dataset (doc/formats.md, "ROS bag import").
+// ROS bag -> lookboth dataset (doc/formats.md, "ROS bag import").
 //
-// Reads a ROS 1 bag (format 2.0) with Debian's rosbag_storage library, no ROS
-// installation needed, and writes a dataset (rawlog or folder) through
-// DatasetWriter. Topics are mapped to lookboth labels and roles by the user:
+// Reads a ROS 1 bag (format 2.0, with Debian's rosbag_storage library) or a
+// ROS 2 bag (rosbag2: MCAP or sqlite3 storage, a bag folder with its
+// metadata.yaml or one .mcap / .db3 file; CDR messages), no ROS installation
+// needed, and writes a dataset (rawlog or folder) through DatasetWriter.
+// Topics are mapped to lookboth labels and roles by the user:
 //
-//   message type                  role                     becomes
-//   sensor_msgs/Image             fisheye | env_camera     ImageFrame, re-encoded as PNG (lossless)
-//   sensor_msgs/CompressedImage   fisheye | env_camera     ImageFrame, the bytes as they are
-//   sensor_msgs/CameraInfo        fisheye | env_camera     that camera's calibration (manifest)
-//   nav_msgs/Odometry             odometry | ground_truth  PoseSample (world_from_body) +
-//   TrajectoryInfo geometry_msgs/PoseStamped     odometry | ground_truth  PoseSample
-//   (world_from_body) + TrajectoryInfo
+//   message type (ROS 2: pkg/msg/Type)  role                     becomes
+//   sensor_msgs/Image                   fisheye | env_camera     ImageFrame, as PNG (lossless)
+//   sensor_msgs/CompressedImage         fisheye | env_camera     ImageFrame, the bytes as they are
+//   sensor_msgs/CameraInfo              fisheye | env_camera     the camera's calibration
+//   nav_msgs/Odometry                   odometry | ground_truth  PoseSample (world_from_body)
+//   geometry_msgs/PoseStamped           odometry | ground_truth  PoseSample
+//   geometry_msgs/PoseWithCovarianceStamped  odometry | ground_truth  PoseSample
+//   tf2_msgs/TFMessage (/tf)            odometry | ground_truth  PoseSample: the transforms to
+//                                                                the mapping's child_frame
 //
 // Times are header.stamp (sec, nsec) -> TimeNs exactly, or the bag's receive
 // time when `use_header_stamp` is false.
@@ -41,6 +45,12 @@ struct RosTopicMapping {
   /// Trajectories only: false when the poses are known up to an unknown scale
   /// (monocular VO).
   bool metric = true;
+  /// tf2_msgs/TFMessage topics only: the frame whose pose becomes the
+  /// trajectory (a transform's child_frame_id, e.g. "base_link").
+  std::string child_frame;
+  /// With child_frame: the transform's parent (header.frame_id, e.g. "odom");
+  /// empty takes the child's transforms from any parent.
+  std::string parent_frame;
 };
 
 /// Roles accepted in RosTopicMapping::role.
@@ -74,6 +84,8 @@ struct RosbagImportOptions {
 ///       /fisheye/camera_info:    {label: fisheye, role: fisheye}
 ///       /cam03/image/compressed: {label: cam03, role: env_camera}
 ///       /odom:                   {label: odometry, role: odometry, metric: true}
+///       /tf:                     {label: ground_truth, role: ground_truth,
+///                                 child_frame: base_link, parent_frame: map}
 ///     marker: {dictionary: DICT_4X4_50, id: 0, size_m: 0.2}
 ///     calibrations: {cam03: path/relative/to/this/yaml}    # optional
 ///     use_header_stamp: true                               # optional
@@ -82,7 +94,8 @@ struct RosbagImportOptions {
 RosbagImportOptions loadRosbagMapping(const std::filesystem::path& yaml);
 
 /// Parses the command-line form "/topic=label:role", "/topic=label:role:nonmetric"
-/// (a trajectory up to scale) or "/topic=:role" (the role's default label).
+/// (a trajectory up to scale) or "/topic=:role" (the role's default label);
+/// a /tf topic names its frames: "/tf=label:role:child=base_link[:parent=odom]".
 /// Throws lookboth::Error quoting the text.
 RosTopicMapping parseTopicMapping(const std::string& text);
 
