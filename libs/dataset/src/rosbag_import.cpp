@@ -740,7 +740,10 @@ class Importer {
   /// is converted: writers need the calibrations up front, and images are
   /// checked against them.
   void readFirstCalibrations() {
-    for (const auto& [topic, plan] : plans_) {
+    for (const auto& entry : plans_) {
+      // Named, not a structured binding: C++17 lambdas cannot capture those.
+      const std::string& topic = entry.first;
+      const TopicPlan& plan = entry.second;
       if (plan.kind != MessageKind::kCameraInfo) continue;
       CameraState& state = cameras_.at(plan.label);
       if (state.from_file) continue;
