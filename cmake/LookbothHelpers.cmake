@@ -63,6 +63,35 @@ function(lookboth_test_temporary_directory name)
   set_property(TEST ${name} APPEND PROPERTY ENVIRONMENT "TMPDIR=${dir}")
 endfunction()
 
+# Every test executable's own files start from one precompiled header of
+# what nearly all of them include (GoogleTest, Eigen, the standard library):
+# parsed once for the build instead of once per file, about 1.7 s of CPU per
+# file. A file compiled with other flags (e.g. its own -O0) has the compiler
+# refuse the precompiled header (-Winvalid-pch, an error here): such a file
+# sets SKIP_PRECOMPILE_HEADERS. The header is built by a test-like executable
+# so that its flags (-fPIE, -O1) are the tests'. GCC only: clang refuses a
+# precompiled header whose macros differ from the file's, and the test
+# targets differ in their libraries' definitions.
+function(lookboth_test_precompiled_header target)
+  if(NOT CMAKE_CXX_COMPILER_ID STREQUAL "GNU" OR NOT LOOKBOTH_TEST_PCH)
+    return()
+  endif()
+  if(NOT TARGET lookboth_test_pch)
+    add_executable(lookboth_test_pch ${PROJECT_SOURCE_DIR}/cmake/test_pch.cpp)
+    target_link_libraries(lookboth_test_pch PRIVATE Eigen3::Eigen GTest::gtest GTest::gtest_main)
+    target_compile_definitions(lookboth_test_pch PRIVATE
+      LOOKBOTH_SHARE_DIR="${LOOKBOTH_SHARE_DIR}"
+      LOOKBOTH_TEST_DATA_DIR="${LOOKBOTH_TEST_DATA_DIR}")
+    lookboth_target_defaults(lookboth_test_pch)
+    lookboth_test_optimisation(lookboth_test_pch)
+    target_precompile_headers(lookboth_test_pch PRIVATE
+      <gtest/gtest.h> <Eigen/Core> <Eigen/Geometry>
+      <algorithm> <cmath> <filesystem> <fstream> <map> <memory> <random> <sstream> <string> <vector>)
+  endif()
+  target_link_libraries(${target} PRIVATE Eigen3::Eigen)  # the header's include path
+  target_precompile_headers(${target} REUSE_FROM lookboth_test_pch)
+endfunction()
+
 function(lookboth_add_test name)
   if(NOT LOOKBOTH_BUILD_TESTS)
     return()
@@ -76,6 +105,7 @@ function(lookboth_add_test name)
     LOOKBOTH_TEST_DATA_DIR="${LOOKBOTH_TEST_DATA_DIR}")
   lookboth_target_defaults(${target})
   lookboth_test_optimisation(${target})
+  lookboth_test_precompiled_header(${target})
   add_test(NAME ${name} COMMAND ${target})
   set_tests_properties(${name} PROPERTIES LABELS "unit;${ARG_LABELS}"
     TIMEOUT ${LOOKBOTH_TEST_TIMEOUT})
