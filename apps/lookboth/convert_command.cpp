@@ -24,6 +24,7 @@ struct ConvertArgs {
   bool receive_time = false;
   std::vector<std::string>
       merge;  ///< Datasets to join (the shards of `lookboth detect --cameras`).
+  std::vector<std::string> cameras;  ///< Only these cameras (an edge node's part).
 };
 
 // "DICT_4X4_50:7:0.2"
@@ -146,6 +147,7 @@ int runConvert(const ConvertArgs& args) {
   options.trajectory_metric = !args.scaled;
   for (const std::string& t : args.trajectories)
     options.add_trajectories.push_back(parseTrajectoryArg(t));
+  options.cameras = args.cameras;
   options.on_issue = [](const DatasetIssue& issue) {
     std::cerr << "lookboth: warning: " << issue.where << ": " << issue.message << "\n";
   };
@@ -153,6 +155,12 @@ int runConvert(const ConvertArgs& args) {
   const StopOnSignal stop_on_signal(progress);
   try {
     const auto [from_kind, to_kind] = resolveDataKinds(options);
+    if ((from_kind == DataKind::kBag || from_kind == DataKind::kTum || to_kind == DataKind::kTum) &&
+        !args.cameras.empty()) {
+      throw Error(
+          "'--cameras' selects cameras of a dataset; the bag's topic mapping (or a TUM "
+          "trajectory) has no use for it");
+    }
     if (from_kind == DataKind::kBag) return runImportBag(args, to_kind, progress);
     const ConvertSummary summary = convertData(options, progress);
     std::cout << "wrote " << args.to << ": " << summary.total() << " records";
@@ -188,6 +196,10 @@ void registerConvertCommand(CLI::App& app, const std::function<void(CommandBody)
                   "Join datasets of one recording (e.g. the shards of `lookboth detect "
                   "--cameras`) into --to: records in time order, shared ones once")
       ->expected(2, -1);
+  cmd->add_option("--cameras", args->cameras,
+                  "Only these cameras (labels, comma-separated): their frames, detections and "
+                  "calibrations, no trajectories; what one camera's edge node holds")
+      ->delimiter(',');
   cmd->add_option("--from-kind", args->from_kind, "Force the input kind")->check(kinds);
   cmd->add_option("--to-kind", args->to_kind, "Force the output kind")->check(kinds);
   cmd->add_flag("--overwrite", args->overwrite, "Replace an existing output");

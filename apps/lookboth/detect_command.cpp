@@ -27,6 +27,7 @@ struct DetectArgs {
   bool evaluate = false;
   bool verbose = false;
   bool dry_run = false;
+  bool detections_only = false;
 };
 
 void printEvaluation(const DetectOptions& options, const DetectSummary& summary,
@@ -97,6 +98,7 @@ int runDetect(const DetectArgs& args) {
   options.threads = args.threads;
   options.markers = !args.no_markers;
   options.blobs = !args.no_blobs;
+  options.detections_only = args.detections_only;
   options.config = detectConfigFor(
       args.config.empty() ? std::nullopt : std::optional<std::filesystem::path>(args.config));
   options.on_issue = [](const DatasetIssue& issue) {
@@ -189,6 +191,9 @@ void registerDetectCommand(CLI::App& app, const std::function<void(CommandBody)>
   cmd->add_flag("--evaluate", args->evaluate,
                 "Score the detections against the dataset's ground truth (simulated datasets)");
   cmd->add_flag("--dry-run", args->dry_run, "Detect (and evaluate) without writing anything");
+  cmd->add_flag("--detections-only", args->detections_only,
+                "Write only the detections to --out (no frames, no trajectories): an edge "
+                "node's result for `lookboth convert --merge`");
   cmd->callback([args, set_body] { set_body([args] { return runDetect(*args); }); });
 }
 

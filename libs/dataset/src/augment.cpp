@@ -11,6 +11,7 @@
 #include "lookboth/core/file_lock.h"
 #include "lookboth/core/output_path.h"
 #include "lookboth/core/temporary_files.h"
+#include "lookboth/core/text.h"
 
 namespace lookboth {
 
@@ -208,6 +209,61 @@ std::string recordKey(const Record& record) {
   return key;
 }
 
+namespace {
+
+bool sameCalibration(const std::optional<Camera>& a, const std::optional<Camera>& b) {
+  if (!a || !b) return !a && !b;
+  return a->modelName() == b->modelName() && a->width() == b->width() &&
+         a->height() == b->height() && a->params() == b->params();
+}
+
+/// Adds to `into` (the first input's manifest) the cameras and ground truth
+/// of another input: shards of one recording or edge nodes' results, each
+/// with some of the site's cameras. A camera both list must agree (role,
+/// calibration), and so must the marker. Throws lookboth::Error naming the
+/// input and the camera or field.
+void mergeManifest(const Manifest& other, const fs::path& other_path, const fs::path& first_path,
+                   Manifest* into) {
+  const MarkerSpec& a = into->marker;
+  const MarkerSpec& b = other.marker;
+  if (a.dictionary != b.dictionary || a.id != b.id || a.size_m != b.size_m) {
+    throw Error({other_path.string(), 0, "marker", ""},
+                "another marker than '" + first_path.string() + "''s (" + b.dictionary + " id " +
+                    std::to_string(b.id) + ", " + formatDouble(b.size_m) + " m against " +
+                    a.dictionary + " id " + std::to_string(a.id) + ", " + formatDouble(a.size_m) +
+                    " m): not the same recording");
+  }
+  for (const CameraSensor& camera : other.cameras) {
+    const CameraSensor* known = into->findCamera(camera.label);
+    if (!known) {
+      if (camera.role == SensorRole::kFisheye && into->fisheye()) {
+        throw Error({other_path.string(), 0, "cameras", camera.label},
+                    "a second fisheye (the first input's is '" + into->fisheye()->label + "')");
+      }
+      // The fisheye first, then the environment cameras in the order they come.
+      auto at = camera.role == SensorRole::kFisheye ? into->cameras.begin() : into->cameras.end();
+      into->cameras.insert(at, camera);
+      continue;
+    }
+    if (known->role != camera.role || !sameCalibration(known->camera, camera.camera)) {
+      throw Error({other_path.string(), 0, "cameras", camera.label},
+                  "differs from the same camera in '" + first_path.string() + "' (" +
+                      (camera.camera ? camera.camera->description() : "no calibration") +
+                      " against " + (known->camera ? known->camera->description() : "none") +
+                      "): not the same recording, or a camera calibrated again");
+    }
+  }
+  GroundTruth& truth = into->ground_truth;
+  truth.world_from_camera.insert(other.ground_truth.world_from_camera.begin(),
+                                 other.ground_truth.world_from_camera.end());
+  truth.clock_offset.insert(other.ground_truth.clock_offset.begin(),
+                            other.ground_truth.clock_offset.end());
+  if (!truth.fisheye_from_marker)
+    truth.fisheye_from_marker = other.ground_truth.fisheye_from_marker;
+}
+
+}  // namespace
+
 std::string MergeOptions::check() const {
   if (inputs.size() < 2) return "'inputs': give at least two datasets to merge";
   if (output.empty()) return "'output': no output given";
@@ -233,23 +289,7 @@ MergeSummary mergeDatasets(const MergeOptions& options, const ProgressReporter& 
     const Manifest& other = readers[i]->manifest();
     expected += std::max<std::int64_t>(0, readers[i]->expectedCount());
     if (i == 0) continue;
-    std::set<std::string> labels_first, labels_other;
-    for (const CameraSensor& c : manifest.cameras) labels_first.insert(c.label);
-    for (const CameraSensor& c : other.cameras) labels_other.insert(c.label);
-    for (const std::string& label : labels_first) {
-      if (!labels_other.count(label)) {
-        throw Error({options.inputs[i].string(), 0, "cameras", label},
-                    "does not list this camera of '" + options.inputs[0].string() +
-                        "': only datasets of one recording can be merged");
-      }
-    }
-    for (const std::string& label : labels_other) {
-      if (!labels_first.count(label)) {
-        throw Error({options.inputs[i].string(), 0, "cameras", label},
-                    "lists a camera that '" + options.inputs[0].string() +
-                        "' does not: only datasets of one recording can be merged");
-      }
-    }
+    mergeManifest(other, options.inputs[i], options.inputs[0], &manifest);
     for (const TrajectoryInfo& trajectory : other.trajectories) {
       if (!manifest.findTrajectory(trajectory.label)) manifest.trajectories.push_back(trajectory);
     }

@@ -1,5 +1,8 @@
 #include "lookboth/dataset/convert.h"
 
+#include <algorithm>
+#include <iterator>
+
 #include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/output_path.h"
@@ -96,6 +99,47 @@ void addTrajectories(const ConvertOptions& options, Manifest& manifest, DatasetW
   }
 }
 
+/// The manifest of options.cameras alone (convert --cameras): those cameras,
+/// their ground truth, no trajectories. Throws for a label it does not list.
+void keepCameras(const ConvertOptions& options, Manifest* manifest) {
+  std::vector<CameraSensor> kept;
+  for (const std::string& label : options.cameras) {
+    const CameraSensor* camera = manifest->findCamera(label);
+    if (!camera) {
+      std::string labels;
+      for (const CameraSensor& c : manifest->cameras)
+        labels += (labels.empty() ? "" : ", ") + c.label;
+      throw Error({options.from.string(), 0, "--cameras", label},
+                  "no such camera in the dataset (cameras: " + labels + ")");
+    }
+    kept.push_back(*camera);
+  }
+  std::stable_sort(kept.begin(), kept.end(), [](const CameraSensor& a, const CameraSensor& b) {
+    return a.role == SensorRole::kFisheye && b.role != SensorRole::kFisheye;
+  });
+  manifest->cameras = kept;
+  manifest->trajectories.clear();
+  GroundTruth& truth = manifest->ground_truth;
+  auto dropOthers = [&](auto& by_label) {
+    for (auto it = by_label.begin(); it != by_label.end();)
+      it = manifest->findCamera(it->first) ? std::next(it) : by_label.erase(it);
+  };
+  dropOthers(truth.world_from_camera);
+  dropOthers(truth.clock_offset);
+  if (!manifest->fisheye()) truth.fisheye_from_marker.reset();
+}
+
+/// Whether a record belongs to one of the manifest's cameras (poses do not).
+bool ofCameras(const Record& record, const Manifest& manifest) {
+  if (const auto* frame = std::get_if<ImageFrame>(&record))
+    return manifest.findCamera(frame->sensor) != nullptr;
+  if (const auto* marker = std::get_if<MarkerObservation>(&record))
+    return manifest.findCamera(marker->camera) != nullptr;
+  if (const auto* blobs = std::get_if<BlobObservation>(&record))
+    return manifest.findCamera(blobs->camera) != nullptr;
+  return false;
+}
+
 ConvertSummary datasetToDataset(const ConvertOptions& options, DataKind from_kind, DataKind to_kind,
                                 const ProgressReporter& progress) {
   ConvertSummary summary;
@@ -105,6 +149,7 @@ ConvertSummary datasetToDataset(const ConvertOptions& options, DataKind from_kin
   auto reader = DatasetReader::open(options.from, read_options);
   (void)asDatasetKind(from_kind, options.from);
   Manifest manifest = reader->manifest();
+  if (!options.cameras.empty()) keepCameras(options, &manifest);
   manifest.name =
       to_kind == DataKind::kRawlog ? options.to.stem().string() : options.to.filename().string();
   manifest.rawlog_entries = -1;
@@ -119,9 +164,10 @@ ConvertSummary datasetToDataset(const ConvertOptions& options, DataKind from_kin
       progress.checkStop();
       progress.report("convert", done, expected > 0 ? expected : 0);
     }
+    ++done;
+    if (!options.cameras.empty() && !ofCameras(*record, manifest)) continue;
     writer->write(*record);
     ++summary.records[recordKindName(*record)];
-    ++done;
   }
   addTrajectories(options, manifest, *writer, summary, progress);
   progress.checkStop();

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <algorithm>
+
 #include <fstream>
 #include <sstream>
 
@@ -209,21 +211,66 @@ TEST_F(AugmentTest, MergeJoinsShardsAndWritesSharedRecordsOnce) {
     with_corners += m && m->corners_px.size() == 4;
   }
   EXPECT_EQ(with_corners, 5);  // augmenting and merging keep the input markers' corners
-  // Different cameras: refused, naming the camera.
-  Manifest other = testing::sampleManifest();
-  other.cameras.pop_back();
-  other.ground_truth.world_from_camera.erase("cam01");
-  other.ground_truth.clock_offset.erase("cam01");
-  DatasetWriter::create(dir_ / "other.rawlog", DatasetKind::kRawlog, other)->finish();
-  merge.inputs = {dir_ / "a.rawlog", dir_ / "other.rawlog"};
-  merge.output = dir_ / "merged2.rawlog";
-  try {
-    mergeDatasets(merge, ProgressReporter());
-    ADD_FAILURE() << "no error";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("cam01"), std::string::npos) << e.what();
-  }
-  EXPECT_FALSE(fs::exists(merge.output));
+}
+
+// Edge nodes' results: each input holds some of the cameras. The merge lists
+// them all (the fisheye first) with their ground truth; a camera calibrated
+// differently in two inputs, or another marker, is refused by name.
+TEST_F(AugmentTest, MergeJoinsInputsOfSomeCamerasAndRefusesDisagreements) {
+  auto write = [&](const std::vector<std::string>& labels) {
+    Manifest m = testing::sampleManifest();
+    std::vector<CameraSensor> kept;
+    for (const CameraSensor& c : m.cameras)
+      if (std::find(labels.begin(), labels.end(), c.label) != labels.end()) kept.push_back(c);
+    m.cameras = kept;
+    for (const char* label : {"cam00", "cam01"}) {
+      if (!m.findCamera(label)) {
+        m.ground_truth.world_from_camera.erase(label);
+        m.ground_truth.clock_offset.erase(label);
+      }
+    }
+    if (!m.fisheye()) m.ground_truth.fisheye_from_marker.reset();
+    return m;
+  };
+  const Manifest cam01 = write({"cam01"});
+  DatasetWriter::create(dir_ / "a.rawlog", DatasetKind::kRawlog, write({"cam00"}))->finish();
+  DatasetWriter::create(dir_ / "b.rawlog", DatasetKind::kRawlog, cam01)->finish();
+  DatasetWriter::create(dir_ / "f.rawlog", DatasetKind::kRawlog, write({"fisheye"}))->finish();
+  MergeOptions merge;
+  merge.inputs = {dir_ / "a.rawlog", dir_ / "b.rawlog", dir_ / "f.rawlog"};
+  merge.output = dir_ / "merged.rawlog";
+  mergeDatasets(merge, ProgressReporter());
+  const Manifest merged = DatasetReader::open(merge.output)->manifest();
+  ASSERT_EQ(merged.cameras.size(), 3u);
+  EXPECT_EQ(merged.cameras[0].label, "fisheye");
+  EXPECT_EQ(merged.cameras[1].label, "cam00");
+  EXPECT_EQ(merged.cameras[2].label, "cam01");
+  EXPECT_EQ(merged.ground_truth.world_from_camera.size(), 2u);
+  EXPECT_EQ(merged.ground_truth.clock_offset.size(), 2u);
+  EXPECT_TRUE(merged.ground_truth.fisheye_from_marker.has_value());
+
+  auto refused = [&](const Manifest& other, const std::string& expected) {
+    DatasetWriter::create(dir_ / "other.rawlog", DatasetKind::kRawlog, other,
+                          DatasetWriteOptions{true})
+        ->finish();
+    MergeOptions bad;
+    bad.inputs = {dir_ / "b.rawlog", dir_ / "other.rawlog"};
+    bad.output = dir_ / "refused.rawlog";
+    try {
+      mergeDatasets(bad, ProgressReporter());
+      ADD_FAILURE() << "no error for " << expected;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
+    EXPECT_FALSE(fs::exists(bad.output));
+  };
+  Manifest recalibrated = cam01;
+  recalibrated.cameras[0].camera =
+      loadCamera(std::string(LOOKBOTH_SHARE_DIR) + "/cameras/ceiling_camera_ros.yaml");
+  refused(recalibrated, "'cameras': differs from the same camera");
+  Manifest other_marker = cam01;
+  other_marker.marker.id = 3;
+  refused(other_marker, "'marker': another marker");
 }
 
 }  // namespace

@@ -129,6 +129,8 @@ std::string DetectOptions::check() const {
   if (dataset.empty()) return "'dataset': none given";
   if (threads < 0) return "'threads': must be >= 0";
   if (!markers && !blobs) return "nothing to detect (markers and blobs both off)";
+  if (detections_only && out.empty())
+    return "'detections_only': needs an output (--out); the dataset's frames stay where they are";
   return config.check();
 }
 
@@ -448,7 +450,15 @@ AugmentSummary writeDetections(const DetectOptions& options, std::vector<Record>
   augment.output = options.out;
   augment.overwrite = options.overwrite;
   augment.on_issue = options.on_issue;
+  if (options.detections_only) {
+    Manifest manifest = DatasetReader::open(options.dataset)->manifest();
+    manifest.trajectories.clear();
+    augment.manifest = manifest;
+  }
   augment.drop = [&](const Record& record) {
+    const bool detection = std::holds_alternative<MarkerObservation>(record) ||
+                           std::holds_alternative<BlobObservation>(record);
+    if (options.detections_only && !detection) return true;
     if (const auto* m = std::get_if<MarkerObservation>(&record))
       return marker_cameras.count(m->camera) > 0;
     if (const auto* b = std::get_if<BlobObservation>(&record))

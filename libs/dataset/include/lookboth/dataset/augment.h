@@ -64,7 +64,7 @@ AugmentSummary augmentDataset(const AugmentOptions& options, std::vector<Record>
 std::string recordKey(const Record& record);
 
 struct MergeOptions {
-  std::vector<std::filesystem::path> inputs;  ///< Datasets with the same cameras (>= 2).
+  std::vector<std::filesystem::path> inputs;  ///< Datasets of one recording (>= 2).
   std::filesystem::path output;               ///< Layout from its name (.rawlog or folder).
   bool overwrite = false;
   bool link_images = true;
@@ -79,13 +79,15 @@ struct MergeSummary {
 };
 
 /// Joins datasets recorded together (e.g. the outputs of `lookboth detect
-/// --cameras a` and `--cameras b` run on copies of one dataset): records of
-/// all inputs in time order (a k-way merge; inputs are expected in time
-/// order), a record whose recordKey() was already written (a frame every
-/// shard copied) written once, from the first input that holds it. The
-/// manifest is the first input's with the trajectories of the others added;
-/// the inputs must list the same cameras (else lookboth::Error naming the
-/// input and the camera).
+/// --cameras a` and `--cameras b` run on copies of one dataset, or each edge
+/// node's `detect --detections-only` of its own camera): records of all
+/// inputs in time order (a k-way merge; inputs are expected in time order),
+/// a record whose recordKey() was already written (a frame every shard
+/// copied) written once, from the first input that holds it. The manifest is
+/// the first input's with the cameras, trajectories and ground truth of the
+/// others added; a camera two inputs list must have the same role and
+/// calibration, and every input the same marker (else lookboth::Error naming
+/// the input and the camera or field).
 MergeSummary mergeDatasets(const MergeOptions& options, const ProgressReporter& progress);
 
 }  // namespace lookboth

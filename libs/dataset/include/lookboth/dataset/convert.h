@@ -43,6 +43,10 @@ struct ConvertOptions {
   bool trajectory_metric = true;
   /// Extra TUM trajectories added to a dataset output.
   std::vector<TrajectoryInput> add_trajectories;
+  /// dataset -> dataset: only these cameras (labels), what one camera's edge
+  /// node holds: their frames and detections, calibrations and ground truth;
+  /// no trajectories. Empty = every camera and trajectory.
+  std::vector<std::string> cameras;
   /// Called for every input issue as it is found (e.g. to print a warning).
   std::function<void(const DatasetIssue&)> on_issue;
   /// Empty when valid; else a message naming the option.

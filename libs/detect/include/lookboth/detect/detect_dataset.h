@@ -59,6 +59,9 @@ struct DetectOptions {
   int threads = 0;  ///< Worker threads; 0 = one per hardware thread.
   bool markers = true;
   bool blobs = true;
+  /// The output holds the detections alone (no frames, no trajectories): the
+  /// kilobytes an edge node sends back for `lookboth convert --merge`. Needs `out`.
+  bool detections_only = false;
   DetectConfig config;
   std::function<void(const DatasetIssue&)> on_issue;  ///< Warnings (skipped frames...).
   std::string check() const;
