@@ -150,6 +150,13 @@ with open('site.csv', 'w') as good, open('bad.csv', 'w') as bad:
 PY
   "$L" align reg --control-points site.csv --out site | tee site.log
   grep -q "world frame 'site'" site.log || fail "no site frame"
+  # The report shows the site frame, each control point's residual and their plan view.
+  "$L" report small.rawlog site --out site.html >/dev/null
+  grep -q "<h2>World frame: site</h2>" site.html || fail "the report has no world frame section"
+  for c in $(tail -n +2 site.csv | cut -d, -f1); do
+    grep -q "<td class=l>$c</td>" site.html || fail "the report lists no residual of $c"
+  done
+  grep -q "<svg " site.html || fail "the report has no plan view of the residuals"
   if "$L" align reg --control-points bad.csv --out bad 2>bad.log; then fail "a point 10 cm off accepted"; fi
   grep -q "bad.csv:4: .*control point 'cam02' is" bad.log || fail "the bad point is not named: $(cat bad.log)"
   ;;

@@ -154,6 +154,11 @@ struct Reader : YamlReader {
     return values;
   }
 
+  Eigen::Vector3d vector3(const YAML::Node& node, const std::string& field) const {
+    const std::vector<double> v = numbers(node, field, 3);
+    return Eigen::Vector3d(v[0], v[1], v[2]);
+  }
+
   Rigid3d pose(const YAML::Node& node, const std::string& field) const {
     rejectUnknownKeys(node, {"translation", "rotation_xyzw"}, field);
     const std::vector<double> t =
@@ -362,6 +367,20 @@ std::string registrationToYaml(const Registration& reg) {
   if (reg.world_frame.from_registration) {
     out << YAML::Key << "from_registration" << YAML::Value;
     emitPose(out, *reg.world_frame.from_registration);
+  }
+  if (!reg.world_frame.control_points.empty()) {
+    out << YAML::Key << "control_points" << YAML::Value << YAML::BeginSeq;
+    for (const ControlPointFit& p : reg.world_frame.control_points) {
+      out << YAML::Flow << YAML::BeginMap;
+      out << YAML::Key << "name" << YAML::Value << YAML::DoubleQuoted << p.name;
+      out << YAML::Key << "p_in_site" << YAML::Value;
+      emitNumbers(out, p.p_in_site.data(), 3);
+      out << YAML::Key << "residual_m" << YAML::Value;
+      emitNumbers(out, p.residual_m.data(), 3);
+      out << YAML::Key << "sigmas" << YAML::Value << formatDouble(p.sigmas);
+      out << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
   }
   out << YAML::EndMap;
 
@@ -580,7 +599,8 @@ Registration loadRegistration(const std::filesystem::path& dir) {
   }
 
   if (const YAML::Node w = root["world_frame"]; w) {
-    r.rejectUnknownKeys(w, {"name", "description", "from_registration"}, "world_frame");
+    r.rejectUnknownKeys(w, {"name", "description", "from_registration", "control_points"},
+                        "world_frame");
     reg.world_frame.name = r.text(r.require(w, "name", "world_frame.name"), "world_frame.name");
     if (w["description"]) {
       reg.world_frame.description = r.text(w["description"], "world_frame.description");
@@ -588,6 +608,22 @@ Registration loadRegistration(const std::filesystem::path& dir) {
     if (w["from_registration"]) {
       reg.world_frame.from_registration =
           r.pose(w["from_registration"], "world_frame.from_registration");
+    }
+    if (const YAML::Node points = w["control_points"]; points) {
+      if (!points.IsSequence())
+        throw Error(r.at(points, "world_frame.control_points"), "expected a list");
+      for (std::size_t i = 0; i < points.size(); ++i) {
+        const std::string f = "world_frame.control_points[" + std::to_string(i) + "]";
+        const YAML::Node p = points[i];
+        r.rejectUnknownKeys(p, {"name", "p_in_site", "residual_m", "sigmas"}, f);
+        ControlPointFit fit;
+        fit.name = r.text(r.require(p, "name", f + ".name"), f + ".name");
+        fit.p_in_site = r.vector3(r.require(p, "p_in_site", f + ".p_in_site"), f + ".p_in_site");
+        fit.residual_m =
+            r.vector3(r.require(p, "residual_m", f + ".residual_m"), f + ".residual_m");
+        fit.sigmas = r.number(r.require(p, "sigmas", f + ".sigmas"), f + ".sigmas");
+        reg.world_frame.control_points.push_back(fit);
+      }
     }
   }
 

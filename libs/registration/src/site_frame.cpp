@@ -3,6 +3,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -391,6 +392,14 @@ AlignedRegistration alignRegistrationToControlPoints(const Registration& reg,
   frame.description = "the frame of the control points in " + path.string() + " (" +
                       std::to_string(points.size()) + " points, RMS residual " +
                       formatFixed(site.rms_m * 1000, 1) + " mm)";
+  for (std::size_t i = 0; i < site.residuals.size(); ++i) {
+    const ControlPointResidual& r = site.residuals[i];
+    const auto point = std::find_if(points.begin(), points.end(),
+                                    [&](const ControlPoint& p) { return p.name == r.name; });
+    frame.control_points.push_back(
+        {r.name, point != points.end() ? point->p_in_site : Eigen::Vector3d::Zero().eval(),
+         r.residual_m, r.normalized});
+  }
   AlignedRegistration aligned{
       reexpressRegistration(reg, site.site_from_world, site.covariance, frame), {}};
   std::vector<std::string>& lines = aligned.summary;

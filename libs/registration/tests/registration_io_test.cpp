@@ -223,6 +223,32 @@ TEST_F(RegistrationIoTest, RoundTripsEveryField) {
   EXPECT_EQ(back.registeredCount(), 2);
 }
 
+TEST_F(RegistrationIoTest, RoundTripsASiteFrameWithItsControlPoints) {
+  Registration reg = sampleRegistration();
+  reg.world_frame.name = "site";
+  reg.world_frame.description = "the frame of the control points in site.csv";
+  reg.world_frame.from_registration =
+      Rigid3d(Eigen::Quaterniond(0.6, 0.8, 0.0, 0.0), Eigen::Vector3d(1.5, -2.0, 0.25));
+  reg.world_frame.control_points = {
+      {"cam00", Eigen::Vector3d(2.0, 3.0, 3.5), Eigen::Vector3d(0.001, -0.002, 0.0005), 0.75},
+      {"cam01", Eigen::Vector3d(-1.25, 0.5, 3.75), Eigen::Vector3d(-0.0125, 0.0, 0.003), 3.5}};
+  saveRegistration(reg, dir_);
+  const Registration back = loadRegistration(dir_);
+  EXPECT_EQ(back.world_frame.name, "site");
+  EXPECT_EQ(back.world_frame.description, reg.world_frame.description);
+  ASSERT_TRUE(back.world_frame.from_registration);
+  expectPoseEq(*back.world_frame.from_registration, *reg.world_frame.from_registration);
+  ASSERT_EQ(back.world_frame.control_points.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const ControlPointFit& a = reg.world_frame.control_points[i];
+    const ControlPointFit& b = back.world_frame.control_points[i];
+    EXPECT_EQ(b.name, a.name);
+    EXPECT_EQ(b.p_in_site, a.p_in_site);
+    EXPECT_EQ(b.residual_m, a.residual_m);
+    EXPECT_EQ(b.sigmas, a.sigmas);
+  }
+}
+
 TEST_F(RegistrationIoTest, CamerasCsvHasRegisteredAndSuspectOnly) {
   saveRegistration(sampleRegistration(), dir_);
   const std::string csv = readFile(dir_ / "cameras.csv");

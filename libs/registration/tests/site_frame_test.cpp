@@ -210,8 +210,9 @@ TEST(SiteFrame, TheFrameIsSavedAndReadBack) {
   Registration reg = siteRegistration(someTransform());
   reg.dataset = "/data/x.rawlog";
   reg.pipeline = {"joint"};
-  const Registration out = reexpressRegistration(reg, someTransform().inverse(), std::nullopt,
-                                                 WorldFrame{"floor", "the floor", std::nullopt});
+  const Registration out =
+      reexpressRegistration(reg, someTransform().inverse(), std::nullopt,
+                            WorldFrame{"floor", "the floor", std::nullopt, {}});
   const std::filesystem::path dir =
       std::filesystem::temp_directory_path() / ("site_frame_io_" + std::to_string(getpid()));
   std::filesystem::remove_all(dir);

@@ -104,6 +104,41 @@ void writeMessages(std::ostream& out, const std::string& title, const std::strin
 
 std::string fixed(double value, int decimals) { return formatFixed(value, decimals); }
 
+/// A plan view (x right, y up) of the control points with their residuals
+/// as arrows, magnified so that the largest is a tenth of the site's extent.
+std::string controlPointSvg(const std::vector<ControlPointFit>& points) {
+  Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
+  double largest = 0;
+  for (const ControlPointFit& p : points) {
+    lo = lo.cwiseMin(p.p_in_site.head<2>());
+    hi = hi.cwiseMax(p.p_in_site.head<2>());
+    largest = std::max(largest, p.residual_m.head<2>().norm());
+  }
+  const double extent = std::max({hi.x() - lo.x(), hi.y() - lo.y(), 1.0});
+  const double size = 480, margin = 40, scale = (size - 2 * margin) / extent;
+  const double magnify = largest > 0 ? 0.1 * extent / largest : 1.0;
+  auto x = [&](double v) { return fixed(margin + (v - lo.x()) * scale, 1); };
+  auto y = [&](double v) { return fixed(size - margin - (v - lo.y()) * scale, 1); };
+  std::ostringstream svg;
+  svg << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << size << "\" height=\"" << size
+      << "\" viewBox=\"0 0 " << size << " " << size
+      << "\"><rect width=\"100%\" height=\"100%\" fill=\"#fff\" stroke=\"#999\"/>";
+  for (const ControlPointFit& p : points) {
+    const Eigen::Vector2d a = p.p_in_site.head<2>();
+    const Eigen::Vector2d b = a - magnify * p.residual_m.head<2>();  // where the registration is
+    svg << "<line x1=\"" << x(a.x()) << "\" y1=\"" << y(a.y()) << "\" x2=\"" << x(b.x())
+        << "\" y2=\"" << y(b.y()) << "\" stroke=\"" << (p.sigmas > 3 ? "#c00" : "#06c")
+        << "\" stroke-width=\"2\"/><circle cx=\"" << x(a.x()) << "\" cy=\"" << y(a.y())
+        << "\" r=\"3\"/><text x=\"" << x(a.x()) << "\" y=\"" << y(a.y()) << "\" dy=\"-5\" "
+        << (a.x() > 0.5 * (lo.x() + hi.x()) ? "dx=\"-5\" text-anchor=\"end\"" : "dx=\"5\"")
+        << " font-size=\"11\">" << escape(p.name) << "</text>";  // labels stay inside
+  }
+  svg << "</svg>";
+  return svg.str() + "<p class=note>Plan view: each surveyed point (dot) and the registration's " +
+         "camera (end of the line), the difference magnified " + fixed(magnify, 0) +
+         "x; red over 3 sigmas.</p>\n";
+}
+
 /// 1-sigma along the worst direction of a 3x3 block of a covariance.
 double worstSigma(const Eigen::Matrix3d& covariance) {
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
@@ -182,6 +217,7 @@ class ReportWriter {
     writeHeader();
     writeVerdict();
     writeCameraTable();
+    writeWorldFrame();
     writeReprojectionTable();
     writeComparisons();
     writeRobot();
@@ -495,6 +531,27 @@ class ReportWriter {
   }
 
   /// The robot's calibration, observability, warnings and notes.
+  /// Which frame the poses are in and, for a site frame, its control points' residuals.
+  void writeWorldFrame() {
+    std::ostringstream& out = out_;
+    const WorldFrame& frame = registration_.world_frame;
+    out << "<h2>World frame: " << escape(frame.name) << "</h2>\n<p>" << escape(frame.description)
+        << ".</p>\n";
+    if (frame.control_points.empty()) return;
+    out << "<table><tr><th class=l>control point</th><th>x [m]</th><th>y [m]</th><th>z [m]</th>"
+           "<th>dx [mm]</th><th>dy [mm]</th><th>dz [mm]</th><th>|d| "
+           "[mm]</th><th>sigmas</th></tr>\n";
+    for (const ControlPointFit& p : frame.control_points) {
+      out << "<tr" << (p.sigmas > 3 ? " class=unregistered" : "") << "><td class=l>"
+          << escape(p.name) << "</td>";
+      for (int i = 0; i < 3; ++i) out << "<td>" << fixed(p.p_in_site[i], 3) << "</td>";
+      for (int i = 0; i < 3; ++i) out << "<td>" << fixed(p.residual_m[i] * 1000, 1) << "</td>";
+      out << "<td>" << fixed(p.residual_m.norm() * 1000, 1) << "</td><td>" << fixed(p.sigmas, 2)
+          << "</td></tr>\n";
+    }
+    out << "</table>\n" << controlPointSvg(frame.control_points);
+  }
+
   void writeRobot() {
     std::ostringstream& out = out_;
     const Registration& registration = registration_;

@@ -140,6 +140,15 @@ struct RegistrationStatistics {
 };
 
 /// Which frame a registration's poses are in (registration.yaml `world_frame`).
+/// A surveyed point the site frame was fitted to, and how far the aligned
+/// registration puts it (`lookboth align --control-points`).
+struct ControlPointFit {
+  std::string name;                                      ///< The camera's label.
+  Eigen::Vector3d p_in_site = Eigen::Vector3d::Zero();   ///< Surveyed [m].
+  Eigen::Vector3d residual_m = Eigen::Vector3d::Zero();  ///< Surveyed - registered [m].
+  double sigmas = 0;  ///< |residual| over its predicted standard deviation.
+};
+
 struct WorldFrame {
   /// "registration": the first fisheye pose of the trajectory, as `register`
   /// writes it; "floor" or "site" once `lookboth align` re-expressed it.
@@ -147,6 +156,8 @@ struct WorldFrame {
   std::string description = "the first fisheye pose of the trajectory";
   /// This frame from the registration's own, when re-expressed.
   std::optional<Rigid3d> from_registration;
+  /// "site" frames: the control points and their residuals, for the report.
+  std::vector<ControlPointFit> control_points;
 };
 
 struct Registration {
