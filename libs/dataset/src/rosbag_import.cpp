@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <fstream>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -14,7 +13,6 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <set>
-#include <type_traits>
 
 #include "bag_source.h"
 #include "lookboth/cameras/camera_io.h"
