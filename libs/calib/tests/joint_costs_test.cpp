@@ -168,12 +168,14 @@ TEST(JointCosts, CachedBlobCostMatchesTheAutodiffReference) {
     poseToParams(ref_k1 * randomPose(rng, 0.01, 0.005), nk1);
     // A ceiling camera 3 m above the frame, within the fisheye's view.
     const Rigid3d world_from_fisheye = joint_detail::poseAt<double>(b, nk, nk1, b.tau_ref_s);
-    const Eigen::Vector3d in_fisheye(4 * (u(rng) - 0.5), 4 * (u(rng) - 0.5), 3.0);
+    const Eigen::Vector2d across = drawVector<2>([&] { return u(rng); });
+    const Eigen::Vector3d in_fisheye(4 * (across.x() - 0.5), 4 * (across.y() - 0.5), 3.0);
     const Rigid3d world_from_camera(so3Exp(Eigen::Vector3d(3 * u(rng), 0.1, -0.2)),
                                     world_from_fisheye * in_fisheye);
     poseToParams(world_from_camera, camera);
     const Eigen::Vector3d offset(0.01, -0.02, 0.03);
-    const Eigen::Vector2d observed(320 + 20 * u(rng), 180 + 20 * u(rng));
+    const Eigen::Vector2d observed =
+        Eigen::Vector2d(320, 180) + 20 * drawVector<2>([&] { return u(rng); });
 
     auto* reference = new BlobCost;
     reference->bracket = b;
@@ -352,12 +354,15 @@ TEST(JointCosts, AnalyticMarkerCostsMatchTheAutodiffReference) {
     // A camera 3 m above the marker, looking down at it.
     const Rigid3d world_from_marker =
         joint_detail::poseAt<double>(b, nk, nk1, tau - offset) * fisheye_from_marker;
-    const Rigid3d down(so3Exp(Eigen::Vector3d(0, 0, 3 * u(rng))) *
-                           so3Exp(Eigen::Vector3d(M_PI + 0.2 * (u(rng) - 0.5), 0.1, 0)),
+    const double roll = M_PI + 0.2 * (u(rng) - 0.5);  // the right operand first, as gcc did
+    const double yaw = 3 * u(rng);
+    const Rigid3d down(so3Exp(Eigen::Vector3d(0, 0, yaw)) * so3Exp(Eigen::Vector3d(roll, 0.1, 0)),
                        Eigen::Vector3d::Zero());
+    const Eigen::Vector2d offset_xy = drawVector<2>([&] { return u(rng); });
     const Rigid3d world_from_camera(
-        down.rotation, world_from_marker * Eigen::Vector3d(0.3 * u(rng), 0.2 * u(rng), 0.0) +
-                           Eigen::Vector3d(0, 0, 3.0));
+        down.rotation,
+        world_from_marker * Eigen::Vector3d(0.3 * offset_xy.x(), 0.2 * offset_xy.y(), 0.0) +
+            Eigen::Vector3d(0, 0, 3.0));
     poseToParams(world_from_camera, camera);
     const Rigid3d measured =
         world_from_camera.inverse() * world_from_marker * randomPose(rng, 0.01, 0.02);
@@ -376,7 +381,9 @@ TEST(JointCosts, AnalyticMarkerCostsMatchTheAutodiffReference) {
     corners.corners_in_marker = {Eigen::Vector3d(-h, h, 0), Eigen::Vector3d(h, h, 0),
                                  Eigen::Vector3d(h, -h, 0), Eigen::Vector3d(-h, -h, 0)};
     for (int c = 0; c < 4; ++c)
-      corners.observed[c] = Eigen::Vector2d(300 + 40 * u(rng), 170 + 20 * u(rng));
+      corners.observed[c] = Eigen::Vector2d(300, 170) + drawVector<2>([&] {
+                                                          return u(rng);
+                                                        }).cwiseProduct(Eigen::Vector2d(40, 20));
     corners.sigma_px = 0.3;
 
     const double* blocks[5] = {nk, nk1, x, camera, &offset};

@@ -395,7 +395,7 @@ TEST(Joint, SmoothsAJitteryVisualTrajectoryOnly) {
     std::mt19937 rng(11);
     std::normal_distribution<double> noise(0.0, jitter_m);
     for (StampedPose& p : samples) {
-      p.world_from_body.translation += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+      p.world_from_body.translation += drawVector<3>([&] { return noise(rng); });
     }
     scene.input.trajectory = Trajectory(samples);
     scene.input.mode = TrajectoryMode::kVisual;

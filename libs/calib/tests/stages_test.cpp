@@ -6,6 +6,7 @@
 
 #include "lookboth/calib/builtin_stages.h"
 #include "lookboth/geometry/lie.h"
+#include "lookboth/geometry/random.h"
 #include "synthetic.h"
 
 namespace lookboth {
@@ -379,7 +380,7 @@ TEST(LookUp, NoiseFreeRecoversPerturbedPositions) {
   std::mt19937 rng(3);
   std::normal_distribution<double> n(0.0, 0.05);
   for (CameraRegistration& c : problem.result.cameras) {
-    c.world_from_camera.translation += Eigen::Vector3d(n(rng), n(rng), n(rng));
+    c.world_from_camera.translation += drawVector<3>([&] { return n(rng); });
   }
   runLookUp(problem, {}, ProgressReporter());
   const auto a = accuracyAgainst(problem.result, scene.world_from_camera);
@@ -401,7 +402,7 @@ TEST(LookUp, NoisyBlobsImprovePositions) {
   std::mt19937 rng(5);
   std::normal_distribution<double> n(0.0, 0.05);
   for (CameraRegistration& c : problem.result.cameras) {
-    c.world_from_camera.translation += Eigen::Vector3d(n(rng), n(rng), n(rng));
+    c.world_from_camera.translation += drawVector<3>([&] { return n(rng); });
   }
   const double before = accuracyAgainst(problem.result, scene.world_from_camera).position_rmse_m;
   runLookUp(problem, {}, ProgressReporter());

@@ -106,11 +106,14 @@ SyntheticScene makeSyntheticScene(const SyntheticOptions& o) {
     double x, y, yaw;
     loopPoint(s, o.loop_length_m, &x, &y, &yaw);
     const Eigen::Quaterniond down(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()));
-    const Eigen::Quaterniond q = rpy(3 * kDeg * (2 * uniform(rng) - 1),
-                                     3 * kDeg * (2 * uniform(rng) - 1), 2 * M_PI * uniform(rng)) *
+    const Eigen::Vector3d angles =
+        drawVector<3>([&] { return uniform(rng); });  // yaw drawn first, as gcc did
+    const Eigen::Quaterniond q = rpy(3 * kDeg * (2 * angles.x() - 1),
+                                     3 * kDeg * (2 * angles.y() - 1), 2 * M_PI * angles.z()) *
                                  down;
-    const Eigen::Vector3d p(x + 0.4 * (2 * uniform(rng) - 1), y + 0.4 * (2 * uniform(rng) - 1),
-                            o.ceiling_m + 0.2 * (2 * uniform(rng) - 1));
+    const Eigen::Vector3d offset = drawVector<3>([&] { return uniform(rng); });
+    const Eigen::Vector3d p(x + 0.4 * (2 * offset.x() - 1), y + 0.4 * (2 * offset.y() - 1),
+                            o.ceiling_m + 0.2 * (2 * offset.z() - 1));
     char label[16];
     std::snprintf(label, sizeof(label), "cam%02d", k);
     scene.world_from_camera[label] = Rigid3d(q.normalized(), p);

@@ -251,8 +251,10 @@ std::vector<RenderedFrame> renderPass(const Camera& camera, int frames, std::uin
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(0, 1);
   const double height = 3.0 + 0.8 * u(rng);
-  const Rigid3d world_from_camera =
-      lookingDown({20.0, 10.0, height}, 6.28 * u(rng), (1 + 3 * u(rng)) * kDeg, 6.28 * u(rng));
+  const double spin = 6.28 * u(rng);  // the last argument drawn first, as gcc did
+  const double tilt = (1 + 3 * u(rng)) * kDeg;
+  const double yaw = 6.28 * u(rng);
+  const Rigid3d world_from_camera = lookingDown({20.0, 10.0, height}, yaw, tilt, spin);
   const double heading = 6.28 * u(rng);
   const Eigen::Vector2d along(std::cos(heading), std::sin(heading));
   std::vector<RenderedFrame> out;

@@ -9,6 +9,7 @@
 
 #include "lookboth/core/error.h"
 #include "lookboth/geometry/lie.h"
+#include "lookboth/geometry/random.h"
 
 namespace lookboth::report {
 namespace {
@@ -18,9 +19,10 @@ constexpr double kDeg = M_PI / 180.0;
 
 Rigid3d randomPose(std::mt19937& rng, double spread) {
   std::uniform_real_distribution<double> u(-1, 1);
-  const Eigen::Vector3d omega(u(rng) * M_PI, u(rng) * M_PI, u(rng) * M_PI);
+  const Eigen::Vector3d omega = drawVector<3>([&] { return u(rng); }) * M_PI;
+  const Eigen::Vector3d t = drawVector<3>([&] { return u(rng); });
   return Rigid3d(so3Exp(Eigen::Vector3d(omega / std::max(1.0, omega.norm() / 3.0))),
-                 Eigen::Vector3d(u(rng) * spread, u(rng) * spread, 3 + u(rng) * 0.5));
+                 Eigen::Vector3d(t.x() * spread, t.y() * spread, 3 + t.z() * 0.5));
 }
 
 CameraPoseSet randomCameras(int n, std::mt19937& rng) {
