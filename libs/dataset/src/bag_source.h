@@ -88,6 +88,8 @@ class BagSource {
   /// until it returns false.
   virtual void forEach(const std::vector<std::string>& topics,
                        const std::function<bool(const BagMessage&)>& visit) = 0;
+  /// What the reader found that does not stop the import (one warning each).
+  virtual std::vector<std::string> notes() const { return {}; }
 };
 
 /// True for what is a ROS 2 bag by its form: a folder, an .mcap or a .db3 file.

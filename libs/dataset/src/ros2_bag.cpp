@@ -202,11 +202,13 @@ class McapFile final : public BagReader {
   std::int64_t messageCount(const std::set<std::string>& topics) override;
   bool next(const std::set<std::string>& topics, Message* message) override;
   void rewind() override;
+  std::vector<std::string> notes() const override { return notes_; }
 
  private:
   void readBytes(std::uint64_t offset, std::uint64_t size, std::vector<std::uint8_t>* out);
   void checkMagicAndHeader();
   bool readSummary();
+  bool endsWithMagic();
   void readSummaryRecords(std::uint64_t begin, std::uint64_t end);
   void scanForTopics();
   bool nextRecord(McapRecord* record);
@@ -230,6 +232,7 @@ class McapFile final : public BagReader {
   std::map<std::uint16_t, std::size_t> channels_;  // id -> topic index
   std::optional<std::map<std::uint16_t, std::uint64_t>> channel_counts_;
   bool topics_fixed_ = false;
+  std::vector<std::string> notes_;
   // Reading position.
   std::uint64_t position_ = 0;  // next record in the file
   bool data_ended_ = false;
@@ -247,7 +250,14 @@ McapFile::McapFile(fs::path path) : path_(std::move(path)), name_(path_.filename
   file_size_ = fs::file_size(path_, ec);
   if (ec) fail(path_, "cannot read the file's size: " + ec.message());
   checkMagicAndHeader();
-  if (!readSummary()) scanForTopics();
+  if (!readSummary()) {
+    scanForTopics();  // throws when a record is cut; past here every message is whole
+    if (!endsWithMagic()) {
+      notes_.push_back(name_ +
+                       " ends without the MCAP footer: the recording was cut after its "
+                       "last message (every message is read; the summary is lost)");
+    }
+  }
   topics_fixed_ = true;
   rewind();
 }
@@ -275,6 +285,13 @@ void McapFile::checkMagicAndHeader() {
     fail(path_, "corrupt at byte 8: expected the Header record, found a " + recordName(start[8]) +
                     " record");
   }
+}
+
+bool McapFile::endsWithMagic() {
+  if (file_size_ < 2 * kMcapMagic.size()) return false;
+  std::vector<std::uint8_t> tail;
+  readBytes(file_size_ - kMcapMagic.size(), kMcapMagic.size(), &tail);
+  return std::equal(kMcapMagic.begin(), kMcapMagic.end(), tail.begin());
 }
 
 /// The summary section's channels and statistics, found through the footer;
@@ -830,6 +847,14 @@ class FolderBag final : public BagReader {
   std::int64_t messageCount(const std::set<std::string>& topics) override;
   bool next(const std::set<std::string>& topics, Message* message) override;
   void rewind() override;
+  std::vector<std::string> notes() const override {
+    std::vector<std::string> all;
+    for (const auto& file : files_) {
+      const std::vector<std::string> notes = file->notes();
+      all.insert(all.end(), notes.begin(), notes.end());
+    }
+    return all;
+  }
 
  private:
   BagMetadata metadata_;

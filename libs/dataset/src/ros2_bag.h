@@ -60,6 +60,9 @@ class BagReader {
   virtual bool next(const std::set<std::string>& topics, Message* message) = 0;
   /// Back to the first message.
   virtual void rewind() = 0;
+  /// What the reader found that does not stop it, for the user to know (an
+  /// MCAP file whose end is missing after its last message).
+  virtual std::vector<std::string> notes() const { return {}; }
 };
 
 }  // namespace lookboth::ros2

@@ -72,6 +72,8 @@ class Ros2BagSource final : public BagSource {
     return reader_->messageCount({topics.begin(), topics.end()});
   }
 
+  std::vector<std::string> notes() const override { return reader_->notes(); }
+
   void forEach(const std::vector<std::string>& topics,
                const std::function<bool(const BagMessage&)>& visit) override {
     const std::set<std::string> wanted(topics.begin(), topics.end());

@@ -596,6 +596,7 @@ class Importer {
     if (!fs::exists(bag_path_)) throw Error(bagContext(), "no such file");
     source_ = bag::looksLikeRos2Bag(bag_path_) ? bag::openRos2Bag(bag_path_)
                                                : bag::openRos1Bag(bag_path_);
+    for (const std::string& note : source_->notes()) warn(note);
   }
 
   /// A transform topic needs the frame it is to follow; other topics have no frames.

@@ -4,6 +4,7 @@
 // expected.json; and the errors a technician meets first.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -235,6 +236,26 @@ TEST_F(Ros2Import, ATruncatedBagIsAnErrorAndLeavesNothing) {
   EXPECT_NE(why.find("truncated at byte"), std::string::npos) << why;
   EXPECT_FALSE(fs::exists(out));
   EXPECT_FALSE(fs::exists(dir_ / "out.yaml"));
+}
+
+// Cut after its last message (half of sample_lz4.mcap lies in its summary,
+// past the Data End record): every message is read, and a warning says the
+// recording was cut.
+TEST_F(Ros2Import, ABagCutAfterItsMessagesIsReadWithAWarning) {
+  const fs::path cut = dir_ / "cut.mcap";
+  fs::copy_file(kData / "sample_lz4.mcap", cut);
+  fs::resize_file(cut, fs::file_size(cut) / 2);
+  RosbagImportOptions options = sampleOptions();
+  std::vector<std::string> warnings;
+  options.on_warning = [&](const std::string& w) { warnings.push_back(w); };
+  const RosbagImportStats stats =
+      importRosbag(cut, dir_ / "cut.rawlog", DatasetKind::kRawlog, options, {}, {});
+  EXPECT_EQ(stats.records, 17);
+  // (The other warnings: the two cameras have no calibration in this mapping.)
+  const auto cut_warnings = std::count_if(warnings.begin(), warnings.end(), [](const auto& w) {
+    return w.find("cut.mcap ends without the MCAP footer") != std::string::npos;
+  });
+  EXPECT_EQ(cut_warnings, 1);
 }
 
 TEST(Ros2TopicMapping, ParsesFramesAndRefusesThemOnCameras) {
