@@ -8,18 +8,11 @@ import sqlite3
 import struct
 import sys
 
+from write_db3 import SCHEMA  # the fixtures' rosbag2 schema, one copy
+
 TOPICS = [("/fisheye/image/compressed", "sensor_msgs/msg/CompressedImage"),
           ("/cam/image_raw", "sensor_msgs/msg/Image"),
           ("/odom", "nav_msgs/msg/Odometry")]
-SCHEMA = """
-CREATE TABLE schema(schema_version INTEGER PRIMARY KEY, ros_distro TEXT NOT NULL);
-CREATE TABLE metadata(id INTEGER PRIMARY KEY, metadata_version INTEGER NOT NULL, metadata TEXT NOT NULL);
-CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, type TEXT NOT NULL,
-                    serialization_format TEXT NOT NULL, offered_qos_profiles TEXT NOT NULL);
-CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL, timestamp INTEGER NOT NULL,
-                      data BLOB NOT NULL);
-CREATE INDEX timestamp_idx ON messages (timestamp ASC);
-"""
 
 
 def messages(path):
