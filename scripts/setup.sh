@@ -17,6 +17,8 @@ PACKAGES=(
   librosbag-storage-dev libroscpp-core-dev
   libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev libstd-msgs-dev libtf2-msgs-dev
   libfastcdr-dev libsqlite3-dev liblz4-dev libzstd-dev zlib1g-dev  # ROS 2 bags (libs/dataset/src/ros2_*.cpp)
+  libavformat-dev libavcodec-dev libswscale-dev libavutil-dev  # video files (libs/dataset/src/video.cpp)
+  ffmpeg  # writes the tests' and the demo's videos (scripts/frames_to_video.py)
   chromium xvfb xauth
   python3 python3-yaml  # scripts/*.py (benchmark helpers)
   colmap liburdfdom-tools python3-jsonschema  # exports read by their consumers (tests/export)

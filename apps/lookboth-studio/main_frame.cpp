@@ -744,9 +744,13 @@ void MainFrame::datasetLoaded(std::shared_ptr<const studio::DatasetIndex> index)
   setup_->showDataset(*index_, new_dataset, startup_.actions().trajectory);
   SetTitle(wxString::FromUTF8("lookboth studio - " + index_->manifest().name));
   SetStatusText(wxString::FromUTF8(index_->path().string()), 0);
-  SetStatusText(wxString::Format("%zu input issues", index_->issues().size()), 1);
-  for (const auto& issue : index_->issues())
-    log("  warning: " + wxString::FromUTF8(issue.where + ": " + issue.message));
+  const auto notes = std::count_if(index_->issues().begin(), index_->issues().end(),
+                                   [](const DatasetIssue& issue) { return issue.note; });
+  SetStatusText(wxString::Format("%zu input issues", index_->issues().size() - notes), 1);
+  for (const auto& issue : index_->issues()) {
+    log(wxString::FromUTF8((issue.note ? "  note: " : "  warning: ") + issue.where + ": " +
+                           issue.message));
+  }
   validateSettings();
   table_->show(index_, registration_);
   views_->show({index_, registration_, registration_view_, rays_});

@@ -8,6 +8,8 @@
 #include <functional>
 #include <string>
 
+#include "lookboth/dataset/dataset_io.h"
+
 namespace lookboth::app {
 
 /// A subcommand's body; returns the process exit code. Exceptions of type
@@ -29,6 +31,10 @@ void registerReportCommand(CLI::App& app, const std::function<void(CommandBody)>
 void registerCheckCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerAlignCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
 void registerExportCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body);
+
+/// Prints an input issue on stderr: "lookboth: warning: <where>: <message>",
+/// or "lookboth: note: ..." for a note (nothing skipped).
+void printDatasetIssue(const DatasetIssue& issue);
 
 /// "cannot write 'path': No space left on device" for a failed file operation.
 std::string describeFilesystemError(const std::filesystem::filesystem_error& e);

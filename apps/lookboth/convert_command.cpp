@@ -1,5 +1,6 @@
 // `lookboth convert`: datasets between the rawlog and folder layouts, TUM
 // trajectories in and out, ROS 1 and ROS 2 bags in.
+#include <algorithm>
 #include <iostream>
 
 #include "commands.h"
@@ -25,6 +26,7 @@ struct ConvertArgs {
   std::vector<std::string>
       merge;  ///< Datasets to join (the shards of `lookboth detect --cameras`).
   std::vector<std::string> cameras;  ///< Only these cameras (an edge node's part).
+  std::vector<std::string> videos;   ///< LABEL=FILE[:start=NS|:times=CSV]
 };
 
 // "DICT_4X4_50:7:0.2"
@@ -99,14 +101,59 @@ TrajectoryInput parseTrajectoryArg(const std::string& text) {
   return input;
 }
 
+// "cam03=rec.mp4:start=1700000000000000000" or "cam03=rec.mp4:times=rec.csv"
+VideoInput parseVideoArg(const std::string& text) {
+  const std::string usage =
+      "'--video': expected LABEL=FILE[:start=NS|:times=FILE.csv], got '" + text + "'";
+  const size_t eq = text.find('=');
+  if (eq == std::string::npos || eq == 0 || eq + 1 == text.size()) throw Error(usage);
+  VideoInput input;
+  input.label = text.substr(0, eq);
+  std::string rest = text.substr(eq + 1);
+  for (const std::string key : {":times=", ":start="}) {
+    const size_t at = rest.rfind(key);
+    if (at == std::string::npos) continue;
+    const std::string value = rest.substr(at + key.size());
+    rest.resize(at);
+    if (key == ":times=") {
+      input.times = value;
+    } else if (const std::optional<long long> start = parseInt(value)) {
+      input.start = *start;
+    } else {
+      throw Error("'--video': start must be the first frame's time in integer ns, got '" + value +
+                  "'");
+    }
+  }
+  if (rest.empty()) throw Error(usage);
+  input.file = rest;
+  return input;
+}
+
+/// The --video inputs, with the --calibration of the cameras they add.
+std::vector<VideoInput> videoInputs(const ConvertArgs& args) {
+  std::vector<VideoInput> videos;
+  for (const std::string& text : args.videos) videos.push_back(parseVideoArg(text));
+  for (const std::string& text : args.calibrations) {
+    const size_t eq = text.find('=');
+    const std::string label = text.substr(0, eq);
+    const auto it = std::find_if(videos.begin(), videos.end(),
+                                 [&](const VideoInput& v) { return v.label == label; });
+    if (eq == std::string::npos || it == videos.end()) {
+      throw Error("'--calibration': " + text +
+                  ": for a dataset input, a calibration belongs to a camera added with --video "
+                  "(LABEL=FILE)");
+    }
+    it->calibration = text.substr(eq + 1);
+  }
+  return videos;
+}
+
 int runMerge(const ConvertArgs& args) {
   MergeOptions options;
   for (const std::string& input : args.merge) options.inputs.push_back(input);
   options.output = args.to;
   options.overwrite = args.overwrite;
-  options.on_issue = [](const DatasetIssue& issue) {
-    std::cerr << "lookboth: warning: " << issue.where << ": " << issue.message << "\n";
-  };
+  options.on_issue = printDatasetIssue;
   if (const std::string why = options.check(); !why.empty()) throw Error("'--merge': " + why);
   const ProgressReporter progress(makeConsoleProgress());
   const StopOnSignal stop_on_signal(progress);
@@ -148,9 +195,7 @@ int runConvert(const ConvertArgs& args) {
   for (const std::string& t : args.trajectories)
     options.add_trajectories.push_back(parseTrajectoryArg(t));
   options.cameras = args.cameras;
-  options.on_issue = [](const DatasetIssue& issue) {
-    std::cerr << "lookboth: warning: " << issue.where << ": " << issue.message << "\n";
-  };
+  options.on_issue = printDatasetIssue;
   const ProgressReporter progress(makeConsoleProgress());
   const StopOnSignal stop_on_signal(progress);
   try {
@@ -161,7 +206,15 @@ int runConvert(const ConvertArgs& args) {
           "'--cameras' selects cameras of a dataset; the bag's topic mapping (or a TUM "
           "trajectory) has no use for it");
     }
+    if (!args.videos.empty() &&
+        (from_kind == DataKind::kBag || from_kind == DataKind::kTum || to_kind == DataKind::kTum)) {
+      throw Error(
+          "'--video' adds a camera's video to a dataset: convert the bag first (lookboth convert "
+          "--from x.mcap --to robot), then add the videos (lookboth convert --from robot --to site "
+          "--video cam03=cam03.mp4:start=NS ...)");
+    }
     if (from_kind == DataKind::kBag) return runImportBag(args, to_kind, progress);
+    options.videos = videoInputs(args);
     const ConvertSummary summary = convertData(options, progress);
     std::cout << "wrote " << args.to << ": " << summary.total() << " records";
     std::string sep = " (";
@@ -170,7 +223,9 @@ int runConvert(const ConvertArgs& args) {
       sep = ", ";
     }
     std::cout << (summary.records.empty() ? "" : ")") << "\n";
-    if (!summary.issues.empty()) std::cout << summary.issues.size() << " warning(s), see above\n";
+    const auto warnings = std::count_if(summary.issues.begin(), summary.issues.end(),
+                                        [](const DatasetIssue& issue) { return !issue.note; });
+    if (warnings > 0) std::cout << warnings << " warning(s), see above\n";
     return 0;
   } catch (const StopRequested&) {
     std::cerr << "lookboth: stopped; " << args.to << " was not written\n";
@@ -220,7 +275,13 @@ void registerConvertCommand(CLI::App& app, const std::function<void(CommandBody)
       "env_camera, odometry, ground_truth)");
   cmd->add_option("--marker", args->marker, "ROS bag: the robot's marker, DICTIONARY:ID:SIZE_M");
   cmd->add_option("--calibration", args->calibrations,
-                  "ROS bag: LABEL=FILE, a calibration overriding CameraInfo");
+                  "LABEL=FILE: a ROS bag's calibration overriding CameraInfo, or the "
+                  "calibration of a camera added with --video");
+  cmd->add_option("--video", args->videos,
+                  "A camera's frames from a video file: LABEL=FILE[:start=NS|:times=FILE.csv] "
+                  "(the container's times from the first frame's time NS, or a CSV of "
+                  "timestamp_ns per frame); a camera the input lacks needs --calibration "
+                  "LABEL=FILE");
   cmd->add_flag("--receive-time", args->receive_time,
                 "ROS bag: stamp by bag receive time, not header.stamp");
   cmd->callback([args, set_body] { set_body([args] { return runConvert(*args); }); });

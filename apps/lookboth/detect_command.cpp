@@ -101,9 +101,7 @@ int runDetect(const DetectArgs& args) {
   options.detections_only = args.detections_only;
   options.config = detectConfigFor(
       args.config.empty() ? std::nullopt : std::optional<std::filesystem::path>(args.config));
-  options.on_issue = [](const DatasetIssue& issue) {
-    std::cerr << "lookboth: warning: " << issue.where << ": " << issue.message << "\n";
-  };
+  options.on_issue = printDatasetIssue;
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
 
   const ProgressReporter progress(makeConsoleProgress());

@@ -1,7 +1,14 @@
 // How main reports what is not a lookboth::Error but still the user's to fix.
+#include <iostream>
+
 #include "commands.h"
 
 namespace lookboth::app {
+
+void printDatasetIssue(const DatasetIssue& issue) {
+  std::cerr << "lookboth: " << (issue.note ? "note: " : "warning: ") << issue.where << ": "
+            << issue.message << "\n";
+}
 
 std::string describeFilesystemError(const std::filesystem::filesystem_error& e) {
   std::string where;

@@ -52,9 +52,7 @@ int runOdometryCommand(const OdometryArgs& args) {
   options.write_dataset = !args.dry_run;
   options.camera = args.camera;
   options.max_duration_s = args.duration;
-  options.on_issue = [](const DatasetIssue& issue) {
-    std::cerr << "lookboth: warning: " << issue.where << ": " << issue.message << "\n";
-  };
+  options.on_issue = printDatasetIssue;
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
 
   const ProgressReporter progress(makeConsoleProgress());

@@ -37,10 +37,6 @@ std::vector<std::filesystem::path> registerInputs(const RegisterArgs& args) {
   return inputs;
 }
 
-void printIssue(const DatasetIssue& issue) {
-  std::cerr << "lookboth: warning: " << issue.where << ": " << issue.message << "\n";
-}
-
 int runRegister(const RegisterArgs& args) {
   RegisterOptions options;
   options.dataset = args.dataset;
@@ -69,7 +65,7 @@ int runRegister(const RegisterArgs& args) {
     full.auto_odometry = !args.no_odometry;
     full.threads = args.threads;
     full.write_back = !args.no_write_back;
-    full.on_issue = printIssue;
+    full.on_issue = printDatasetIssue;
     const FullPipelineResult result = runFullPipeline(full, progress);
     for (const auto& step : result.steps) std::cout << step << "\n";
     const RegistrationRun& run = result.run;

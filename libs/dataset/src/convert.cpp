@@ -2,11 +2,16 @@
 
 #include <algorithm>
 #include <iterator>
+#include <map>
+#include <memory>
+#include <set>
 
+#include "lookboth/cameras/camera_io.h"
 #include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/output_path.h"
 #include "lookboth/geometry/tum.h"
+#include "video_frames.h"
 
 namespace lookboth {
 
@@ -53,9 +58,22 @@ std::string ConvertOptions::check() const {
   for (const TrajectoryInput& t : add_trajectories) {
     if (t.info.label.empty()) return "'--trajectory': a label is needed for " + t.file.string();
   }
+  std::set<std::string> video_labels;
+  for (const VideoInput& v : videos) {
+    if (v.label.empty() || v.file.empty()) return "'--video': expected LABEL=FILE";
+    if (!video_labels.insert(v.label).second)
+      return "'--video': two videos for camera '" + v.label + "' (join them first)";
+    if (v.times.empty() && !v.start)
+      return "'--video': the frame times of " + v.file.string() +
+             " are unknown: add :times=FILE.csv (timestamp_ns per frame) or :start=NS (the first "
+             "frame's time; the container gives the others)";
+    if (!v.times.empty() && v.start)
+      return "'--video': " + v.file.string() + ": give :times or :start, not both";
+  }
   // However the paths are spelled: the same file, a link to it, "ds/" for "ds".
   std::vector<fs::path> inputs = datasetPaths(from);
   for (const TrajectoryInput& t : add_trajectories) inputs.push_back(t.file);
+  for (const VideoInput& v : videos) inputs.push_back(v.file);
   for (const fs::path& output : datasetPaths(to)) {
     for (const fs::path& input : inputs) {
       if (sameFile(output, input) || contains(output, input)) {
@@ -140,6 +158,92 @@ bool ofCameras(const Record& record, const Manifest& manifest) {
   return false;
 }
 
+/// The frames of the `--video` inputs, written in time order among the
+/// input's records (writeUntil before each record).
+class VideoFrames {
+ public:
+  VideoFrames(const ConvertOptions& options, Manifest& manifest, ConvertSummary& summary)
+      : summary_(summary), on_issue_(options.on_issue) {
+    for (const VideoInput& input : options.videos) {
+      addCamera(input, manifest);
+      internal::VideoTiming timing{input.times, input.start, ""};
+      auto sink = [this](bool note) {
+        return [this, note](const std::string& where, const std::string& message) {
+          DatasetIssue issue{where, message, note};
+          if (on_issue_) on_issue_(issue);
+          summary_.issues.push_back(std::move(issue));
+        };
+      };
+      sources_.push_back(std::make_unique<internal::VideoFrameSource>(
+          input.file, input.label, timing, sink(false), sink(true)));
+      labels_.insert(input.label);
+    }
+    heads_.resize(sources_.size());
+    for (size_t i = 0; i < sources_.size(); ++i) heads_[i] = sources_[i]->next();
+  }
+
+  /// A frame of the input that a video replaces (it is not written).
+  bool replaces(const Record& record) {
+    const auto* frame = std::get_if<ImageFrame>(&record);
+    if (!frame || !labels_.count(frame->sensor)) return false;
+    ++replaced_[frame->sensor];
+    return true;
+  }
+
+  /// Writes the videos' frames up to `t` (all of them without one).
+  void writeUntil(std::optional<TimeNs> t, DatasetWriter& writer) {
+    for (size_t i = 0; i < sources_.size(); ++i) {
+      while (heads_[i] && (!t || heads_[i]->t <= *t)) {
+        writer.write(*heads_[i]);
+        ++summary_.records["image"];
+        heads_[i] = sources_[i]->next();
+      }
+    }
+  }
+
+  /// Says how many of the input's frames the videos replaced.
+  void reportReplaced(const fs::path& from) {
+    for (const auto& [label, count] : replaced_) {
+      DatasetIssue issue{from.string(),
+                         "camera '" + label + "': its " + std::to_string(count) +
+                             " image frames in the input were replaced by the video",
+                         true};
+      if (on_issue_) on_issue_(issue);
+      summary_.issues.push_back(std::move(issue));
+    }
+  }
+
+ private:
+  static void addCamera(const VideoInput& input, Manifest& manifest) {
+    if (manifest.findCamera(input.label)) {
+      if (!input.calibration.empty()) {
+        throw Error({input.calibration.string(), 0, "--calibration", input.label},
+                    "the input already has camera '" + input.label +
+                        "' with its calibration: leave --calibration out");
+      }
+      return;
+    }
+    if (input.calibration.empty()) {
+      throw Error({input.file.string(), 0, "--video", input.label},
+                  "the input has no camera '" + input.label +
+                      "': give its calibration with --calibration " + input.label + "=FILE");
+    }
+    CameraSensor sensor;
+    sensor.label = input.label;
+    sensor.role = input.label == "fisheye" && !manifest.fisheye() ? SensorRole::kFisheye
+                                                                  : SensorRole::kEnvCamera;
+    sensor.camera = loadCamera(input.calibration);
+    manifest.cameras.push_back(sensor);
+  }
+
+  ConvertSummary& summary_;
+  std::function<void(const DatasetIssue&)> on_issue_;
+  std::vector<std::unique_ptr<internal::VideoFrameSource>> sources_;
+  std::vector<std::optional<ImageFrame>> heads_;
+  std::set<std::string> labels_;
+  std::map<std::string, std::int64_t> replaced_;
+};
+
 ConvertSummary datasetToDataset(const ConvertOptions& options, DataKind from_kind, DataKind to_kind,
                                 const ProgressReporter& progress) {
   ConvertSummary summary;
@@ -150,6 +254,7 @@ ConvertSummary datasetToDataset(const ConvertOptions& options, DataKind from_kin
   (void)asDatasetKind(from_kind, options.from);
   Manifest manifest = reader->manifest();
   if (!options.cameras.empty()) keepCameras(options, &manifest);
+  VideoFrames videos(options, manifest, summary);
   manifest.name =
       to_kind == DataKind::kRawlog ? options.to.stem().string() : options.to.filename().string();
   manifest.rawlog_entries = -1;
@@ -166,14 +271,18 @@ ConvertSummary datasetToDataset(const ConvertOptions& options, DataKind from_kin
     }
     ++done;
     if (!options.cameras.empty() && !ofCameras(*record, manifest)) continue;
+    if (videos.replaces(*record)) continue;
+    videos.writeUntil(recordTime(*record), *writer);
     writer->write(*record);
     ++summary.records[recordKindName(*record)];
   }
+  videos.writeUntil(std::nullopt, *writer);
   addTrajectories(options, manifest, *writer, summary, progress);
   progress.checkStop();
   writer->finish(manifest);
   progress.report("convert", done, done > 0 ? done : 1);
-  summary.issues = reader->issues();
+  summary.issues.insert(summary.issues.begin(), reader->issues().begin(), reader->issues().end());
+  videos.reportReplaced(options.from);
   return summary;
 }
 

@@ -58,6 +58,12 @@ void DatasetReader::reportIssue(const std::string& where, const std::string& mes
   issues_.push_back(std::move(issue));
 }
 
+void DatasetReader::reportNote(const std::string& where, const std::string& message) {
+  DatasetIssue note{where, message, true};
+  if (options_.on_issue) options_.on_issue(note);
+  issues_.push_back(std::move(note));
+}
+
 std::unique_ptr<DatasetReader> DatasetReader::open(const fs::path& path,
                                                    const DatasetReadOptions& options) {
   if (!fs::exists(path)) throw Error({path.string(), 0, "", ""}, "no such file or folder");

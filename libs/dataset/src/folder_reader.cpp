@@ -21,6 +21,7 @@
 #include "lookboth/core/text.h"
 #include "lookboth/dataset/image_header.h"
 #include "lookboth/geometry/tum.h"
+#include "video_frames.h"
 
 namespace lookboth::internal {
 namespace {
@@ -219,6 +220,89 @@ class FrameStream final : public Stream {
   std::optional<TimeNs> last_;
   bool size_checked_ = false;
 };
+
+/// cameras/<label>/video.<ext>, timed by video.csv or by the container from
+/// video.yaml's start.
+class VideoStream final : public Stream {
+ public:
+  VideoStream(const fs::path& video, const std::string& label, std::optional<Camera> camera,
+              fs::path calibration_file, VideoTiming timing, IssueSink issue, IssueSink note)
+      : source_(video, label, std::move(timing), issue, std::move(note)),
+        label_(label),
+        camera_(std::move(camera)),
+        calibration_file_(std::move(calibration_file)),
+        issue_(std::move(issue)) {}
+
+  std::optional<Record> next() override {
+    std::optional<ImageFrame> frame = source_.next();
+    if (frame && !size_checked_) checkSize();
+    if (!frame) return std::nullopt;
+    return std::move(*frame);
+  }
+
+ private:
+  void checkSize() {
+    size_checked_ = true;
+    const ImageSize size = source_.size();
+    if (!camera_ || (size.width == camera_->width() && size.height == camera_->height())) return;
+    issue_(source_.video().string(),
+           "the video is " + std::to_string(size.width) + "x" + std::to_string(size.height) +
+               " px but the calibration of camera '" + label_ + "' (" + calibration_file_.string() +
+               ") is " + std::to_string(camera_->width()) + "x" +
+               std::to_string(camera_->height()) + " px");
+  }
+
+  VideoFrameSource source_;
+  std::string label_;
+  std::optional<Camera> camera_;
+  fs::path calibration_file_;
+  IssueSink issue_;
+  bool size_checked_ = false;
+};
+
+/// The camera folder's video file (video.<ext> other than video.csv and
+/// video.yaml), if any; an error naming the folder when there are several.
+std::optional<fs::path> videoFile(const fs::path& folder) {
+  std::vector<fs::path> found;
+  std::error_code ec;
+  for (const fs::directory_entry& entry : fs::directory_iterator(folder, ec)) {
+    const fs::path& path = entry.path();
+    if (path.stem() != "video" || !entry.is_regular_file()) continue;
+    if (path.extension() == ".csv" || path.extension() == ".yaml") continue;
+    found.push_back(path);
+  }
+  if (found.empty()) return std::nullopt;
+  if (found.size() > 1) {
+    std::sort(found.begin(), found.end());
+    throw Error({folder.string(), 0, "", ""},
+                "several video files (" + found[0].filename().string() + ", " +
+                    found[1].filename().string() + "): a camera folder holds one");
+  }
+  return found.front();
+}
+
+/// How the frames of `video` are timed: video.csv beside it, else the start in video.yaml.
+VideoTiming videoTiming(const fs::path& folder) {
+  VideoTiming timing;
+  timing.how_to_time =
+      "add video.csv beside it (timestamp_ns of each frame) or video.yaml (start_timestamp_ns: "
+      "the first frame's time in ns; the container's timestamps give the others)";
+  if (fs::exists(folder / "video.csv")) {
+    timing.sidecar = folder / "video.csv";
+    return timing;
+  }
+  const fs::path yaml = folder / "video.yaml";
+  if (!fs::exists(yaml)) return timing;
+  const YAML::Node map = loadYamlMapping(yaml, {"start_timestamp_ns"});
+  const std::string text = *yamlScalar(map, "start_timestamp_ns", yaml, true);
+  const std::optional<long long> start = parseInt(text);
+  if (!start) {
+    throw Error({yaml.string(), yamlLine(map, "start_timestamp_ns"), "start_timestamp_ns", ""},
+                "expected an integer (ns), got '" + text + "'");
+  }
+  timing.start = *start;
+  return timing;
+}
 
 /// log det of an information matrix: the larger, the smaller the
 /// uncertainty; -infinity when it is not positive definite (none reported).
@@ -564,6 +648,12 @@ class FolderReader final : public DatasetReader {
     };
   }
 
+  IssueSink noteSink() {
+    return [this](const std::string& where, const std::string& message) {
+      reportNote(where, message);
+    };
+  }
+
   void readMarker() {
     const fs::path path = file("marker.yaml");
     if (!fs::exists(path)) {
@@ -746,6 +836,17 @@ class FolderReader final : public DatasetReader {
       const CameraSensor& sensor = manifest_.cameras[i];
       if (sensor.role == SensorRole::kEnvCamera) env_cameras.insert(sensor.label);
       const fs::path frames = camera_folders_[i].first / "frames.csv";
+      if (const std::optional<fs::path> video = videoFile(camera_folders_[i].first)) {
+        if (fs::exists(frames)) {
+          throw Error({camera_folders_[i].first.string(), 0, "", ""},
+                      "both frames.csv and " + video->filename().string() +
+                          ": a camera's frames are image files or a video, not both");
+        }
+        streams_.push_back(std::make_unique<VideoStream>(
+            *video, sensor.label, sensor.camera, camera_folders_[i].second,
+            videoTiming(camera_folders_[i].first), issueSink(), noteSink()));
+        continue;
+      }
       if (!fs::exists(frames)) continue;
       streams_.push_back(std::make_unique<FrameStream>(frames, sensor.label, sensor.camera,
                                                        camera_folders_[i].second,

@@ -5,6 +5,7 @@
 // truth and trajectory descriptions in finish(), which then moves the folder
 // into place.
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -164,7 +165,15 @@ class FolderWriter final : public DatasetWriter {
                     "frames were written for a camera that the final manifest does not list");
       }
     }
+    for (const auto& [label, video] : videos_) {
+      if (!manifest.findCamera(label)) {
+        throw Error({folder_.string(), 0, "", label},
+                    "video frames were written for a camera that the final manifest does not "
+                    "list");
+      }
+    }
     for (auto& [label, file] : frames_) file.close();
+    for (auto& [label, video] : videos_) video.csv.close();
     markers_.close();
     blobs_.close();
     for (auto& [label, file] : trajectories_) file.close();
@@ -280,6 +289,11 @@ class FolderWriter final : public DatasetWriter {
   void writeRecord(const ImageFrame& frame) {
     const CameraSensor& sensor = requireCamera(frame.sensor, "image");
     const fs::path folder = cameraFolder(sensor.label, fisheye_label_);
+    if (!frame.encoded && !frame.video_file.empty()) {
+      writeVideoFrame(sensor.label, folder, frame);
+      return;
+    }
+    if (videos_.count(sensor.label)) throw mixedFrames(sensor.label);
     OutputFile& csv = frames_[sensor.label];
     if (!csv.started()) {
       csv.open(temporary_ / folder / "frames.csv", "timestamp_ns,file");
@@ -309,6 +323,38 @@ class FolderWriter final : public DatasetWriter {
       placeImageFile(frame.image_file, target, link_images_, sensor.label);
     }
     csv.stream() << frame.t << ',' << relative.generic_string() << '\n';
+  }
+
+  /// A camera's video frames: the video file once (linked or copied, never
+  /// re-encoded) and `video.csv` with each frame's time and index, so that
+  /// reading it back needs no timestamps from the container.
+  void writeVideoFrame(const std::string& label, const fs::path& folder, const ImageFrame& frame) {
+    if (frames_.count(label)) throw mixedFrames(label);
+    VideoOutput& video = videos_[label];
+    if (!video.csv.started()) {
+      std::string extension = frame.video_file.extension().string();
+      std::transform(extension.begin(), extension.end(), extension.begin(),
+                     [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+      if (extension.empty() || extension == ".csv" || extension == ".yaml") extension = ".video";
+      video.source = frame.video_file;
+      fs::create_directories(temporary_ / folder);
+      placeImageFile(frame.video_file, temporary_ / folder / ("video" + extension), link_images_,
+                     label);
+      video.csv.open(temporary_ / folder / "video.csv", "timestamp_ns,frame");
+    } else if (video.source != frame.video_file) {
+      throw Error({folder_.string(), 0, "", label},
+                  "frames from two video files ('" + video.source.string() + "', '" +
+                      frame.video_file.string() +
+                      "'): a camera folder holds one video (join them first, e.g. with "
+                      "ffmpeg -f concat -c copy)");
+    }
+    video.csv.stream() << frame.t << ',' << frame.video_frame << '\n';
+  }
+
+  Error mixedFrames(const std::string& label) const {
+    return Error({folder_.string(), 0, "", label},
+                 "image files and video frames for one camera: a camera folder holds either "
+                 "frames.csv or a video");
   }
 
   void writeRecord(const MarkerObservation& obs) {
@@ -429,6 +475,11 @@ class FolderWriter final : public DatasetWriter {
   bool finished_ = false;
   std::string fisheye_label_;  ///< The fisheye's label in the manifest (written as "fisheye").
   std::map<std::string, OutputFile> frames_;  ///< By camera label.
+  struct VideoOutput {
+    fs::path source;
+    OutputFile csv;
+  };
+  std::map<std::string, VideoOutput> videos_;  ///< By camera label.
   OutputFile markers_;
   OutputFile blobs_;
   std::map<std::string, OutputFile> trajectories_;  ///< By trajectory label.

@@ -8,11 +8,13 @@
 #include <cerrno>
 #include <cstring>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
 #include <set>
 
 #include "internal.h"
 #include "lookboth/cameras/camera_io.h"
 #include "lookboth/core/error.h"
+#include "lookboth/dataset/frame_decoder.h"
 #include "lookboth/geometry/pose_conversions.h"
 #include "lookboth/obs/CObservationMarkerCorners.h"
 
@@ -109,6 +111,10 @@ class RawlogWriter : public DatasetWriter {
   }
 
   void writeRecord(const ImageFrame& frame) {
+    if (!frame.encoded && isVideoFrame(frame)) {
+      writeRecord(extractedFrame(frame));
+      return;
+    }
     std::string extension = frame.encoded ? frame.extension : frame.image_file.extension().string();
     if (extension.empty()) extension = ".png";
     if (extension.front() != '.') extension.insert(0, ".");
@@ -138,6 +144,24 @@ class RawlogWriter : public DatasetWriter {
     }
     obs.image.setExternalStorage(name);
     writeObservation(obs);
+  }
+
+  /// A rawlog holds one image per frame (what MRPT's tools read): a video
+  /// frame is decoded and stored as PNG, losslessly from the decoded pixels.
+  ImageFrame extractedFrame(const ImageFrame& frame) {
+    const cv::Mat image = video_decoder_.decode(frame, FrameColour::kAsStored);
+    if (image.empty()) {
+      throw Error({frame.video_file.string(), 0, "", frame.sensor},
+                  "cannot decode " + frameName(frame) + " for the rawlog's images");
+    }
+    auto bytes = std::make_shared<std::vector<std::uint8_t>>();
+    cv::imencode(".png", image, *bytes);
+    ImageFrame extracted;
+    extracted.t = frame.t;
+    extracted.sensor = frame.sensor;
+    extracted.encoded = std::move(bytes);
+    extracted.extension = ".png";
+    return extracted;
   }
 
   void writeRecord(const MarkerObservation& marker) {
@@ -197,6 +221,7 @@ class RawlogWriter : public DatasetWriter {
   std::unique_ptr<mrpt::serialization::CArchiveStreamBase<mrpt::io::CFileGZOutputStream>> archive_;
   std::map<std::string, mrpt::img::TCamera> mrpt_cameras_;
   bool images_written_ = false;
+  FrameDecoder video_decoder_;  ///< For video frames, stored as PNG.
   bool finished_ = false;
   std::int64_t entries_ = 0;
 };

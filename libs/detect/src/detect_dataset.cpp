@@ -15,6 +15,7 @@
 #include "lookboth/core/option_fields.h"
 #include "lookboth/core/paths.h"
 #include "lookboth/core/yaml_reader.h"
+#include "lookboth/dataset/frame_decoder.h"
 #include "lookboth/dataset/image_header.h"
 
 namespace lookboth {
@@ -136,16 +137,10 @@ std::string DetectOptions::check() const {
 
 namespace {
 
-struct FrameRef {
-  TimeNs t = 0;
-  std::filesystem::path file;
-  std::shared_ptr<const std::vector<std::uint8_t>> encoded;
-};
-
 struct CameraWork {
   const CameraSensor* sensor = nullptr;
   bool fisheye = false;
-  std::vector<FrameRef> frames;
+  std::vector<ImageFrame> frames;
 };
 
 /// One job: a camera's frames [begin, end).
@@ -171,29 +166,8 @@ void addStats(MarkerDetectorStats& total, const MarkerDetectorStats& more) {
   for (const auto& [why, n] : more.rejected) total.rejected[why] += n;
 }
 
-cv::Mat decode(const FrameRef& frame) {
-  if (frame.encoded) {
-    const cv::Mat bytes(1, static_cast<int>(frame.encoded->size()), CV_8UC1,
-                        const_cast<std::uint8_t*>(frame.encoded->data()));
-    return cv::imdecode(bytes, cv::IMREAD_GRAYSCALE);
-  }
-  return cv::imread(frame.file.string(), cv::IMREAD_GRAYSCALE);
-}
-
-std::string frameName(const FrameRef& frame) {
-  return frame.encoded ? "frame at " + std::to_string(frame.t) + " ns (embedded)"
-                       : "'" + frame.file.string() + "'";
-}
-
-/// The frame's size from its header, without decoding it; nullopt when the
-/// format does not tell (the decoded image is checked then).
-std::optional<ImageSize> headerSize(const FrameRef& frame) {
-  if (frame.encoded) return encodedImageSize(frame.encoded->data(), frame.encoded->size());
-  return imageFileSize(frame.file);
-}
-
 /// Empty when the frame's size is the calibration's; else why it is skipped.
-std::string sizeMismatch(const FrameRef& frame, const Camera* camera, int width, int height) {
+std::string sizeMismatch(const ImageFrame& frame, const Camera* camera, int width, int height) {
   if (!camera || (width == camera->width() && height == camera->height())) return "";
   return "image " + frameName(frame) + " is " + std::to_string(width) + "x" +
          std::to_string(height) + ", the calibration " + std::to_string(camera->width()) + "x" +
@@ -213,12 +187,13 @@ JobResult runJob(const CameraWork& work, const Job& job, const DetectConfig& con
     marker_detector.emplace(marker, *work.sensor->camera, config.markers);
   }
   std::vector<std::pair<TimeNs, MarkerDetection>> detections;
+  FrameDecoder decoder;
   for (size_t i = job.begin; i < job.end && !stop.load(); ++i) {
-    const FrameRef& frame = work.frames[i];
+    const ImageFrame& frame = work.frames[i];
     const Camera* camera = work.sensor->camera ? &*work.sensor->camera : nullptr;
     // A frame of the wrong size would give detections at pixels the camera
     // does not have; a huge one would be decoded into gigabytes first.
-    if (const std::optional<ImageSize> size = headerSize(frame)) {
+    if (const std::optional<ImageSize> size = decoder.size(frame)) {
       if (std::string why = sizeMismatch(frame, camera, size->width, size->height); !why.empty()) {
         ++done;
         ++result.skipped;
@@ -227,7 +202,7 @@ JobResult runJob(const CameraWork& work, const Job& job, const DetectConfig& con
         continue;
       }
     }
-    const cv::Mat grey = decode(frame);
+    const cv::Mat grey = decoder.decode(frame, FrameColour::kGrey);
     ++done;
     if (grey.empty()) {
       ++result.skipped;
@@ -316,11 +291,11 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
       progress.checkStop();
       progress.report("detect: read", read, std::max<std::int64_t>(0, expected));
     }
-    const auto* frame = std::get_if<ImageFrame>(&*record);
+    auto* frame = std::get_if<ImageFrame>(&*record);
     if (!frame) continue;
     const auto it = index.find(frame->sensor);
     if (it == index.end()) continue;
-    work[it->second].frames.push_back({frame->t, frame->image_file, frame->encoded});
+    work[it->second].frames.push_back(std::move(*frame));
   }
   if (summary) {
     summary->issues.insert(summary->issues.end(), reader->issues().begin(), reader->issues().end());
@@ -330,10 +305,17 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
   std::int64_t total = 0;
   for (size_t c = 0; c < work.size(); ++c) {
     std::stable_sort(work[c].frames.begin(), work[c].frames.end(),
-                     [](const FrameRef& a, const FrameRef& b) { return a.t < b.t; });
+                     [](const ImageFrame& a, const ImageFrame& b) { return a.t < b.t; });
     total += static_cast<std::int64_t>(work[c].frames.size());
     const size_t n = work[c].frames.size();
-    const size_t chunk = work[c].fisheye ? 64 : std::max<size_t>(n, 1);
+    // A chunk of a video starts with a seek and decodes from the key frame
+    // before it: a video's chunks are as long as the threads allow.
+    const bool video = n > 0 && isVideoFrame(work[c].frames.front());
+    const size_t threads = static_cast<size_t>(
+        options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency()));
+    const size_t chunk = !work[c].fisheye ? std::max<size_t>(n, 1)
+                         : video          ? std::max<size_t>(64, (n + threads - 1) / threads)
+                                          : 64;
     for (size_t begin = 0; begin < n; begin += chunk) {
       jobs.push_back({c, begin, std::min(n, begin + chunk)});
     }
@@ -424,7 +406,7 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
     summary->cameras = per_camera;
     for (const CameraWork& w : work) {
       if (w.fisheye) continue;
-      for (const FrameRef& f : w.frames) summary->searched.emplace_back(w.sensor->label, f.t);
+      for (const ImageFrame& f : w.frames) summary->searched.emplace_back(w.sensor->label, f.t);
     }
     summary->detect_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();

@@ -16,6 +16,7 @@
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
 #include "lookboth/dataset/dataset_io.h"
+#include "lookboth/dataset/frame_decoder.h"
 #include "lookboth/report/overview.h"
 
 namespace lookboth::report {
@@ -140,19 +141,17 @@ DatasetContents readDataset(const fs::path& path, const ProgressReporter& progre
 }
 
 cv::Mat decodeImage(const ImageFrame& frame) {
-  cv::Mat image;
-  if (frame.encoded) {
-    image = cv::imdecode(*frame.encoded, cv::IMREAD_UNCHANGED);
-  } else if (!frame.image_file.empty()) {
+  if (!frame.encoded && !isVideoFrame(frame)) {
     std::error_code ec;
     if (!fs::is_regular_file(frame.image_file, ec)) {
       throw Error({frame.image_file.string(), 0, "", frame.sensor}, "image file missing");
     }
-    image = cv::imread(frame.image_file.string(), cv::IMREAD_UNCHANGED);
   }
-  if (image.empty()) {
-    throw Error({frame.image_file.string(), 0, "", frame.sensor}, "cannot read the image");
-  }
+  // One decoder per thread keeps a video open between the frames asked for.
+  thread_local FrameDecoder decoder;
+  cv::Mat image = decoder.decode(frame, FrameColour::kAsStored);
+  if (image.empty())
+    throw Error("cannot read the image " + frameName(frame) + " of '" + frame.sensor + "'");
   if (image.depth() != CV_8U) {
     double max_value = 0;
     cv::minMaxLoc(image.reshape(1), nullptr, &max_value);

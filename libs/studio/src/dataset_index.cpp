@@ -114,24 +114,20 @@ std::vector<CameraSummary> DatasetIndex::cameraSummaries() const {
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "lookboth/dataset/frame_decoder.h"
+
 namespace lookboth::studio {
 
 cv::Mat decodeFrame(const ImageFrame& frame) {
-  cv::Mat image;
-  if (frame.encoded) {
-    image = cv::imdecode(*frame.encoded, cv::IMREAD_UNCHANGED);
-    if (image.empty())
-      throw Error("frame of '" + frame.sensor + "' at t=" + std::to_string(frame.t) +
-                  " ns: the encoded image cannot be decoded");
-  } else {
-    if (!std::filesystem::exists(frame.image_file))
-      throw Error(frame.image_file.string() + ": image file missing (frame of '" + frame.sensor +
-                  "')");
-    image = cv::imread(frame.image_file.string(), cv::IMREAD_UNCHANGED);
-    if (image.empty())
-      throw Error(frame.image_file.string() + ": not a readable image (frame of '" + frame.sensor +
-                  "')");
-  }
+  if (!frame.encoded && !isVideoFrame(frame) && !std::filesystem::exists(frame.image_file))
+    throw Error(frame.image_file.string() + ": image file missing (frame of '" + frame.sensor +
+                "')");
+  // The window asks for frames of several cameras in turn: one decoder
+  // keeps their videos open.
+  thread_local FrameDecoder decoder;
+  cv::Mat image = decoder.decode(frame, FrameColour::kAsStored);
+  if (image.empty())
+    throw Error(frameName(frame) + ": not a readable image (frame of '" + frame.sensor + "')");
   if (image.depth() != CV_8U)
     image.convertTo(image, CV_8U, image.depth() == CV_16U ? 1.0 / 256 : 1.0);
   return image;

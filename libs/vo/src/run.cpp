@@ -14,6 +14,7 @@
 #include "lookboth/core/error.h"
 #include "lookboth/dataset/augment.h"
 #include "lookboth/dataset/dataset_io.h"
+#include "lookboth/dataset/frame_decoder.h"
 #include "lookboth/dataset/image_header.h"
 #include "lookboth/geometry/time.h"
 #include "lookboth/geometry/tum.h"
@@ -76,11 +77,6 @@ class FrameQueue {
   std::exception_ptr error_;
 };
 
-std::string frameName(const ImageFrame& frame) {
-  return frame.encoded ? "the fisheye frame at t=" + formatSeconds(frame.t) + " (embedded)"
-                       : frame.image_file.string();
-}
-
 /// Refuses a frame whose size is not the calibration's: tracking it would
 /// put features at pixels the camera does not have (and a huge one would be
 /// decoded into gigabytes first). The header is read before decoding.
@@ -92,21 +88,12 @@ void checkFrameSize(const ImageFrame& frame, const Camera& camera, int width, in
               " (wrong calibration or wrong camera label?)");
 }
 
-cv::Mat decode(const ImageFrame& frame, const Camera& camera) {
-  const std::optional<ImageSize> header =
-      frame.encoded ? encodedImageSize(frame.encoded->data(), frame.encoded->size())
-                    : imageFileSize(frame.image_file);
-  if (header) checkFrameSize(frame, camera, header->width, header->height);
-  cv::Mat image;
-  if (frame.encoded) {
-    const cv::Mat bytes(1, static_cast<int>(frame.encoded->size()), CV_8U,
-                        const_cast<std::uint8_t*>(frame.encoded->data()));
-    image = cv::imdecode(bytes, cv::IMREAD_GRAYSCALE);
-  } else {
-    image = cv::imread(frame.image_file.string(), cv::IMREAD_GRAYSCALE);
-  }
+cv::Mat decode(FrameDecoder& decoder, const ImageFrame& frame, const Camera& camera) {
+  if (const std::optional<ImageSize> header = decoder.size(frame))
+    checkFrameSize(frame, camera, header->width, header->height);
+  const cv::Mat image = decoder.decode(frame, FrameColour::kGrey);
   if (image.empty())
-    throw Error(frame.image_file.string() +
+    throw Error(frameName(frame) +
                 ": cannot decode the fisheye frame at t=" + formatSeconds(frame.t));
   checkFrameSize(frame, camera, image.cols, image.rows);
   return image;
@@ -172,6 +159,7 @@ OdometryRunSummary runOdometry(const OdometryRunOptions& options,
   std::thread producer([&] {
     try {
       std::optional<TimeNs> first;
+      FrameDecoder decoder;
       while (auto record = reader->next()) {
         ++records_read;
         if (progress.stopRequested()) break;
@@ -187,7 +175,7 @@ OdometryRunSummary runOdometry(const OdometryRunOptions& options,
           continue;
         const double t0 = threadCpuSeconds();
         DecodedFrame decoded{frame->t,
-                             VisualOdometry::prepareImage(decode(*frame, camera), factor)};
+                             VisualOdometry::prepareImage(decode(decoder, *frame, camera), factor)};
         decode_seconds += threadCpuSeconds() - t0;
         if (!queue.push(std::move(decoded))) break;
       }

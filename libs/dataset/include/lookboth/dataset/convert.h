@@ -5,12 +5,14 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "lookboth/core/progress.h"
 #include "lookboth/dataset/dataset_io.h"
+#include "lookboth/geometry/time.h"
 
 namespace lookboth {
 
@@ -27,6 +29,16 @@ DataKind detectDataKind(const std::filesystem::path& path);
 struct TrajectoryInput {
   std::filesystem::path file;
   TrajectoryInfo info;  ///< label, metric, description
+};
+
+/// A camera's frames from a video file (`--video`), added to a dataset output.
+struct VideoInput {
+  std::string label;            ///< The camera (in the input, or added with `calibration`).
+  std::filesystem::path file;   ///< The video (any container and codec FFmpeg reads).
+  std::filesystem::path times;  ///< Sidecar CSV `timestamp_ns[,frame]`; empty: the container's.
+  std::optional<TimeNs> start;  ///< With the container's times: the first frame's time [ns].
+  std::filesystem::path
+      calibration;  ///< For a camera the input does not have (an environment camera).
 };
 
 struct ConvertOptions {
@@ -47,6 +59,9 @@ struct ConvertOptions {
   /// node holds: their frames and detections, calibrations and ground truth;
   /// no trajectories. Empty = every camera and trajectory.
   std::vector<std::string> cameras;
+  /// dataset -> dataset: cameras whose frames come from video files; a frame
+  /// the input has for such a camera is dropped (the video replaces them).
+  std::vector<VideoInput> videos;
   /// Called for every input issue as it is found (e.g. to print a warning).
   std::function<void(const DatasetIssue&)> on_issue;
   /// Empty when valid; else a message naming the option.

@@ -28,10 +28,13 @@ const char* datasetKindName(DatasetKind kind);
 DatasetKind detectDatasetKind(const std::filesystem::path& path);
 
 /// A problem in the input that does not stop reading (a duplicated
-/// timestamp, a missing image...): the record concerned is skipped.
+/// timestamp, a missing image...): the record concerned is skipped. Or, with
+/// `note`, a fact worth telling that skips nothing (frames a video recorder
+/// dropped): never an error, even when reading strictly.
 struct DatasetIssue {
   std::string where;  ///< "x.rawlog: entry 1234" or "cameras/cam03/frames.csv:17".
   std::string message;
+  bool note = false;
 };
 
 struct DatasetReadOptions {
@@ -70,6 +73,8 @@ class DatasetReader {
       : path_(std::move(path)), kind_(kind), options_(std::move(options)) {}
   /// Records an issue (or throws in strict mode).
   void reportIssue(const std::string& where, const std::string& message);
+  /// Records a note (DatasetIssue::note): never throws.
+  void reportNote(const std::string& where, const std::string& message);
 
   Manifest manifest_;
   std::filesystem::path path_;

@@ -35,6 +35,11 @@ struct ImageFrame {
   /// set, `image_file` is ignored and `extension` (".png", ".jpg") says the encoding.
   std::shared_ptr<const std::vector<std::uint8_t>> encoded;
   std::string extension;
+  /// Or a frame of a video file (absolute path): the `video_frame`-th frame
+  /// in presentation order, counted from 0. Decode any of the three with
+  /// `FrameDecoder` (frame_decoder.h).
+  std::filesystem::path video_file;
+  std::int64_t video_frame = -1;
 };
 
 /// The robot's marker seen by an environment camera.

@@ -1,0 +1,337 @@
+// Video files through FFmpeg: timestamps by demultiplexing, frames by
+// decoding forward (seeking only when going back or far ahead), grey frames
+// taken from the luma plane without a colour conversion.
+#include "lookboth/dataset/video.h"
+
+extern "C" {
+#include <libavcodec/avcodec.h>
+#include <libavformat/avformat.h>
+#include <libavutil/pixdesc.h>
+#include <libswscale/swscale.h>
+}
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+#include <opencv2/core.hpp>
+
+#include "lookboth/core/error.h"
+#include "lookboth/core/text.h"
+
+namespace lookboth {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string averror(int code) {
+  char text[AV_ERROR_MAX_STRING_SIZE] = {};
+  av_strerror(code, text, sizeof text);
+  return text;
+}
+
+/// FFmpeg prints its own diagnostics on stderr; ours name the file instead.
+void quietFfmpeg() {
+  static std::once_flag once;
+  std::call_once(once, [] { av_log_set_level(AV_LOG_FATAL); });
+}
+
+Error videoError(const fs::path& file, const std::string& message) {
+  return Error({file.string(), 0, "", ""}, message);
+}
+
+struct FormatCloser {
+  void operator()(AVFormatContext* format) const { avformat_close_input(&format); }
+};
+struct CodecCloser {
+  void operator()(AVCodecContext* codec) const { avcodec_free_context(&codec); }
+};
+struct PacketFree {
+  void operator()(AVPacket* packet) const { av_packet_free(&packet); }
+};
+struct FrameFree {
+  void operator()(AVFrame* frame) const { av_frame_free(&frame); }
+};
+using FormatPtr = std::unique_ptr<AVFormatContext, FormatCloser>;
+using CodecPtr = std::unique_ptr<AVCodecContext, CodecCloser>;
+using PacketPtr = std::unique_ptr<AVPacket, PacketFree>;
+using FramePtr = std::unique_ptr<AVFrame, FrameFree>;
+
+/// The container opened, with the index of its main video stream.
+std::pair<FormatPtr, int> openContainer(const fs::path& file) {
+  quietFfmpeg();
+  std::error_code ec;
+  if (!fs::is_regular_file(file, ec)) throw videoError(file, "video file does not exist");
+  AVFormatContext* raw = nullptr;
+  int rc = avformat_open_input(&raw, file.c_str(), nullptr, nullptr);
+  if (rc < 0) throw videoError(file, "not a video file FFmpeg can read (" + averror(rc) + ")");
+  FormatPtr format(raw);
+  rc = avformat_find_stream_info(format.get(), nullptr);
+  if (rc < 0) throw videoError(file, "cannot read the video's streams (" + averror(rc) + ")");
+  const int stream = av_find_best_stream(format.get(), AVMEDIA_TYPE_VIDEO, -1, -1, nullptr, 0);
+  if (stream < 0) throw videoError(file, "no video stream in the file");
+  return {std::move(format), stream};
+}
+
+/// Every packet's presentation time of the stream, in the stream's time base,
+/// sorted (= presentation order); empty when a packet has no timestamp.
+/// `count` receives the number of packets.
+std::vector<std::int64_t> packetTimes(AVFormatContext* format, int stream, const fs::path& file,
+                                      std::int64_t& count) {
+  PacketPtr packet(av_packet_alloc());
+  std::vector<std::int64_t> times;
+  bool complete = true;
+  count = 0;
+  int rc = 0;
+  while ((rc = av_read_frame(format, packet.get())) >= 0) {
+    if (packet->stream_index == stream) {
+      ++count;
+      const std::int64_t t = packet->pts != AV_NOPTS_VALUE ? packet->pts : packet->dts;
+      if (t == AV_NOPTS_VALUE) complete = false;
+      if (complete) times.push_back(t);
+    }
+    av_packet_unref(packet.get());
+  }
+  if (rc != AVERROR_EOF) {
+    throw videoError(file,
+                     "read error after " + std::to_string(count) + " frames (" + averror(rc) + ")");
+  }
+  if (!complete) times.clear();
+  std::sort(times.begin(), times.end());
+  return times;
+}
+
+}  // namespace
+
+VideoProbe probeVideo(const fs::path& file, bool with_times) {
+  auto [format, stream] = openContainer(file);
+  const AVStream* video = format->streams[stream];
+  VideoProbe probe;
+  probe.width = video->codecpar->width;
+  probe.height = video->codecpar->height;
+  probe.codec = avcodec_get_name(video->codecpar->codec_id);
+  if (video->avg_frame_rate.num > 0 && video->avg_frame_rate.den > 0)
+    probe.frame_rate_hz = av_q2d(video->avg_frame_rate);
+  probe.frame_count = video->nb_frames > 0 ? video->nb_frames : -1;
+  if (!with_times) return probe;
+  const std::vector<std::int64_t> pts = packetTimes(format.get(), stream, file, probe.frame_count);
+  const AVRational ns{1, 1000000000};
+  for (const std::int64_t t : pts)
+    probe.frame_offsets_ns.push_back(av_rescale_q(t - pts.front(), video->time_base, ns));
+  return probe;
+}
+
+std::string FrameTiming::describeGaps() const {
+  if (gaps == 0) return "";
+  return std::to_string(dropped) + (dropped == 1 ? " frame" : " frames") + " missing in " +
+         std::to_string(gaps) + (gaps == 1 ? " gap" : " gaps") + " (the longest " +
+         formatFixed(static_cast<double>(longest_gap_ns) * 1e-9, 3) +
+         " s after t=" + formatFixed(static_cast<double>(longest_gap_at) * 1e-9, 3) +
+         " s; the frame period is " + formatFixed(period_ns * 1e-6, 2) + " ms)";
+}
+
+FrameTiming analyseFrameTimes(const std::vector<TimeNs>& times) {
+  FrameTiming timing;
+  std::vector<std::int64_t> intervals;
+  for (size_t i = 1; i < times.size(); ++i) {
+    if (times[i] > times[i - 1]) intervals.push_back(times[i] - times[i - 1]);
+  }
+  if (intervals.empty()) return timing;
+  std::nth_element(intervals.begin(), intervals.begin() + intervals.size() / 2, intervals.end());
+  timing.period_ns = static_cast<double>(intervals[intervals.size() / 2]);
+  for (size_t i = 1; i < times.size(); ++i) {
+    const double interval = static_cast<double>(times[i] - times[i - 1]);
+    if (interval < 0.5 * timing.period_ns) {
+      ++timing.repeated;
+    } else if (interval > 1.5 * timing.period_ns) {
+      ++timing.gaps;
+      timing.dropped += std::llround(interval / timing.period_ns) - 1;
+      if (times[i] - times[i - 1] > timing.longest_gap_ns) {
+        timing.longest_gap_ns = times[i] - times[i - 1];
+        timing.longest_gap_at = times[i - 1];
+      }
+    }
+  }
+  return timing;
+}
+
+// ---------------------------------------------------------------------------
+
+struct VideoDecoder::Impl {
+  fs::path file;
+  int threads = 1;
+  FormatPtr format;
+  int stream = -1;
+  CodecPtr codec;
+  PacketPtr packet{av_packet_alloc()};
+  FramePtr frame{av_frame_alloc()};
+  SwsContext* scaler = nullptr;
+  /// Presentation times of all frames (stream time base), sorted: a decoded
+  /// frame's index is the position of its time. Empty for a stream without
+  /// timestamps, whose frames are counted instead.
+  std::vector<std::int64_t> pts;
+  std::int64_t frame_count = 0;
+  std::int64_t next_index = 0;  ///< Index of the frame the decoder gives next.
+  bool draining = false;        ///< End of file reached: the decoder is being emptied.
+
+  /// Frames further ahead than this are reached by seeking rather than by
+  /// decoding every frame in between (a few groups of pictures).
+  static constexpr std::int64_t kSeekAhead = 300;
+
+  ~Impl() { sws_freeContext(scaler); }
+
+  void open() {
+    auto [opened, index] = openContainer(file);
+    format = std::move(opened);
+    stream = index;
+    const AVCodecParameters* parameters = format->streams[stream]->codecpar;
+    const AVCodec* decoder = avcodec_find_decoder(parameters->codec_id);
+    if (!decoder) {
+      throw videoError(file, std::string("no decoder for the codec '") +
+                                 avcodec_get_name(parameters->codec_id) + "'");
+    }
+    codec.reset(avcodec_alloc_context3(decoder));
+    avcodec_parameters_to_context(codec.get(), parameters);
+    codec->thread_count = threads;
+    codec->thread_type = FF_THREAD_FRAME | FF_THREAD_SLICE;
+    const int rc = avcodec_open2(codec.get(), decoder, nullptr);
+    if (rc < 0) throw videoError(file, "cannot start the video decoder (" + averror(rc) + ")");
+    next_index = 0;
+    draining = false;
+  }
+
+  /// Decodes the next frame into `frame`; false at the end of the stream.
+  bool receive() {
+    for (;;) {
+      int rc = avcodec_receive_frame(codec.get(), frame.get());
+      if (rc == 0) return true;
+      if (rc != AVERROR(EAGAIN) || draining) return false;
+      rc = av_read_frame(format.get(), packet.get());
+      if (rc < 0) {
+        avcodec_send_packet(codec.get(), nullptr);
+        draining = true;
+        continue;
+      }
+      // A damaged packet is not sent on: its frame is missing, the others stay.
+      if (packet->stream_index == stream) avcodec_send_packet(codec.get(), packet.get());
+      av_packet_unref(packet.get());
+    }
+  }
+
+  std::int64_t indexOfDecoded() const {
+    if (pts.empty()) return next_index;
+    const std::int64_t t = frame->best_effort_timestamp;
+    const auto it = std::lower_bound(pts.begin(), pts.end(), t);
+    if (it == pts.end() || *it != t) return next_index;
+    return it - pts.begin();
+  }
+
+  /// Positions the decoder before `index`: at the key frame before it, or at the start.
+  void seekBefore(std::int64_t index) {
+    if (!pts.empty()) {
+      // A little earlier than the frame itself: key frames are found by
+      // decoding time, which runs ahead of presentation time by a few frames.
+      const std::int64_t target = pts[static_cast<size_t>(std::max<std::int64_t>(0, index - 16))];
+      if (av_seek_frame(format.get(), stream, target, AVSEEK_FLAG_BACKWARD) >= 0) {
+        avcodec_flush_buffers(codec.get());
+        draining = false;
+        next_index = -1;
+        return;
+      }
+    }
+    open();  // from the start: a stream without timestamps, or one that cannot seek
+  }
+
+  cv::Mat convert(bool colour) {
+    const int width = frame->width, height = frame->height;
+    const auto format_id = static_cast<AVPixelFormat>(frame->format);
+    if (!colour) {
+      if (cv::Mat grey = lumaPlane(format_id); !grey.empty()) return grey;
+    }
+    cv::Mat out(height, width, colour ? CV_8UC3 : CV_8UC1);
+    scaler = sws_getCachedContext(scaler, width, height, format_id, width, height,
+                                  colour ? AV_PIX_FMT_BGR24 : AV_PIX_FMT_GRAY8, SWS_BILINEAR,
+                                  nullptr, nullptr, nullptr);
+    if (!scaler) return {};
+    std::uint8_t* planes[4] = {out.data, nullptr, nullptr, nullptr};
+    int strides[4] = {static_cast<int>(out.step[0]), 0, 0, 0};
+    sws_scale(scaler, frame->data, frame->linesize, 0, height, planes, strides);
+    return out;
+  }
+
+  /// The grey image straight from an 8-bit luma plane (YUV and grey formats),
+  /// stretched to full range when the stream uses video range (16-235), as
+  /// an image file of the same picture would be; empty for other formats.
+  cv::Mat lumaPlane(AVPixelFormat format_id) const {
+    const AVPixFmtDescriptor* desc = av_pix_fmt_desc_get(format_id);
+    if (!desc || (desc->flags & (AV_PIX_FMT_FLAG_RGB | AV_PIX_FMT_FLAG_PAL |
+                                 AV_PIX_FMT_FLAG_BITSTREAM | AV_PIX_FMT_FLAG_HWACCEL)))
+      return {};
+    const AVComponentDescriptor& luma = desc->comp[0];
+    if (luma.plane != 0 || luma.step != 1 || luma.depth != 8 || luma.shift != 0 || luma.offset != 0)
+      return {};
+    const cv::Mat plane(frame->height, frame->width, CV_8UC1, frame->data[0],
+                        static_cast<size_t>(frame->linesize[0]));
+    const bool full_range = frame->color_range == AVCOL_RANGE_JPEG || desc->nb_components == 1 ||
+                            std::string(desc->name).rfind("yuvj", 0) == 0;
+    cv::Mat out;
+    if (full_range) {
+      plane.copyTo(out);
+    } else {
+      static const cv::Mat stretch = [] {
+        cv::Mat table(1, 256, CV_8UC1);
+        for (int v = 0; v < 256; ++v)
+          table.at<std::uint8_t>(v) = cv::saturate_cast<std::uint8_t>((v - 16) * 255.0 / 219.0);
+        return table;
+      }();
+      cv::LUT(plane, stretch, out);
+    }
+    return out;
+  }
+};
+
+VideoDecoder::VideoDecoder(const fs::path& file, int threads) : impl_(std::make_unique<Impl>()) {
+  impl_->file = file;
+  impl_->threads = std::max(1, threads);
+  {
+    auto [format, stream] = openContainer(file);
+    impl_->pts = packetTimes(format.get(), stream, file, impl_->frame_count);
+  }
+  impl_->open();
+}
+
+VideoDecoder::~VideoDecoder() = default;
+
+const fs::path& VideoDecoder::file() const { return impl_->file; }
+int VideoDecoder::width() const { return impl_->codec->width; }
+int VideoDecoder::height() const { return impl_->codec->height; }
+
+cv::Mat VideoDecoder::frame(std::int64_t index, bool colour) {
+  Impl& d = *impl_;
+  if (index < 0 || index >= d.frame_count) return {};
+  if (index < d.next_index || index > d.next_index + Impl::kSeekAhead) d.seekBefore(index);
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    while (d.receive()) {
+      const std::int64_t at = d.indexOfDecoded();
+      const bool after_seek = d.next_index < 0;
+      d.next_index = at + 1;
+      if (at == index) {
+        cv::Mat image = d.convert(colour);
+        av_frame_unref(d.frame.get());
+        return image;
+      }
+      av_frame_unref(d.frame.get());
+      if (at > index) {
+        if (!after_seek) return {};  // the frame is missing from the stream
+        break;                       // the seek landed past it: decode from the start
+      }
+    }
+    if (attempt == 0 && d.next_index > index) {
+      d.open();
+      continue;
+    }
+    break;
+  }
+  return {};
+}
+
+}  // namespace lookboth

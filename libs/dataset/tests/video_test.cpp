@@ -1,0 +1,337 @@
+// Video files as a camera's frames: written by an independent writer
+// (ffmpeg, through scripts/frames_to_video.py), read back by lookboth. Every
+// frame carries its own index as a bar code, so a decoded frame says which
+// one it is whatever the decoder did (B-frames, seeking, key frames).
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "lookboth/core/error.h"
+#include "lookboth/dataset/convert.h"
+#include "lookboth/dataset/dataset_io.h"
+#include "lookboth/dataset/frame_decoder.h"
+#include "lookboth/dataset/video.h"
+
+namespace lookboth {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kWidth = 160, kHeight = 120, kBits = 8;
+constexpr TimeNs kStart = 1'700'000'000'000'000'000;
+constexpr TimeNs kPeriod = 40'000'000;  // 25 Hz: a whole number of microseconds
+
+/// Frame `index` as a picture: 8 vertical bars, white for a 1 bit.
+cv::Mat barCode(int index) {
+  cv::Mat image(kHeight, kWidth, CV_8UC1, cv::Scalar(0));
+  const int bar = kWidth / kBits;
+  for (int b = 0; b < kBits; ++b) {
+    if (index & (1 << b)) image.colRange(b * bar, (b + 1) * bar).setTo(255);
+  }
+  return image;
+}
+
+/// The index a decoded frame shows (grey or BGR).
+int readBarCode(const cv::Mat& image) {
+  cv::Mat grey = image;
+  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  const int bar = kWidth / kBits;
+  int index = 0;
+  for (int b = 0; b < kBits; ++b) {
+    if (grey.at<std::uint8_t>(kHeight / 2, b * bar + bar / 2) > 128) index |= 1 << b;
+  }
+  return index;
+}
+
+fs::path scratch(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("lookboth_video_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+/// A camera folder whose `count` frames become `video.mp4` (ffmpeg), timed
+/// as `timing` says; `extra` goes to the script (--drop, --codec). Returns
+/// the frames' times (all of them, dropped ones too).
+std::vector<TimeNs> makeCameraVideo(const fs::path& folder, int count, const std::string& timing,
+                                    const std::string& extra = "") {
+  fs::create_directories(folder / "frames");
+  std::ofstream csv(folder / "frames.csv");
+  csv << "timestamp_ns,file\n";
+  std::vector<TimeNs> times;
+  for (int i = 0; i < count; ++i) {
+    const TimeNs t = kStart + i * kPeriod;
+    times.push_back(t);
+    const std::string name = "frames/" + std::to_string(i) + ".png";
+    cv::imwrite((folder / name).string(), barCode(i));
+    csv << t << "," << name << "\n";
+  }
+  csv.close();
+  const std::string script = std::string(LOOKBOTH_SHARE_DIR) + "/../../scripts/frames_to_video.py";
+  const std::string command = "python3 '" + script + "' '" + folder.string() + "' --timing " +
+                              timing + " --crf 10 " + extra;
+  EXPECT_EQ(std::system(command.c_str()), 0) << command;
+  return times;
+}
+
+/// A folder dataset with one environment camera, cam00, whose frames are a video.
+fs::path makeVideoDataset(const std::string& name, int count, const std::string& timing,
+                          const std::string& extra = "") {
+  const fs::path root = scratch(name) / "site";
+  fs::create_directories(root / "cameras/cam00");
+  std::ofstream(root / "marker.yaml") << "dictionary: DICT_4X4_50\nid: 7\nsize_m: 0.2\n";
+  std::ofstream(root / "cameras/cam00/calibration.yaml")
+      << "lookboth_camera: 1\nmodel: pinhole\nwidth: 160\nheight: 120\n"
+         "params: {fx: 100, fy: 100, cx: 79.5, cy: 59.5}\n";
+  makeCameraVideo(root / "cameras/cam00", count, timing, extra);
+  return root;
+}
+
+struct ReadBack {
+  std::vector<ImageFrame> frames;
+  std::vector<DatasetIssue> issues;
+};
+
+ReadBack readFrames(const fs::path& dataset, const DatasetReadOptions& options = {}) {
+  ReadBack out;
+  auto reader = DatasetReader::open(dataset, options);
+  while (auto record = reader->next()) {
+    if (const auto* frame = std::get_if<ImageFrame>(&*record)) out.frames.push_back(*frame);
+  }
+  out.issues = reader->issues();
+  return out;
+}
+
+TEST(Video, ProbeGivesSizeCodecAndTheFramesTimesWithoutDecoding) {
+  const fs::path folder = scratch("probe") / "cam";
+  const std::vector<TimeNs> times = makeCameraVideo(folder, 40, "container");
+  const VideoProbe probe = probeVideo(folder / "video.mp4", true);
+  EXPECT_EQ(probe.width, kWidth);
+  EXPECT_EQ(probe.height, kHeight);
+  EXPECT_EQ(probe.codec, "h264");
+  EXPECT_EQ(probe.frame_count, 40);
+  ASSERT_EQ(probe.frame_offsets_ns.size(), 40u);
+  for (size_t i = 0; i < times.size(); ++i)
+    EXPECT_EQ(probe.frame_offsets_ns[i], times[i] - times[0]) << i;
+  const VideoProbe header_only = probeVideo(folder / "video.mp4", false);
+  EXPECT_TRUE(header_only.frame_offsets_ns.empty());
+  EXPECT_EQ(header_only.frame_count, 40);  // an MP4's header says
+}
+
+TEST(Video, DecoderGivesEveryFrameForwardBackwardAndFarAhead) {
+  const fs::path folder = scratch("decode") / "cam";
+  makeCameraVideo(folder, 120, "container", "--keyint 50");
+  VideoDecoder decoder(folder / "video.mp4");
+  EXPECT_EQ(decoder.width(), kWidth);
+  for (int i = 0; i < 120; ++i) {
+    const cv::Mat grey = decoder.frame(i, false);
+    ASSERT_FALSE(grey.empty()) << i;
+    EXPECT_EQ(grey.type(), CV_8UC1);
+    EXPECT_EQ(readBarCode(grey), i);
+  }
+  // Back, far ahead, every fifth frame, and colour.
+  for (const int i : {3, 0, 117, 64, 65, 10, 99, 50, 49}) {
+    const cv::Mat image = decoder.frame(i, i % 2 == 1);
+    ASSERT_FALSE(image.empty()) << i;
+    EXPECT_EQ(image.channels(), i % 2 == 1 ? 3 : 1);
+    EXPECT_EQ(readBarCode(image), i);
+  }
+  for (int i = 0; i < 120; i += 5) EXPECT_EQ(readBarCode(decoder.frame(i, false)), i);
+  EXPECT_TRUE(decoder.frame(120, false).empty());
+  EXPECT_TRUE(decoder.frame(-1, false).empty());
+}
+
+TEST(Video, VideoRangeGreyIsStretchedToFullRangeLikeTheImage) {
+  const fs::path folder = scratch("range") / "cam";
+  makeCameraVideo(folder, 4, "container");
+  VideoDecoder decoder(folder / "video.mp4");
+  const cv::Mat grey = decoder.frame(3, false);  // bars 0 and 1 white, the rest black
+  EXPECT_GE(grey.at<std::uint8_t>(kHeight / 2, 10), 250);
+  EXPECT_LE(grey.at<std::uint8_t>(kHeight / 2, kWidth - 10), 5);
+}
+
+TEST(Video, OtherCodecsDecode) {
+  const fs::path folder = scratch("mjpeg") / "cam";
+  makeCameraVideo(folder, 12, "container", "--codec mjpeg");
+  EXPECT_EQ(probeVideo(folder / "video.mp4", false).codec, "mjpeg");
+  VideoDecoder decoder(folder / "video.mp4");
+  for (const int i : {0, 7, 2, 11}) EXPECT_EQ(readBarCode(decoder.frame(i, false)), i);
+}
+
+TEST(Video, FolderDatasetTimesFramesByTheContainerFromVideoYaml) {
+  const fs::path site = makeVideoDataset("container", 30, "container");
+  const ReadBack read = readFrames(site);
+  ASSERT_EQ(read.frames.size(), 30u);
+  FrameDecoder decoder;
+  for (size_t i = 0; i < read.frames.size(); ++i) {
+    const ImageFrame& frame = read.frames[i];
+    EXPECT_EQ(frame.sensor, "cam00");
+    EXPECT_EQ(frame.t, kStart + static_cast<TimeNs>(i) * kPeriod);
+    EXPECT_EQ(frame.video_frame, static_cast<std::int64_t>(i));
+    EXPECT_EQ(readBarCode(decoder.decode(frame, FrameColour::kGrey)), static_cast<int>(i));
+    const std::optional<ImageSize> size = decoder.size(frame);
+    ASSERT_TRUE(size);
+    EXPECT_EQ(size->width, kWidth);
+  }
+  EXPECT_TRUE(read.issues.empty());
+}
+
+TEST(Video, DroppedFramesAreReportedAsANoteEvenWhenStrict) {
+  const fs::path site = makeVideoDataset("dropped", 30, "container", "--drop 10,11,12,20");
+  DatasetReadOptions strict;
+  strict.strict = true;
+  const ReadBack read = readFrames(site, strict);
+  ASSERT_EQ(read.frames.size(), 26u);
+  // The frames after a gap keep their own times and pictures.
+  EXPECT_EQ(read.frames[10].t, kStart + 13 * kPeriod);
+  FrameDecoder decoder;
+  EXPECT_EQ(readBarCode(decoder.decode(read.frames[10], FrameColour::kGrey)), 13);
+  ASSERT_EQ(read.issues.size(), 1u);
+  EXPECT_TRUE(read.issues[0].note);
+  EXPECT_NE(read.issues[0].message.find("4 frames missing in 2 gaps"), std::string::npos)
+      << read.issues[0].message;
+  EXPECT_NE(read.issues[0].message.find("the longest 0.160 s"), std::string::npos);
+}
+
+TEST(Video, SidecarTimesFramesAndSkipsBadRowsAsIssues) {
+  const fs::path site = makeVideoDataset("sidecar", 10, "sidecar");
+  const fs::path csv = site / "cameras/cam00/video.csv";
+  std::ofstream(csv) << "timestamp_ns,frame\n100,0\n200,1\n200,2\n300,4\n250,5\n400,3\n500,12\n";
+  const ReadBack read = readFrames(site);
+  ASSERT_EQ(read.frames.size(), 3u);  // 100/0, 200/1, 300/4
+  EXPECT_EQ(read.frames[2].t, 300);
+  EXPECT_EQ(read.frames[2].video_frame, 4);
+  FrameDecoder decoder;
+  EXPECT_EQ(readBarCode(decoder.decode(read.frames[2], FrameColour::kGrey)), 4);
+  std::string all;
+  for (const DatasetIssue& issue : read.issues) all += issue.where + ": " + issue.message + "\n";
+  EXPECT_NE(all.find("video.csv:4: timestamp 200 does not follow"), std::string::npos) << all;
+  EXPECT_NE(all.find("video.csv:6: timestamp 250"), std::string::npos) << all;
+  EXPECT_NE(all.find("video.csv:7: frame index 3 does not follow"), std::string::npos) << all;
+  EXPECT_NE(all.find("video.csv:8: frame 12 but 'video.mp4' has 10 frames"), std::string::npos)
+      << all;
+}
+
+TEST(Video, ClearErrorsNameTheFileAndSayWhatToDo) {
+  const fs::path site = makeVideoDataset("errors", 6, "container");
+  const fs::path folder = site / "cameras/cam00";
+  auto errorOf = [&] {
+    try {
+      readFrames(site);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  fs::remove(folder / "video.yaml");
+  std::string message = errorOf();
+  EXPECT_NE(message.find("video.mp4"), std::string::npos) << message;
+  EXPECT_NE(message.find("video.yaml"), std::string::npos) << message;
+  std::ofstream(folder / "video.yaml") << "start_timestamp_ns: soon\n";
+  message = errorOf();
+  EXPECT_NE(message.find("video.yaml:1: 'start_timestamp_ns'"), std::string::npos) << message;
+  std::ofstream(folder / "video.yaml") << "start_timestamp_ns: 5\n";
+  std::ofstream(folder / "frames.csv") << "timestamp_ns,file\n";
+  message = errorOf();
+  EXPECT_NE(message.find("both frames.csv and video.mp4"), std::string::npos) << message;
+  fs::remove(folder / "frames.csv");
+  std::ofstream(folder / "video.mp4", std::ios::trunc) << "not a video\n";
+  message = errorOf();
+  EXPECT_NE(message.find("video.mp4"), std::string::npos) << message;
+  EXPECT_NE(message.find("not a video file"), std::string::npos) << message;
+}
+
+TEST(Video, ATruncatedVideoLosesItsLastFramesNotTheOthers) {
+  const fs::path folder = scratch("truncated") / "cam";
+  makeCameraVideo(folder, 60, "container", "--fragmented --keyint 10");
+  const fs::path video = folder / "video.mp4";
+  fs::resize_file(video, fs::file_size(video) * 2 / 3);
+  VideoDecoder decoder(video);
+  int decoded = 0;
+  for (int i = 0; i < 60; ++i) {
+    const cv::Mat grey = decoder.frame(i, false);
+    if (grey.empty()) continue;
+    EXPECT_EQ(readBarCode(grey), i);
+    ++decoded;
+  }
+  EXPECT_GT(decoded, 20);
+  EXPECT_LT(decoded, 60);
+}
+
+TEST(Video, WritersKeepTheVideoInAFolderAndExtractPngForARawlog) {
+  const fs::path site = makeVideoDataset("writers", 8, "container");
+  const fs::path out = site.parent_path() / "copy";
+  ConvertOptions options;
+  options.from = site;
+  options.to = out;
+  convertData(options, ProgressReporter());
+  EXPECT_TRUE(fs::exists(out / "cameras/cam00/video.mp4"));
+  EXPECT_TRUE(fs::exists(out / "cameras/cam00/video.csv"));
+  EXPECT_FALSE(fs::exists(out / "cameras/cam00/frames.csv"));
+  const ReadBack original = readFrames(site), copy = readFrames(out);
+  ASSERT_EQ(copy.frames.size(), original.frames.size());
+  for (size_t i = 0; i < copy.frames.size(); ++i) {
+    EXPECT_EQ(copy.frames[i].t, original.frames[i].t);
+    EXPECT_EQ(copy.frames[i].video_frame, original.frames[i].video_frame);
+  }
+  options.to = site.parent_path() / "extracted.rawlog";
+  convertData(options, ProgressReporter());
+  const ReadBack rawlog = readFrames(options.to);
+  ASSERT_EQ(rawlog.frames.size(), 8u);
+  FrameDecoder decoder;
+  for (size_t i = 0; i < rawlog.frames.size(); ++i) {
+    EXPECT_FALSE(isVideoFrame(rawlog.frames[i]));
+    EXPECT_EQ(rawlog.frames[i].t, original.frames[i].t);
+    EXPECT_EQ(readBarCode(decoder.decode(rawlog.frames[i], FrameColour::kGrey)),
+              static_cast<int>(i));
+  }
+}
+
+TEST(Video, ConvertAddsAVideoToADatasetTimedByItsStart) {
+  const fs::path site = makeVideoDataset("convert_video", 6, "container");
+  const fs::path video = site.parent_path() / "cam09.mp4";
+  fs::copy_file(site / "cameras/cam00/video.mp4", video);
+  ConvertOptions options;
+  options.from = site;
+  options.to = site.parent_path() / "with_cam09";
+  options.videos.push_back(
+      {"cam09", video, "", TimeNs{77}, site / "cameras/cam00/calibration.yaml"});
+  const ConvertSummary summary = convertData(options, ProgressReporter());
+  EXPECT_EQ(summary.records.at("image"), 12);
+  const ReadBack read = readFrames(options.to);
+  std::vector<TimeNs> cam09;
+  for (const ImageFrame& f : read.frames)
+    if (f.sensor == "cam09") cam09.push_back(f.t);
+  ASSERT_EQ(cam09.size(), 6u);
+  EXPECT_EQ(cam09[0], 77);
+  EXPECT_EQ(cam09[5], 77 + 5 * kPeriod);
+  // A camera the input lacks needs its calibration.
+  options.videos[0].calibration.clear();
+  options.to = site.parent_path() / "without_calibration";
+  try {
+    convertData(options, ProgressReporter());
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--calibration cam09=FILE"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_FALSE(fs::exists(options.to));
+}
+
+TEST(Video, FrameTimingCountsGapsAndRepeats) {
+  const std::vector<TimeNs> times = {0, 100, 200, 500, 600, 600, 700, 1000};
+  const FrameTiming timing = analyseFrameTimes(times);
+  EXPECT_DOUBLE_EQ(timing.period_ns, 100);
+  EXPECT_EQ(timing.gaps, 2);
+  EXPECT_EQ(timing.dropped, 4);
+  EXPECT_EQ(timing.repeated, 1);
+  EXPECT_EQ(timing.longest_gap_ns, 300);
+  EXPECT_EQ(timing.longest_gap_at, 200);
+  EXPECT_TRUE(analyseFrameTimes({0, 100, 200}).describeGaps().empty());
+}
+
+}  // namespace
+}  // namespace lookboth
