@@ -22,7 +22,7 @@ trap 'rm -rf "$work"' EXIT
 (cd "$work" && npm init -y >/dev/null && npm install --no-audit --no-fund --silent \
   @mcap/core@2.2.2 @foxglove/rosmsg@5.0.5 @foxglove/rosmsg2-serialization@3.1.0 \
   @foxglove/cdr@3.5.0 @foxglove/wasm-zstd@1.0.1 jpeg-js@0.4.4)
-cp "$here/ros2_fixtures/write_bench.mjs" "$work/"  # Node resolves imports from the module's folder
+cp "$here/ros2_fixtures/write_bench.mjs" "$here/ros2_fixtures/ros2_schemas.mjs" "$work/"  # Node resolves imports from the module's folder
 mkdir -p "$work/bags"
 for len in short long; do
   secs=$([ $len = short ] && echo "$short" || echo $((4 * short)))

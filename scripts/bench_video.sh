@@ -15,8 +15,15 @@ here="$(cd "$(dirname "$0")" && pwd)"
 lookboth="${LOOKBOTH:-$here/../build/apps/lookboth/lookboth}"
 crf="${1:-23}"
 reps=3
-work="$(mktemp -d)"
-trap 'rm -rf "$work"' EXIT
+# LOOKBOTH_BENCH_DIR keeps the rendered recording (about 20 min on 2 cores) for a later run.
+if [[ -n ${LOOKBOTH_BENCH_DIR:-} ]]; then
+  work=$LOOKBOTH_BENCH_DIR
+  mkdir -p "$work"
+else
+  work="$(mktemp -d)"
+  trap 'rm -rf "$work"' EXIT
+fi
+rm -f "$work"/t_*
 
 sed -e 's/^name: small/name: video_bench/' \
     -e 's/calibration: ceiling_camera_640x360_ros.yaml/calibration: ceiling_camera_ros.yaml/' \
@@ -26,7 +33,10 @@ sed -e 's/^name: small/name: video_bench/' \
     -e 's/store_radius_m: 2.0/store_radius_m: all/' \
     -e 's/^noise:.*/noise: {marker_corner_sigma_px: 0.15, blob_sigma_px: 0.7}/' \
     "$here/../share/lookboth/scenarios/small.yaml" >"$work/scenario.yaml"
-"$lookboth" simulate --scenario "$work/scenario.yaml" --format folder --out "$work/site" >/dev/null
+if [[ ! -d $work/site ]]; then
+  "$lookboth" simulate --scenario "$work/scenario.yaml" --format folder --out "$work/site" >/dev/null
+fi
+rm -rf "$work/png" "$work/video"
 "$lookboth" convert --from "$work/site" --to "$work/png" --cameras cam00 >/dev/null
 "$lookboth" convert --from "$work/site" --to "$work/video" --cameras cam00 >/dev/null
 python3 "$here/frames_to_video.py" "$work/video/cameras/cam00" --crf "$crf"
@@ -49,7 +59,7 @@ run() {  # run NAME CMD...: wall ms of CMD, pinned to one core
   t0=$(date +%s%N)
   taskset -c 0 "$@" >/dev/null 2>"$work/stderr.txt" || { cat "$work/stderr.txt" >&2; exit 1; }
   t1=$(date +%s%N)
-  echo $(( (t1 - t0) / 1000000 )) >>"$work/$name"
+  echo $(( (t1 - t0) / 1000000 )) >>"$work/t_$name"
 }
 median() { sort -n | sed -n "$(( (reps + 1) / 2 ))p"; }
 for ((r = 0; r < reps; r++)); do
@@ -64,12 +74,12 @@ markers() { tail -n +2 "$1/detections/markers.csv" 2>/dev/null | grep -c . || tr
 echo "one camera: $frames frames = $seconds s at 30 Hz, 1920x1080; H.264 (libx264 crf $crf) $mb MB, PNG $png_mb MB"
 printf '%-34s %8s %10s %12s\n' run "wall s" "frames/s" "x real time"
 for name in ffmpeg video png; do
-  ms=$(median <"$work/$name")
+  ms=$(median <"$work/t_$name")
   awk -v n="$name" -v ms="$ms" -v f="$frames" -v s="$seconds" 'BEGIN {
     label = n == "ffmpeg" ? "ffmpeg -threads 1 -f null (decode)" :
             n == "video" ? "lookboth detect, video" : "lookboth detect, PNG files"
     printf "%-34s %8.2f %10.1f %12.2f\n", label, ms / 1000, f / (ms / 1000), s / (ms / 1000) }'
 done
-v=$(median <"$work/video"); f=$(median <"$work/ffmpeg")
+v=$(median <"$work/t_video"); f=$(median <"$work/t_ffmpeg")
 awk -v v="$v" -v f="$f" 'BEGIN { printf "detect on video / ffmpeg decode alone: %.2fx the time\n", v / f }'
 echo "markers found: video $(markers "$work/out_video"), PNG $(markers "$work/out_png")"

@@ -3,6 +3,8 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <mutex>
+#include <set>
 
 #include "internal.h"
 #include "lookboth/core/error.h"
@@ -60,7 +62,16 @@ void DatasetReader::reportIssue(const std::string& where, const std::string& mes
 
 void DatasetReader::reportNote(const std::string& where, const std::string& message) {
   DatasetIssue note{where, message, true};
-  if (options_.on_issue) options_.on_issue(note);
+  // A command reads its dataset several times (detect, odometry, the
+  // stages): a note is told once per process, and kept in every reader's issues().
+  static std::mutex mutex;
+  static std::set<std::string> told;
+  bool first = false;
+  {
+    const std::lock_guard<std::mutex> lock(mutex);
+    first = told.insert(where + '\n' + message).second;
+  }
+  if (first && options_.on_issue) options_.on_issue(note);
   issues_.push_back(std::move(note));
 }
 

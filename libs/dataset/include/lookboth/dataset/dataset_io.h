@@ -73,7 +73,8 @@ class DatasetReader {
       : path_(std::move(path)), kind_(kind), options_(std::move(options)) {}
   /// Records an issue (or throws in strict mode).
   void reportIssue(const std::string& where, const std::string& message);
-  /// Records a note (DatasetIssue::note): never throws.
+  /// Records a note (DatasetIssue::note): never throws; `on_issue` hears
+  /// each note once per process however often the dataset is read.
   void reportNote(const std::string& where, const std::string& message);
 
   Manifest manifest_;
