@@ -178,6 +178,16 @@ await writeMcap("sample_zstd.mcap", { compressChunk: (data) => ({ compression: "
 await writeMcap("sample_unchunked.mcap", { useChunks: false });
 await writeMcap("sample_nosummary.mcap", { useStatistics: false, useSummaryOffsets: false, useChunkIndex: false,
   useMessageIndex: false, repeatSchemas: false, repeatChannels: false, useAttachmentIndex: false, useMetadataIndex: false });
+// The fisheye's mount as static transforms (base_link -> mast -> fisheye_link,
+// and a frame elsewhere) on /tf_static, with the odometry of base_link: for
+// trajectories carried to the fisheye (mapping body_frame). Not in expected.json.
+const staticTf = (parent, child, x, z, yaw) => ({ header: header(T0, parent), child_frame_id: child,
+  transform: { translation: { x, y: 0.02, z }, rotation: quatYaw(yaw) } });
+const mounts = [{ topic: "/tf_static", type: "tf2_msgs/TFMessage", log_time: T0 + ms(1),
+  message: { transforms: [staticTf("base_link", "mast", 0.1, 0.3, 0.25), staticTf("mast", "fisheye_link", 0, 0.05, 0.5),
+    staticTf("base_link", "lidar", -0.2, 0.4, 0)] } }];
+for (const e of mounts) e.cdr = writers[e.type].writeMessage(e.message);
+await writeMcap("sample_tf_static.mcap", {}, [...mounts, ...events.filter((e) => e.topic === "/odom" || e.topic === "/tf")]);
 fs.mkdirSync(path.join(out, "sample_mcap_folder"), { recursive: true });
 await writeMcap("sample_mcap_folder/sample_mcap_folder_0.mcap", {}, events.slice(0, 10));
 await writeMcap("sample_mcap_folder/sample_mcap_folder_1.mcap", {}, events.slice(10));

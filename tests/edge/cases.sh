@@ -45,6 +45,14 @@ refusals)
   if "$L" convert --merge a b --to m 2>err.txt; then fail "merged two markers"; fi
   grep -q "b: 'marker': another marker than 'a''s" err.txt || fail "message: $(cat err.txt)"
   [[ ! -e m ]] || fail "m was written"
+  # The same camera's clock described differently: not comparable times.
+  "$L" convert --from site --to d --cameras cam01,cam02 >/dev/null
+  grep -q '^cam01,' d/ground_truth/clock_offsets.csv || fail "d has no clock offset of cam01"
+  sed -i 's/^cam01,.*/cam01,123456/' d/ground_truth/clock_offsets.csv
+  if "$L" convert --merge a d --to m 2>err.txt; then fail "merged two clocks of cam01"; fi
+  grep -q "d: 'clock_offset': clock offset 123456 ns against .* ns in 'a'.* \[cam01\]" err.txt ||
+    fail "message: $(cat err.txt)"
+  [[ ! -e m ]] || fail "m was written"
   # An unknown camera for --cameras.
   if "$L" convert --from site --to c --cameras cam99 2>err.txt; then fail "took cam99"; fi
   grep -q "site: '--cameras': no such camera in the dataset (cameras: fisheye, cam00, .*) \[cam99\]" err.txt ||
@@ -52,7 +60,7 @@ refusals)
   # --detections-only needs an output.
   if "$L" detect a --detections-only 2>err.txt; then fail "detections-only in place"; fi
   grep -q "needs an output (--out)" err.txt || fail "message: $(cat err.txt)"
-  echo "edge refusals: marker, unknown camera, detections-only in place"
+  echo "edge refusals: marker, clock, unknown camera, detections-only in place"
   ;;
 
 *) fail "unknown case $CASE" ;;

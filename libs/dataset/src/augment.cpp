@@ -256,8 +256,17 @@ void mergeManifest(const Manifest& other, const fs::path& other_path, const fs::
   GroundTruth& truth = into->ground_truth;
   truth.world_from_camera.insert(other.ground_truth.world_from_camera.begin(),
                                  other.ground_truth.world_from_camera.end());
-  truth.clock_offset.insert(other.ground_truth.clock_offset.begin(),
-                            other.ground_truth.clock_offset.end());
+  // Times of two inputs are comparable only when their clocks are described alike.
+  for (const auto& [label, offset] : other.ground_truth.clock_offset) {
+    const auto known = truth.clock_offset.find(label);
+    if (known != truth.clock_offset.end() && known->second != offset) {
+      throw Error({other_path.string(), 0, "clock_offset", label},
+                  "clock offset " + std::to_string(offset) + " ns against " +
+                      std::to_string(known->second) + " ns in '" + first_path.string() +
+                      "': not the same recording, or the node's clock described differently");
+    }
+    truth.clock_offset.emplace(label, offset);
+  }
   if (!truth.fisheye_from_marker)
     truth.fisheye_from_marker = other.ground_truth.fisheye_from_marker;
 }

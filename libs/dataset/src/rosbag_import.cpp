@@ -105,6 +105,12 @@ std::string RosbagImportOptions::check() const {
     if (!m.parent_frame.empty() && m.child_frame.empty()) {
       return "'" + field + ".parent_frame': given without child_frame";
     }
+    if (!m.body_frame.empty() && !isTrajectoryRole(m.role)) {
+      return "'" + field +
+             ".body_frame': for trajectories (role odometry or ground_truth), not "
+             "role " +
+             m.role;
+    }
     if (m.role == "fisheye") {
       if (!fisheye_label.empty() && fisheye_label != label) {
         return "'" + field + ".label': a second fisheye '" + label + "' (the fisheye is '" +
@@ -127,7 +133,8 @@ std::string RosbagImportOptions::check() const {
 RosTopicMapping parseTopicMapping(const std::string& text) {
   const ErrorContext where{"", 0, "topic mapping", ""};
   const std::string usage =
-      " (expected /topic=label:role[:nonmetric][:child=<frame>[:parent=<frame>]], roles: " +
+      " (expected /topic=label:role[:nonmetric][:child=<frame>[:parent=<frame>]][:body=<frame>], "
+      "roles: " +
       joined(rosTopicRoles()) + ")";
   const size_t equals = text.find('=');
   if (equals == std::string::npos) throw Error(where, "'" + text + "': no '='" + usage);
@@ -158,9 +165,12 @@ RosTopicMapping parseTopicMapping(const std::string& text) {
       mapping.child_frame = flag.substr(6);
     } else if (flag.rfind("parent=", 0) == 0 && flag.size() > 7) {
       mapping.parent_frame = flag.substr(7);
+    } else if (flag.rfind("body=", 0) == 0 && flag.size() > 5) {
+      mapping.body_frame = flag.substr(5);
     } else {
       throw Error(where, "'" + text + "': unknown flag '" + flag +
-                             "' (metric, nonmetric, child=<frame>, parent=<frame>)" + usage);
+                             "' (metric, nonmetric, child=<frame>, parent=<frame>, body=<frame>)" +
+                             usage);
     }
     if (!isTrajectoryRole(mapping.role)) {
       throw Error(where,
@@ -249,7 +259,8 @@ RosbagImportOptions loadRosbagMapping(const fs::path& yaml) {
     const std::string field = "topics." + mapping.topic;
     const YAML::Node node = entry.second;
     r.requireMap(node, field);
-    r.rejectUnknownKeys(node, {"label", "role", "metric", "child_frame", "parent_frame"}, field);
+    r.rejectUnknownKeys(
+        node, {"label", "role", "metric", "child_frame", "parent_frame", "body_frame"}, field);
     mapping.role = r.text(r.require(node, "role", field + ".role"), field + ".role");
     const auto& roles = rosTopicRoles();
     if (std::find(roles.begin(), roles.end(), mapping.role) == roles.end()) {
@@ -262,6 +273,7 @@ RosbagImportOptions loadRosbagMapping(const fs::path& yaml) {
       mapping.child_frame = r.text(node["child_frame"], field + ".child_frame");
     if (node["parent_frame"])
       mapping.parent_frame = r.text(node["parent_frame"], field + ".parent_frame");
+    if (node["body_frame"]) mapping.body_frame = r.text(node["body_frame"], field + ".body_frame");
     options.topics.push_back(std::move(mapping));
   }
 
@@ -539,6 +551,47 @@ Rigid3d poseFromRos(const geometry_msgs::Pose& pose) {
   return Rigid3d(q, Eigen::Vector3d(p.x, p.y, p.z));
 }
 
+/// The static transforms of /tf_static (the robot's mounts): each frame's
+/// parent and parent_from_child, and any two connected frames' a_from_b.
+class StaticFrames {
+ public:
+  void add(const std::string& parent, const std::string& child, const Rigid3d& parent_from_child) {
+    parents_[child] = {parent, parent_from_child};
+  }
+  bool empty() const { return parents_.empty(); }
+
+  /// a_from_b through the tree; nullopt when the two are not connected.
+  std::optional<Rigid3d> between(const std::string& a, const std::string& b) const {
+    const auto [root_of_a, root_from_a] = toRoot(a);
+    const auto [root_of_b, root_from_b] = toRoot(b);
+    if (root_of_a != root_of_b) return std::nullopt;
+    return root_from_a.inverse() * root_from_b;
+  }
+
+  /// "base_link -> mast, mast -> fisheye_link" for messages.
+  std::string describe() const {
+    std::vector<std::string> edges;
+    for (const auto& [child, parent] : parents_) edges.push_back(parent.first + " -> " + child);
+    std::sort(edges.begin(), edges.end());
+    return edges.empty() ? std::string("none") : joined(edges);
+  }
+
+ private:
+  std::pair<std::string, Rigid3d> toRoot(std::string frame) const {
+    Rigid3d root_from_frame = Rigid3d::Identity();
+    // Bounded: a cycle in a damaged /tf_static must not hang the import.
+    for (size_t depth = 0; depth <= parents_.size(); ++depth) {
+      const auto it = parents_.find(frame);
+      if (it == parents_.end()) break;
+      root_from_frame = it->second.second * root_from_frame;
+      frame = it->second.first;
+    }
+    return {frame, root_from_frame};
+  }
+
+  std::map<std::string, std::pair<std::string, Rigid3d>> parents_;
+};
+
 struct TopicPlan {
   RosTopicMapping mapping;
   std::string label;
@@ -548,6 +601,8 @@ struct TopicPlan {
   bool info_uncalibrated_warned = false;
   bool info_changed_warned = false;
   bool parent_mismatch_warned = false;
+  /// body_frame: child_from_body by the messages' child frame.
+  std::map<std::string, Rigid3d> child_from_body;
 };
 
 struct CameraState {
@@ -655,6 +710,12 @@ class Importer {
       }
       plan.kind = *kind;
       checkTransformMapping(plan);
+      if (!m.body_frame.empty() && plan.kind != MessageKind::kOdometry &&
+          plan.kind != MessageKind::kTransforms) {
+        throw Error(bagContext(), "topic " + m.topic + " (" + plan.type +
+                                      ") does not name the frame of its poses; body_frame needs "
+                                      "nav_msgs/Odometry (child_frame_id) or a /tf topic");
+      }
       const bool camera_type = plan.kind == MessageKind::kImage ||
                                plan.kind == MessageKind::kCompressedImage ||
                                plan.kind == MessageKind::kCameraInfo;
@@ -764,6 +825,47 @@ class Importer {
         throw Error(bagContext(), "cannot read the bag (topic " + topic + ", message " +
                                       std::to_string(probe.messages + 1) + "): " + e.what());
       }
+    }
+  }
+
+  /// The mounts of /tf_static, read first when a trajectory is to be carried
+  /// to another frame (body_frame): they are published once, at the start.
+  void readStaticTransforms() {
+    const bool needed = std::any_of(plans_.begin(), plans_.end(), [](const auto& entry) {
+      return !entry.second.mapping.body_frame.empty();
+    });
+    if (!needed) return;
+    const std::string topic = "/tf_static";
+    if (!source_->topicTypes().count(topic)) {
+      throw Error(bagContext(), "body_frame needs the robot's mounts from " + topic +
+                                    ", which the bag does not have");
+    }
+    TopicPlan probe;
+    probe.mapping.topic = topic;
+    try {
+      source_->forEach({topic}, [&](const bag::BagMessage& message) {
+        ++probe.messages;
+        for (const geometry_msgs::TransformStamped& transform :
+             decode(probe, [&] { return message.transforms(); })) {
+          geometry_msgs::Pose pose;
+          pose.position.x = transform.transform.translation.x;
+          pose.position.y = transform.transform.translation.y;
+          pose.position.z = transform.transform.translation.z;
+          pose.orientation = transform.transform.rotation;
+          try {
+            static_frames_.add(transform.header.frame_id, transform.child_frame_id,
+                               poseFromRos(pose));
+          } catch (const Problem& problem) {
+            fail(probe, problem.why);
+          }
+        }
+        return true;
+      });
+    } catch (const Error&) {
+      throw;
+    } catch (const std::exception& e) {
+      throw Error(bagContext(), "cannot read the bag (topic " + topic + ", message " +
+                                    std::to_string(probe.messages + 1) + "): " + e.what());
     }
   }
 
@@ -913,7 +1015,8 @@ class Importer {
         return handleCameraInfo(message, plan);
       case MessageKind::kOdometry: {
         const auto msg = decode(plan, [&] { return message.odometry(); });
-        return writePose(message, plan, writer, msg.header.stamp, msg.pose.pose);
+        return writePose(message, plan, writer, msg.header.stamp, msg.pose.pose,
+                         msg.child_frame_id);
       }
       case MessageKind::kPoseStamped: {
         const auto msg = decode(plan, [&] { return message.poseStamped(); });
@@ -1023,12 +1126,14 @@ class Importer {
       pose.position.y = transform.transform.translation.y;
       pose.position.z = transform.transform.translation.z;
       pose.orientation = transform.transform.rotation;
-      writePose(message, plan, writer, transform.header.stamp, pose);
+      writePose(message, plan, writer, transform.header.stamp, pose, transform.child_frame_id);
     }
   }
 
-  void writePose(const bag::BagMessage& message, const TopicPlan& plan, DatasetWriter& writer,
-                 const ros::Time& stamp, const geometry_msgs::Pose& pose) {
+  /// `child_frame`: the frame the pose is of, when the message names it.
+  void writePose(const bag::BagMessage& message, TopicPlan& plan, DatasetWriter& writer,
+                 const ros::Time& stamp, const geometry_msgs::Pose& pose,
+                 const std::string& child_frame = "") {
     const TimeNs t = messageTime(message, plan, stamp);
     PoseSample sample;
     sample.t = t;
@@ -1038,8 +1143,25 @@ class Importer {
     } catch (const Problem& problem) {
       fail(plan, problem.why);
     }
+    if (!plan.mapping.body_frame.empty())
+      sample.world_from_body = sample.world_from_body * childFromBody(plan, child_frame);
     if (!acceptTime("poses", plan.label, t)) return;
     write(writer, std::move(sample));
+  }
+
+  /// The mount from the messages' frame to the mapping's body frame, through /tf_static.
+  const Rigid3d& childFromBody(TopicPlan& plan, const std::string& child_frame) {
+    if (const auto it = plan.child_from_body.find(child_frame); it != plan.child_from_body.end())
+      return it->second;
+    if (child_frame.empty()) fail(plan, "the message names no child frame for body_frame");
+    const std::optional<Rigid3d> mount =
+        static_frames_.between(child_frame, plan.mapping.body_frame);
+    if (!mount) {
+      fail(plan, "no static transforms connect '" + child_frame + "' (the poses' frame) to '" +
+                     plan.mapping.body_frame +
+                     "' (body_frame) in /tf_static; its transforms: " + static_frames_.describe());
+    }
+    return plan.child_from_body.emplace(child_frame, *mount).first->second;
   }
 
   void write(DatasetWriter& writer, Record record) {
@@ -1055,6 +1177,7 @@ class Importer {
   std::map<std::string, CameraState> cameras_;
   std::vector<std::string> camera_order_;
   std::map<std::string, StreamState> streams_;
+  StaticFrames static_frames_;
 };
 
 std::string datasetName(const fs::path& out) {
@@ -1083,6 +1206,7 @@ RosbagImportStats importRosbag(const fs::path& bag, const fs::path& out, Dataset
   importer.plan();
   Manifest manifest = importer.initialManifest(datasetName(out));
   importer.readFirstCalibrations();
+  importer.readStaticTransforms();
   if (kind == DatasetKind::kFolder) {
     if (const std::vector<std::string> missing = importer.uncalibratedCameras(); !missing.empty()) {
       throw Error({out.string(), 0, "", ""},

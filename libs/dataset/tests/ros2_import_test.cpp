@@ -4,6 +4,8 @@
 // expected.json; and the errors a technician meets first.
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -200,6 +202,98 @@ TEST_F(Ros2Import, ATransformTopicNeedsItsFrame) {
   EXPECT_NE(why.find("/tf (tf2_msgs/msg/TFMessage)"), std::string::npos) << why;
   EXPECT_NE(why.find("child=<frame>"), std::string::npos) << why;
   EXPECT_FALSE(fs::exists(dir_ / "x.rawlog"));
+}
+
+/// A pose of expected.json as an isometry (Eigen's, not the importer's Rigid3).
+Eigen::Isometry3d isometryOf(const json& pose) {
+  const json& p = pose["position"];
+  const json& o = pose["orientation"];
+  Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
+  out.linear() = Eigen::Quaterniond(o["w"].get<double>(), o["x"].get<double>(),
+                                    o["y"].get<double>(), o["z"].get<double>())
+                     .normalized()
+                     .toRotationMatrix();
+  out.translation() =
+      Eigen::Vector3d(p["x"].get<double>(), p["y"].get<double>(), p["z"].get<double>());
+  return out;
+}
+
+/// The mount the fixture's /tf_static describes (write_mcap.mjs): base_link
+/// -> mast (0.1, 0.02, 0.3; yaw 0.25), mast -> fisheye_link (0, 0.02, 0.05; yaw 0.5).
+Eigen::Isometry3d baseFromFisheye() {
+  auto mount = [](double x, double z, double yaw) {
+    Eigen::Isometry3d m = Eigen::Isometry3d::Identity();
+    m.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    m.translation() = Eigen::Vector3d(x, 0.02, z);
+    return m;
+  };
+  return mount(0.1, 0.3, 0.25) * mount(0, 0.05, 0.5);
+}
+
+TEST_F(Ros2Import, TrajectoriesAreCarriedToTheBodyFrameThroughTfStatic) {
+  RosbagImportOptions options = sampleOptions();
+  options.topics = {parseTopicMapping("/odom=odometry:odometry:body=fisheye_link"),
+                    parseTopicMapping("/tf=tf_fish:odometry:child=base_link:body=fisheye_link")};
+  const fs::path out = dir_ / "body.rawlog";
+  importRosbag(kData / "sample_tf_static.mcap", out, DatasetKind::kRawlog, options, {}, {});
+  std::vector<PoseSample> odometry, tf;
+  std::unique_ptr<DatasetReader> reader = DatasetReader::open(out);
+  while (std::optional<Record> r = reader->next()) {
+    const auto& pose = std::get<PoseSample>(*r);
+    (pose.label == "odometry" ? odometry : tf).push_back(pose);
+  }
+  std::vector<Eigen::Isometry3d> odom_expected, tf_expected;
+  for (const json& m : expected()["messages"]) {
+    if (m["topic"] == "/odom")
+      odom_expected.push_back(isometryOf(m["message"]["pose"]["pose"]) * baseFromFisheye());
+    if (m["topic"] != "/tf") continue;
+    for (const json& t : m["message"]["transforms"]) {
+      if (t["child_frame_id"] != "base_link") continue;
+      json pose;
+      pose["position"] = t["transform"]["translation"];
+      pose["orientation"] = t["transform"]["rotation"];
+      tf_expected.push_back(isometryOf(pose) * baseFromFisheye());
+    }
+  }
+  ASSERT_EQ(odometry.size(), odom_expected.size());
+  ASSERT_EQ(tf.size(), tf_expected.size());
+  ASSERT_FALSE(tf.empty());
+  auto expectSame = [](const PoseSample& sample, const Eigen::Isometry3d& truth) {
+    EXPECT_LT((sample.world_from_body.translation - truth.translation()).norm(), 1e-12);
+    EXPECT_LT(sample.world_from_body.rotation.angularDistance(Eigen::Quaterniond(truth.linear())),
+              1e-9);
+  };
+  for (size_t i = 0; i < odometry.size(); ++i) expectSame(odometry[i], odom_expected[i]);
+  for (size_t i = 0; i < tf.size(); ++i) expectSame(tf[i], tf_expected[i]);
+}
+
+TEST_F(Ros2Import, ABodyFrameNeedsItsMountsInTfStatic) {
+  RosbagImportOptions options = sampleOptions();
+  options.topics = {parseTopicMapping("/odom=odometry:odometry:body=camera_link")};
+  std::string why = errorOf([&] {
+    importRosbag(kData / "sample_tf_static.mcap", dir_ / "x.rawlog", DatasetKind::kRawlog, options,
+                 {}, {});
+  });
+  EXPECT_NE(why.find("topic /odom, message 1: no static transforms connect 'base_link'"),
+            std::string::npos)
+      << why;
+  EXPECT_NE(why.find("base_link -> lidar, base_link -> mast, mast -> fisheye_link"),
+            std::string::npos)
+      << why;
+  EXPECT_FALSE(fs::exists(dir_ / "x.rawlog"));
+  why = errorOf([&] {
+    importRosbag(kData / "sample_lz4.mcap", dir_ / "x.rawlog", DatasetKind::kRawlog, options, {},
+                 {});
+  });
+  EXPECT_NE(why.find("needs the robot's mounts from /tf_static, which the bag does not have"),
+            std::string::npos)
+      << why;
+  options.topics = {parseTopicMapping("/ground_truth/pose=ground_truth:ground_truth:body=x")};
+  why = errorOf([&] {
+    importRosbag(kData / "sample_lz4.mcap", dir_ / "x.rawlog", DatasetKind::kRawlog, options, {},
+                 {});
+  });
+  EXPECT_NE(why.find("does not name the frame of its poses"), std::string::npos) << why;
 }
 
 TEST_F(Ros2Import, NamesTheTopicsOfTheBagWhenOneIsMissing) {

@@ -200,12 +200,12 @@ SampleBag writeSampleBag(const fs::path& path, const BagVariant& variant = {}) {
 RosbagImportOptions sampleOptions() {
   RosbagImportOptions options;
   options.topics = {
-      {"/fisheye/image_raw", "fisheye", "fisheye", true, "", ""},
-      {"/fisheye/camera_info", "fisheye", "fisheye", true, "", ""},
-      {"/cam03/image/compressed", "cam03", "env_camera", true, "", ""},
-      {"/cam03/camera_info", "cam03", "env_camera", true, "", ""},
-      {"/odom", "odometry", "odometry", false, "", ""},
-      {"/ground_truth/pose", "", "ground_truth", true, "", ""},
+      {"/fisheye/image_raw", "fisheye", "fisheye", true, "", "", ""},
+      {"/fisheye/camera_info", "fisheye", "fisheye", true, "", "", ""},
+      {"/cam03/image/compressed", "cam03", "env_camera", true, "", "", ""},
+      {"/cam03/camera_info", "cam03", "env_camera", true, "", "", ""},
+      {"/odom", "odometry", "odometry", false, "", "", ""},
+      {"/ground_truth/pose", "", "ground_truth", true, "", "", ""},
   };
   options.marker = {"DICT_5X5_100", 17, 0.15};
   options.on_warning = [](const std::string&) {};
@@ -405,7 +405,7 @@ TEST_F(RosbagImportTest, CalibrationFileOverridesCameraInfoAndJpegBytesAreKept) 
          "distortion_model: plumb_bob\n"
          "distortion_coefficients: {rows: 1, cols: 0, data: []}\n";
   RosbagImportOptions options = sampleOptions();
-  options.topics.push_back({"/cam04/image/compressed", "cam04", "env_camera", true, "", ""});
+  options.topics.push_back({"/cam04/image/compressed", "cam04", "env_camera", true, "", "", ""});
   options.calibration_files["cam03"] = cam03_yaml;
   options.calibration_files["cam04"] = cam04_yaml;
   const fs::path out = dir_ / "with_files";
@@ -518,9 +518,9 @@ TEST_F(RosbagImportTest, ConvertsRawEncodings) {
   }
   RosbagImportOptions options;
   options.on_warning = [](const std::string&) {};
-  options.topics = {{"/rgb", "rgb", "env_camera", true, "", ""},
-                    {"/mono16", "mono16", "env_camera", true, "", ""},
-                    {"/bayer", "bayer", "env_camera", true, "", ""}};
+  options.topics = {{"/rgb", "rgb", "env_camera", true, "", "", ""},
+                    {"/mono16", "mono16", "env_camera", true, "", "", ""},
+                    {"/bayer", "bayer", "env_camera", true, "", "", ""}};
   // The folder format needs calibrations; a rawlog does without.
   const std::string uncalibrated = errorOf(
       [&] { importRosbag(bag, dir_ / "encodings", DatasetKind::kFolder, options, {}, {}); });
@@ -544,7 +544,7 @@ TEST_F(RosbagImportTest, ConvertsRawEncodings) {
   ASSERT_EQ(debayered.type(), CV_8UC3);
   EXPECT_EQ(debayered.at<cv::Vec3b>(3, 4), cv::Vec3b(50, 100, 200));  // an interior pixel, BGR
 
-  options.topics.push_back({"/depth", "depth", "env_camera", true, "", ""});
+  options.topics.push_back({"/depth", "depth", "env_camera", true, "", "", ""});
   const std::string message = errorOf(
       [&] { importRosbag(bag, dir_ / "depth.rawlog", DatasetKind::kRawlog, options, {}, {}); });
   EXPECT_NE(message.find("/depth"), std::string::npos) << message;
@@ -576,7 +576,7 @@ TEST_F(RosbagImportTest, PosesAndStampsAreChecked) {
   RosbagImportOptions options;
   std::vector<std::string> warnings;
   options.on_warning = [&](const std::string& w) { warnings.push_back(w); };
-  options.topics = {{"/good", "vo", "odometry", false, "", ""}};
+  options.topics = {{"/good", "vo", "odometry", false, "", "", ""}};
   const RosbagImportStats stats =
       importRosbag(bag, dir_ / "good", DatasetKind::kFolder, options, {}, {});
   EXPECT_EQ(stats.messages_per_topic.at("/good"), 4);
@@ -588,13 +588,13 @@ TEST_F(RosbagImportTest, PosesAndStampsAreChecked) {
   ASSERT_EQ(back.poses.at("vo").size(), 3u);
   EXPECT_FALSE(back.manifest.findTrajectory("vo")->metric);
 
-  options.topics = {{"/zero_quaternion", "odometry", "odometry", true, "", ""}};
+  options.topics = {{"/zero_quaternion", "odometry", "odometry", true, "", "", ""}};
   std::string message =
       errorOf([&] { importRosbag(bag, dir_ / "bad", DatasetKind::kFolder, options, {}, {}); });
   EXPECT_NE(message.find("/zero_quaternion"), std::string::npos) << message;
   EXPECT_NE(message.find("norm"), std::string::npos) << message;
 
-  options.topics = {{"/unstamped", "odometry", "odometry", true, "", ""}};
+  options.topics = {{"/unstamped", "odometry", "odometry", true, "", "", ""}};
   message =
       errorOf([&] { importRosbag(bag, dir_ / "bad", DatasetKind::kFolder, options, {}, {}); });
   EXPECT_NE(message.find("/unstamped"), std::string::npos) << message;
@@ -609,7 +609,7 @@ TEST_F(RosbagImportTest, MissingTopicListsTheTopicsPresent) {
   const fs::path bag = dir_ / "sample.bag";
   writeSampleBag(bag);
   RosbagImportOptions options = sampleOptions();
-  options.topics.push_back({"/cam07/image_raw", "cam07", "env_camera", true, "", ""});
+  options.topics.push_back({"/cam07/image_raw", "cam07", "env_camera", true, "", "", ""});
   const fs::path out = dir_ / "out";
   const std::string message =
       errorOf([&] { importRosbag(bag, out, DatasetKind::kFolder, options, {}, {}); });
@@ -625,7 +625,7 @@ TEST_F(RosbagImportTest, UnsupportedTypeNamesTopicAndType) {
   const fs::path bag = dir_ / "sample.bag";
   writeSampleBag(bag);
   RosbagImportOptions options = sampleOptions();
-  options.topics.push_back({"/chatter", "chatter", "odometry", true, "", ""});
+  options.topics.push_back({"/chatter", "chatter", "odometry", true, "", "", ""});
   const std::string message =
       errorOf([&] { importRosbag(bag, dir_ / "out", DatasetKind::kFolder, options, {}, {}); });
   EXPECT_NE(message.find("/chatter"), std::string::npos) << message;
@@ -1010,18 +1010,18 @@ TEST(RosTopicMapping, ParsesTheCommandLineForm) {
 TEST(RosbagImportOptions, CheckNamesTheField) {
   RosbagImportOptions options;
   EXPECT_NE(options.check().find("'topics'"), std::string::npos);
-  options.topics = {{"/a", "fish", "fisheye", true, "", ""},
-                    {"/b", "fish2", "fisheye", true, "", ""}};
+  options.topics = {{"/a", "fish", "fisheye", true, "", "", ""},
+                    {"/b", "fish2", "fisheye", true, "", "", ""}};
   EXPECT_NE(options.check().find("topics[/b].label"), std::string::npos) << options.check();
-  options.topics = {{"/a", "odometry", "odometry", true, "", ""},
-                    {"/a", "odometry", "odometry", true, "", ""}};
+  options.topics = {{"/a", "odometry", "odometry", true, "", "", ""},
+                    {"/a", "odometry", "odometry", true, "", "", ""}};
   EXPECT_NE(options.check().find("topics[/a]"), std::string::npos) << options.check();
-  options.topics = {{"/a", "odometry", "odometry", true, "", ""},
-                    {"/b", "odometry", "odometry", true, "", ""}};
+  options.topics = {{"/a", "odometry", "odometry", true, "", "", ""},
+                    {"/b", "odometry", "odometry", true, "", "", ""}};
   EXPECT_NE(options.check().find("topics[/b].label"), std::string::npos) << options.check();
-  options.topics = {{"/a", "cam 1", "env_camera", true, "", ""}};
+  options.topics = {{"/a", "cam 1", "env_camera", true, "", "", ""}};
   EXPECT_NE(options.check().find("topics[/a].label"), std::string::npos) << options.check();
-  options.topics = {{"/a", "cam1", "env_camera", true, "", ""}};
+  options.topics = {{"/a", "cam1", "env_camera", true, "", "", ""}};
   EXPECT_EQ(options.check(), "");
   options.marker.id = 5000;
   EXPECT_NE(options.check().find("'id'"), std::string::npos) << options.check();

@@ -15,6 +15,7 @@
 //   geometry_msgs/PoseWithCovarianceStamped  odometry | ground_truth  PoseSample
 //   tf2_msgs/TFMessage (/tf)            odometry | ground_truth  PoseSample: the transforms to
 //                                                                the mapping's child_frame
+//   tf2_msgs/TFMessage (/tf_static)     (read when a mapping has a body_frame: the mounts)
 //
 // Times are header.stamp (sec, nsec) -> TimeNs exactly, or the bag's receive
 // time when `use_header_stamp` is false.
@@ -51,6 +52,13 @@ struct RosTopicMapping {
   /// With child_frame: the transform's parent (header.frame_id, e.g. "odom");
   /// empty takes the child's transforms from any parent.
   std::string parent_frame;
+  /// Trajectories of nav_msgs/Odometry or /tf: the frame whose poses the
+  /// dataset is to hold, e.g. the fisheye's ("fisheye_link"), when the
+  /// messages give another one (Odometry's child_frame_id, the transform's
+  /// child, e.g. "base_link"). The poses are carried to it through the static
+  /// transforms of the bag's /tf_static (world_from_body = world_from_child *
+  /// child_from_body). Empty: the poses as they are.
+  std::string body_frame;
 };
 
 /// Roles accepted in RosTopicMapping::role.
@@ -85,7 +93,8 @@ struct RosbagImportOptions {
 ///       /cam03/image/compressed: {label: cam03, role: env_camera}
 ///       /odom:                   {label: odometry, role: odometry, metric: true}
 ///       /tf:                     {label: ground_truth, role: ground_truth,
-///                                 child_frame: base_link, parent_frame: map}
+///                                 child_frame: base_link, parent_frame: map,
+///                                 body_frame: fisheye_link}   # through /tf_static
 ///     marker: {dictionary: DICT_4X4_50, id: 0, size_m: 0.2}
 ///     calibrations: {cam03: path/relative/to/this/yaml}    # optional
 ///     use_header_stamp: true                               # optional
@@ -95,7 +104,8 @@ RosbagImportOptions loadRosbagMapping(const std::filesystem::path& yaml);
 
 /// Parses the command-line form "/topic=label:role", "/topic=label:role:nonmetric"
 /// (a trajectory up to scale) or "/topic=:role" (the role's default label);
-/// a /tf topic names its frames: "/tf=label:role:child=base_link[:parent=odom]".
+/// a /tf topic names its frames: "/tf=label:role:child=base_link[:parent=odom]";
+/// a trajectory carried to another frame through /tf_static: ":body=fisheye_link".
 /// Throws lookboth::Error quoting the text.
 RosTopicMapping parseTopicMapping(const std::string& text);
 
