@@ -74,11 +74,14 @@ markers() { tail -n +2 "$1/detections/markers.csv" 2>/dev/null | grep -c . || tr
 echo "one camera: $frames frames = $seconds s at 30 Hz, 1920x1080; H.264 (libx264 crf $crf) $mb MB, PNG $png_mb MB"
 printf '%-34s %8s %10s %12s\n' run "wall s" "frames/s" "x real time"
 for name in ffmpeg video png; do
+  case $name in
+    ffmpeg) label="ffmpeg -threads 1 -f null (decode)" ;;
+    video) label="lookboth detect, video" ;;
+    png) label="lookboth detect, PNG files" ;;
+  esac
   ms=$(median <"$work/t_$name")
-  awk -v n="$name" -v ms="$ms" -v f="$frames" -v s="$seconds" 'BEGIN {
-    label = n == "ffmpeg" ? "ffmpeg -threads 1 -f null (decode)" :
-            n == "video" ? "lookboth detect, video" : "lookboth detect, PNG files"
-    printf "%-34s %8.2f %10.1f %12.2f\n", label, ms / 1000, f / (ms / 1000), s / (ms / 1000) }'
+  awk -v l="$label" -v ms="$ms" -v f="$frames" -v s="$seconds" \
+    'BEGIN { printf "%-34s %8.2f %10.1f %12.2f\n", l, ms / 1000, f / (ms / 1000), s / (ms / 1000) }'
 done
 v=$(median <"$work/t_video"); f=$(median <"$work/t_ffmpeg")
 awk -v v="$v" -v f="$f" 'BEGIN { printf "detect on video / ffmpeg decode alone: %.2fx the time\n", v / f }'
