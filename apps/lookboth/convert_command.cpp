@@ -120,8 +120,8 @@ VideoInput parseVideoArg(const std::string& text) {
     } else if (const std::optional<long long> start = parseInt(value)) {
       input.start = *start;
     } else {
-      throw Error("'--video': start must be the first frame's time in integer ns, got '" + value +
-                  "'");
+      throw Error("'--video' " + text +
+                  ": start must be the first frame's time in integer ns, got '" + value + "'");
     }
   }
   if (rest.empty()) throw Error(usage);

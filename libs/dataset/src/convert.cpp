@@ -73,7 +73,10 @@ std::string ConvertOptions::check() const {
   // However the paths are spelled: the same file, a link to it, "ds/" for "ds".
   std::vector<fs::path> inputs = datasetPaths(from);
   for (const TrajectoryInput& t : add_trajectories) inputs.push_back(t.file);
-  for (const VideoInput& v : videos) inputs.push_back(v.file);
+  for (const VideoInput& v : videos) {
+    for (const fs::path& file : {v.file, v.times, v.calibration})
+      if (!file.empty()) inputs.push_back(file);
+  }
   for (const fs::path& output : datasetPaths(to)) {
     for (const fs::path& input : inputs) {
       if (sameFile(output, input) || contains(output, input)) {
@@ -206,7 +209,7 @@ class VideoFrames {
     for (const auto& [label, count] : replaced_) {
       DatasetIssue issue{from.string(),
                          "camera '" + label + "': its " + std::to_string(count) +
-                             " image frames in the input were replaced by the video",
+                             " frames in the input were replaced by the video",
                          true};
       if (on_issue_) on_issue_(issue);
       summary_.issues.push_back(std::move(issue));

@@ -156,7 +156,7 @@ void placeImageFile(const fs::path& source, const fs::path& target, bool link,
     ec.clear();
   }
   fs::copy_file(source, target, ec);
-  if (ec) throw Error({source.string(), 0, "", subject}, "cannot copy image: " + ec.message());
+  if (ec) throw Error({source.string(), 0, "", subject}, "cannot copy the file: " + ec.message());
 }
 
 }  // namespace internal

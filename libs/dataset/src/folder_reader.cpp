@@ -6,6 +6,7 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <exception>
 #include <functional>
@@ -260,16 +261,21 @@ class VideoStream final : public Stream {
   bool size_checked_ = false;
 };
 
-/// The camera folder's video file (video.<ext> other than video.csv and
-/// video.yaml), if any; an error naming the folder when there are several.
+/// The camera folder's video file (video.<ext>, a video container's or raw
+/// stream's extension), if any; an error naming the folder when there are several.
 std::optional<fs::path> videoFile(const fs::path& folder) {
+  static const std::set<std::string> kExtensions = {
+      ".mp4", ".m4v",  ".mov", ".mkv",  ".webm", ".avi",  ".ts",    ".mts", ".m2ts",
+      ".flv", ".h264", ".264", ".h265", ".265",  ".hevc", ".mjpeg", ".mjpg"};
   std::vector<fs::path> found;
   std::error_code ec;
   for (const fs::directory_entry& entry : fs::directory_iterator(folder, ec)) {
     const fs::path& path = entry.path();
     if (path.stem() != "video" || !entry.is_regular_file()) continue;
-    if (path.extension() == ".csv" || path.extension() == ".yaml") continue;
-    found.push_back(path);
+    std::string extension = path.extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (kExtensions.count(extension)) found.push_back(path);
   }
   if (found.empty()) return std::nullopt;
   if (found.size() > 1) {

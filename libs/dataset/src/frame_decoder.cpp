@@ -22,6 +22,10 @@ FrameDecoder& FrameDecoder::operator=(FrameDecoder&&) noexcept = default;
 
 VideoDecoder& FrameDecoder::video(const std::filesystem::path& file) {
   for (size_t i = 0; i < videos_.size(); ++i) {
+    if (videos_[i]->file() == file && !videos_[i]->isCurrent()) {
+      videos_.erase(videos_.begin() + static_cast<std::ptrdiff_t>(i));
+      break;
+    }
     if (videos_[i]->file() == file) {
       std::rotate(videos_.begin(), videos_.begin() + static_cast<std::ptrdiff_t>(i),
                   videos_.begin() + static_cast<std::ptrdiff_t>(i) + 1);

@@ -72,22 +72,25 @@ std::pair<FormatPtr, int> openContainer(const fs::path& file) {
   return {std::move(format), stream};
 }
 
-/// Every packet's presentation time of the stream, in the stream's time base,
-/// sorted (= presentation order); empty when a packet has no timestamp.
-/// `count` receives the number of packets.
+/// Every frame's presentation time of the stream, in the stream's time base,
+/// sorted (= presentation order); empty when the container has no timestamps
+/// (a raw stream, whose demuxer invents them from an assumed rate) or a
+/// packet lacks its presentation time (decoding times are another clock).
+/// Packets the demuxer marks as discarded (before an edit list's start, as in
+/// a clip cut without re-encoding) are not frames: the decoder drops them.
+/// `count` receives the number of frames.
 std::vector<std::int64_t> packetTimes(AVFormatContext* format, int stream, const fs::path& file,
                                       std::int64_t& count) {
   PacketPtr packet(av_packet_alloc());
   std::vector<std::int64_t> times;
-  bool complete = true;
+  bool complete = !(format->iformat->flags & AVFMT_NOTIMESTAMPS);
   count = 0;
   int rc = 0;
   while ((rc = av_read_frame(format, packet.get())) >= 0) {
-    if (packet->stream_index == stream) {
+    if (packet->stream_index == stream && !(packet->flags & AV_PKT_FLAG_DISCARD)) {
       ++count;
-      const std::int64_t t = packet->pts != AV_NOPTS_VALUE ? packet->pts : packet->dts;
-      if (t == AV_NOPTS_VALUE) complete = false;
-      if (complete) times.push_back(t);
+      if (packet->pts == AV_NOPTS_VALUE) complete = false;
+      if (complete) times.push_back(packet->pts);
     }
     av_packet_unref(packet.get());
   }
@@ -165,6 +168,8 @@ struct VideoDecoder::Impl {
   PacketPtr packet{av_packet_alloc()};
   FramePtr frame{av_frame_alloc()};
   SwsContext* scaler = nullptr;
+  /// The file as opened (modification time, size): a file rewritten in place is opened again.
+  std::pair<fs::file_time_type, std::uintmax_t> stamp;
   /// Presentation times of all frames (stream time base), sorted: a decoded
   /// frame's index is the position of its time. Empty for a stream without
   /// timestamps, whose frames are counted instead.
@@ -172,6 +177,10 @@ struct VideoDecoder::Impl {
   std::int64_t frame_count = 0;
   std::int64_t next_index = 0;  ///< Index of the frame the decoder gives next.
   bool draining = false;        ///< End of file reached: the decoder is being emptied.
+  /// The frame returned last (a window repainting asks for it again).
+  std::int64_t last_index = -1;
+  bool last_colour = false;
+  cv::Mat last_image;
 
   /// Frames further ahead than this are reached by seeking rather than by
   /// decoding every frame in between (a few groups of pictures).
@@ -190,7 +199,8 @@ struct VideoDecoder::Impl {
                                  avcodec_get_name(parameters->codec_id) + "'");
     }
     codec.reset(avcodec_alloc_context3(decoder));
-    avcodec_parameters_to_context(codec.get(), parameters);
+    if (!codec || avcodec_parameters_to_context(codec.get(), parameters) < 0)
+      throw videoError(file, "cannot set up the video decoder (out of memory?)");
     codec->thread_count = threads;
     codec->thread_type = FF_THREAD_FRAME | FF_THREAD_SLICE;
     const int rc = avcodec_open2(codec.get(), decoder, nullptr);
@@ -217,28 +227,72 @@ struct VideoDecoder::Impl {
     }
   }
 
+  /// The decoded frame's index: the position of its time, else (a stream
+  /// without timestamps, or a time the table lacks) the count from the
+  /// start; -1 when neither is known (just after a seek).
   std::int64_t indexOfDecoded() const {
-    if (pts.empty()) return next_index;
-    const std::int64_t t = frame->best_effort_timestamp;
-    const auto it = std::lower_bound(pts.begin(), pts.end(), t);
-    if (it == pts.end() || *it != t) return next_index;
-    return it - pts.begin();
+    if (!pts.empty()) {
+      const std::int64_t t = frame->best_effort_timestamp;
+      const auto it = std::lower_bound(pts.begin(), pts.end(), t);
+      if (it != pts.end() && *it == t) return it - pts.begin();
+    }
+    return next_index;
   }
 
-  /// Positions the decoder before `index`: at the key frame before it, or at the start.
-  void seekBefore(std::int64_t index) {
+  /// Positions the decoder `back` frames before `index` (at the key frame
+  /// before that); false when it cannot seek and starts the file again instead.
+  bool seekBefore(std::int64_t index, std::int64_t back) {
     if (!pts.empty()) {
-      // A little earlier than the frame itself: key frames are found by
-      // decoding time, which runs ahead of presentation time by a few frames.
-      const std::int64_t target = pts[static_cast<size_t>(std::max<std::int64_t>(0, index - 16))];
+      const std::int64_t target = pts[static_cast<size_t>(std::max<std::int64_t>(0, index - back))];
       if (av_seek_frame(format.get(), stream, target, AVSEEK_FLAG_BACKWARD) >= 0) {
         avcodec_flush_buffers(codec.get());
         draining = false;
         next_index = -1;
-        return;
+        return true;
       }
     }
-    open();  // from the start: a stream without timestamps, or one that cannot seek
+    open();
+    return false;
+  }
+
+  /// The decoded frame as the image returned (and kept for a repeated request).
+  cv::Mat take(std::int64_t index, bool colour) {
+    last_image = convert(colour);
+    av_frame_unref(frame.get());
+    last_index = index;
+    last_colour = colour;
+    return last_image.clone();
+  }
+
+  /// Decodes forward to frame `index`; false when the frame is not reached
+  /// (`passed` tells whether the decoder went past it: a seek landed too late).
+  bool decodeTo(std::int64_t index, bool& passed) {
+    passed = false;
+    while (receive()) {
+      const std::int64_t at = indexOfDecoded();
+      if (at < 0) {  // a time the table lacks just after a seek: position unknown
+        av_frame_unref(frame.get());
+        passed = true;
+        return false;
+      }
+      next_index = at + 1;
+      // A damaged frame (a packet cut short, lost references) comes out
+      // concealed with other frames' pixels: it is not that frame.
+      const bool damaged =
+          (frame->flags & AV_FRAME_FLAG_CORRUPT) || frame->decode_error_flags != 0;
+      if (at == index && !damaged) return true;
+      if (at == index) {
+        av_frame_unref(frame.get());
+        return false;
+      }
+      av_frame_unref(frame.get());
+      if (at > index) {
+        passed = true;
+        return false;
+      }
+    }
+    if (next_index < 0) next_index = frame_count;  // ended right after a seek: seek next time
+    return false;
   }
 
   cv::Mat convert(bool colour) {
@@ -252,6 +306,17 @@ struct VideoDecoder::Impl {
                                   colour ? AV_PIX_FMT_BGR24 : AV_PIX_FMT_GRAY8, SWS_BILINEAR,
                                   nullptr, nullptr, nullptr);
     if (!scaler) return {};
+    // The stream's own colour matrix and range (BT.709 for HD, full range for
+    // JPEG-like streams), not swscale's defaults.
+    const bool full_range =
+        frame->color_range == AVCOL_RANGE_JPEG ||
+        std::string(av_get_pix_fmt_name(format_id) ? av_get_pix_fmt_name(format_id) : "")
+                .rfind("yuvj", 0) == 0;
+    const int space = frame->colorspace == AVCOL_SPC_UNSPECIFIED
+                          ? SWS_CS_DEFAULT
+                          : static_cast<int>(frame->colorspace);
+    sws_setColorspaceDetails(scaler, sws_getCoefficients(space), full_range ? 1 : 0,
+                             sws_getCoefficients(SWS_CS_DEFAULT), 1, 0, 1 << 16, 1 << 16);
     std::uint8_t* planes[4] = {out.data, nullptr, nullptr, nullptr};
     int strides[4] = {static_cast<int>(out.step[0]), 0, 0, 0};
     sws_scale(scaler, frame->data, frame->linesize, 0, height, planes, strides);
@@ -291,6 +356,8 @@ struct VideoDecoder::Impl {
 
 VideoDecoder::VideoDecoder(const fs::path& file, int threads) : impl_(std::make_unique<Impl>()) {
   impl_->file = file;
+  std::error_code ec;
+  impl_->stamp = {fs::last_write_time(file, ec), fs::file_size(file, ec)};
   impl_->threads = std::max(1, threads);
   {
     auto [format, stream] = openContainer(file);
@@ -302,36 +369,34 @@ VideoDecoder::VideoDecoder(const fs::path& file, int threads) : impl_(std::make_
 VideoDecoder::~VideoDecoder() = default;
 
 const fs::path& VideoDecoder::file() const { return impl_->file; }
+bool VideoDecoder::isCurrent() const {
+  std::error_code ec;
+  const auto now =
+      std::make_pair(fs::last_write_time(impl_->file, ec), fs::file_size(impl_->file, ec));
+  return !ec && now == impl_->stamp;
+}
 int VideoDecoder::width() const { return impl_->codec->width; }
 int VideoDecoder::height() const { return impl_->codec->height; }
 
 cv::Mat VideoDecoder::frame(std::int64_t index, bool colour) {
   Impl& d = *impl_;
   if (index < 0 || index >= d.frame_count) return {};
-  if (index < d.next_index || index > d.next_index + Impl::kSeekAhead) d.seekBefore(index);
-  for (int attempt = 0; attempt < 2; ++attempt) {
-    while (d.receive()) {
-      const std::int64_t at = d.indexOfDecoded();
-      const bool after_seek = d.next_index < 0;
-      d.next_index = at + 1;
-      if (at == index) {
-        cv::Mat image = d.convert(colour);
-        av_frame_unref(d.frame.get());
-        return image;
-      }
-      av_frame_unref(d.frame.get());
-      if (at > index) {
-        if (!after_seek) return {};  // the frame is missing from the stream
-        break;                       // the seek landed past it: decode from the start
-      }
-    }
-    if (attempt == 0 && d.next_index > index) {
-      d.open();
-      continue;
-    }
-    break;
+  if (index == d.last_index && colour == d.last_colour) return d.last_image.clone();
+  bool passed = false;
+  if (index >= d.next_index && index <= d.next_index + Impl::kSeekAhead) {
+    // Forward: every frame up to it decoded; past it without it, it is missing.
+    return d.decodeTo(index, passed) ? d.take(index, colour) : cv::Mat();
   }
-  return {};
+  // Key frames are found by decoding time, which runs ahead of presentation
+  // time: a seek starts a little before the frame, further back while it
+  // lands past it, and from the start of the file at last.
+  for (const std::int64_t back : {16, 128, 1024}) {
+    const bool seeked = d.seekBefore(index, back);
+    if (d.decodeTo(index, passed)) return d.take(index, colour);
+    if (!seeked || !passed) return {};
+  }
+  d.open();
+  return d.decodeTo(index, passed) ? d.take(index, colour) : cv::Mat();
 }
 
 }  // namespace lookboth

@@ -35,7 +35,10 @@ void VideoFrameSource::load() {
     throw Error({video_.string(), 0, "", label_},
                 "the frames' times are unknown: " + timing_.how_to_time);
   }
-  const VideoProbe probe = probeVideo(video_, by_container);
+  VideoProbe probe = probeVideo(video_, by_container);
+  // A sidecar's frame indices are checked against the frames the file has:
+  // counted when the header does not say (MKV, raw streams).
+  if (!by_container && probe.frame_count < 0) probe = probeVideo(video_, true);
   size_ = {probe.width, probe.height};
   if (by_container) {
     if (probe.frame_offsets_ns.empty() && probe.frame_count > 0) {
@@ -59,7 +62,10 @@ void VideoFrameSource::loadSidecar(std::int64_t frame_count) {
     const std::int64_t frame = indexed ? csv.integer("frame") : row;
     ++row;
     const std::string where = timing_.sidecar.string() + ":" + std::to_string(csv.line());
-    if (frame < 0) throw Error(csv.where("frame"), "frame index must not be negative");
+    if (frame < 0) {
+      issue_(where, "frame index " + std::to_string(frame) + " is negative: row skipped");
+      continue;
+    }
     if (frame_count >= 0 && frame >= frame_count) {
       issue_(where, "frame " + std::to_string(frame) + " but '" + video_.filename().string() +
                         "' has " + std::to_string(frame_count) + " frames: row skipped");

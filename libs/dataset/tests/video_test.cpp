@@ -20,11 +20,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr int kWidth = 160, kHeight = 120, kBits = 8;
+constexpr int kWidth = 160, kHeight = 120, kBits = 10;
 constexpr TimeNs kStart = 1'700'000'000'000'000'000;
 constexpr TimeNs kPeriod = 40'000'000;  // 25 Hz: a whole number of microseconds
 
-/// Frame `index` as a picture: 8 vertical bars, white for a 1 bit.
+/// Frame `index` as a picture: 10 vertical bars, white for a 1 bit.
 cv::Mat barCode(int index) {
   cv::Mat image(kHeight, kWidth, CV_8UC1, cv::Scalar(0));
   const int bar = kWidth / kBits;
@@ -249,16 +249,21 @@ TEST(Video, ATruncatedVideoLosesItsLastFramesNotTheOthers) {
   makeCameraVideo(folder, 60, "container", "--fragmented --keyint 10");
   const fs::path video = folder / "video.mp4";
   fs::resize_file(video, fs::file_size(video) * 2 / 3);
+  const VideoProbe probe = probeVideo(video, true);
+  EXPECT_GT(probe.frame_count, 20);
+  EXPECT_LT(probe.frame_count, 60);
+  // Every frame before the last group of pictures decodes as itself; in the
+  // last one, cut short, frames may be lost or come out concealed by the
+  // decoder (doc/formats.md, "Video files").
+  const std::int64_t whole = probe.frame_count / 10 * 10 - 10;
   VideoDecoder decoder(video);
-  int decoded = 0;
-  for (int i = 0; i < 60; ++i) {
+  for (std::int64_t i = 0; i < probe.frame_count; ++i) {
     const cv::Mat grey = decoder.frame(i, false);
-    if (grey.empty()) continue;
+    if (i >= whole) continue;
+    ASSERT_FALSE(grey.empty()) << i;
     EXPECT_EQ(readBarCode(grey), i);
-    ++decoded;
   }
-  EXPECT_GT(decoded, 20);
-  EXPECT_LT(decoded, 60);
+  EXPECT_TRUE(decoder.frame(probe.frame_count, false).empty());
 }
 
 TEST(Video, WritersKeepTheVideoInAFolderAndExtractPngForARawlog) {
@@ -319,6 +324,95 @@ TEST(Video, ConvertAddsAVideoToADatasetTimedByItsStart) {
         << e.what();
   }
   EXPECT_FALSE(fs::exists(options.to));
+}
+
+/// Runs ffmpeg on `in` (quietly); false when it fails.
+bool ffmpeg(const fs::path& in, const std::string& arguments, const fs::path& out,
+            const std::string& input_options = "") {
+  const std::string command = "ffmpeg -v error -y " + input_options + " -i '" + in.string() +
+                              "' " + arguments + " '" + out.string() + "'";
+  return std::system(command.c_str()) == 0;
+}
+
+TEST(Video, FramesFarAheadAreReachedBySeeking) {
+  const fs::path folder = scratch("far") / "cam";
+  makeCameraVideo(folder, 400, "container", "--keyint 50");
+  VideoDecoder decoder(folder / "video.mp4");
+  for (const int i : {0, 390, 5, 350, 399, 42, 42, 41}) {
+    const cv::Mat grey = decoder.frame(i, false);
+    ASSERT_FALSE(grey.empty()) << i;
+    EXPECT_EQ(readBarCode(grey), i);
+  }
+}
+
+TEST(Video, AClipCutWithoutReencodingStartsAtItsFirstShownFrame) {
+  // Cut at 0.5 s without re-encoding: the container keeps the key frame
+  // before the cut and an edit list that hides the frames before 0.5 s.
+  const fs::path folder = scratch("cut") / "cam";
+  makeCameraVideo(folder, 50, "container", "--keyint 10");
+  const fs::path cut = folder / "cut.mp4";
+  ASSERT_TRUE(ffmpeg(folder / "video.mp4", "-c copy", cut, "-ss 0.5"));
+  const VideoProbe probe = probeVideo(cut, true);
+  ASSERT_GE(probe.frame_count, 30);
+  ASSERT_LE(probe.frame_count, 38);  // the packets before 0.5 s are not frames
+  ASSERT_EQ(probe.frame_offsets_ns.size(), static_cast<size_t>(probe.frame_count));
+  VideoDecoder decoder(cut);
+  const int first = readBarCode(decoder.frame(0, false));
+  EXPECT_GE(first, 10);
+  for (std::int64_t i = 0; i < probe.frame_count; ++i) {
+    const cv::Mat grey = decoder.frame(i, false);
+    ASSERT_FALSE(grey.empty()) << i;
+    EXPECT_EQ(readBarCode(grey), first + i);
+    EXPECT_EQ(probe.frame_offsets_ns[static_cast<size_t>(i)], i * kPeriod) << i;
+  }
+}
+
+TEST(Video, MatroskaAndRawStreams) {
+  const fs::path site = makeVideoDataset("containers", 12, "container");
+  const fs::path folder = site / "cameras/cam00";
+  // Matroska: no frame count in the header; a sidecar's rows are checked against the frames.
+  ASSERT_TRUE(ffmpeg(folder / "video.mp4", "-c copy", folder / "video.mkv"));
+  fs::remove(folder / "video.mp4");
+  EXPECT_EQ(probeVideo(folder / "video.mkv", false).frame_count, -1);
+  std::ofstream(folder / "video.csv") << "timestamp_ns,frame\n10,0\n20,11\n30,12\n";
+  ReadBack read = readFrames(site);
+  ASSERT_EQ(read.frames.size(), 2u);
+  ASSERT_EQ(read.issues.size(), 1u);
+  EXPECT_NE(read.issues[0].message.find("frame 12 but 'video.mkv' has 12 frames"),
+            std::string::npos)
+      << read.issues[0].message;
+  FrameDecoder decoder;
+  EXPECT_EQ(readBarCode(decoder.decode(read.frames[1], FrameColour::kGrey)), 11);
+  // A raw H.264 stream has no timestamps: a sidecar times it, video.yaml cannot.
+  ASSERT_TRUE(ffmpeg(folder / "video.mkv", "-c copy -f h264", folder / "video.h264"));
+  fs::remove(folder / "video.mkv");
+  EXPECT_TRUE(probeVideo(folder / "video.h264", true).frame_offsets_ns.empty());
+  read = readFrames(site);
+  ASSERT_EQ(read.frames.size(), 2u);  // frames counted by demultiplexing: 12 again
+  // Back from frame 11 to frame 0: without timestamps, by decoding from the start.
+  EXPECT_EQ(readBarCode(decoder.decode(read.frames[1], FrameColour::kGrey)), 11);
+  EXPECT_EQ(readBarCode(decoder.decode(read.frames[0], FrameColour::kGrey)), 0);
+  fs::remove(folder / "video.csv");
+  try {
+    readFrames(site);
+    ADD_FAILURE() << "a raw stream timed by video.yaml";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no frame timestamps"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Video, AVideoRewrittenInPlaceIsOpenedAgain) {
+  const fs::path folder = scratch("rewritten") / "cam";
+  makeCameraVideo(folder, 10, "container");
+  ImageFrame frame;
+  frame.video_file = folder / "video.mp4";
+  frame.video_frame = 9;
+  FrameDecoder decoder;
+  EXPECT_EQ(readBarCode(decoder.decode(frame, FrameColour::kGrey)), 9);
+  const fs::path other = scratch("rewritten_other") / "cam";
+  makeCameraVideo(other, 30, "container", "--drop 0,1,2,3,4,5,6,7,8,9");
+  fs::copy_file(other / "video.mp4", frame.video_file, fs::copy_options::overwrite_existing);
+  EXPECT_EQ(readBarCode(decoder.decode(frame, FrameColour::kGrey)), 19);
 }
 
 TEST(Video, FrameTimingCountsGapsAndRepeats) {

@@ -65,6 +65,8 @@ class VideoDecoder {
   VideoDecoder& operator=(const VideoDecoder&) = delete;
 
   const std::filesystem::path& file() const;
+  /// False once the file on disk is no longer the one opened (rewritten or removed).
+  bool isCurrent() const;
   int width() const;
   int height() const;
 
