@@ -278,8 +278,7 @@ struct VideoDecoder::Impl {
       next_index = at + 1;
       // A damaged frame (a packet cut short, lost references) comes out
       // concealed with other frames' pixels: it is not that frame.
-      const bool damaged =
-          (frame->flags & AV_FRAME_FLAG_CORRUPT) || frame->decode_error_flags != 0;
+      const bool damaged = (frame->flags & AV_FRAME_FLAG_CORRUPT) || frame->decode_error_flags != 0;
       if (at == index && !damaged) return true;
       if (at == index) {
         av_frame_unref(frame.get());

@@ -329,8 +329,8 @@ TEST(Video, ConvertAddsAVideoToADatasetTimedByItsStart) {
 /// Runs ffmpeg on `in` (quietly); false when it fails.
 bool ffmpeg(const fs::path& in, const std::string& arguments, const fs::path& out,
             const std::string& input_options = "") {
-  const std::string command = "ffmpeg -v error -y " + input_options + " -i '" + in.string() +
-                              "' " + arguments + " '" + out.string() + "'";
+  const std::string command = "ffmpeg -v error -y " + input_options + " -i '" + in.string() + "' " +
+                              arguments + " '" + out.string() + "'";
   return std::system(command.c_str()) == 0;
 }
 
