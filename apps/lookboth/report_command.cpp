@@ -20,6 +20,8 @@ struct ReportArgs {
   std::string out;
   std::string ground_truth;
   std::string against;
+  std::string record;
+  FacilityCheckOptions recheck;
   std::string frames = "auto";
   std::string size;
   bool with_scale = false;
@@ -33,6 +35,8 @@ int runReport(const ReportArgs& args) {
   options.out = args.out;
   options.ground_truth = args.ground_truth;
   options.against = args.against;
+  options.record = args.record;
+  options.recheck = args.recheck;
   options.with_scale = args.with_scale;
   options.frames = report::FrameSelection::parse(args.frames);
   if (!args.size.empty()) options.size = report::parseSize(args.size);
@@ -40,7 +44,7 @@ int runReport(const ReportArgs& args) {
   options.max_reprojection_rms_px = args.max_reprojection_px;
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
   std::vector<std::filesystem::path> inputs = datasetPaths(args.dataset);
-  for (const std::string& p : {args.registration, args.ground_truth, args.against}) {
+  for (const std::string& p : {args.registration, args.ground_truth, args.against, args.record}) {
     if (!p.empty()) inputs.emplace_back(p);
   }
   checkOutputPath(args.out, inputs, args.overwrite);
@@ -79,6 +83,16 @@ void registerReportCommand(CLI::App& app, const std::function<void(CommandBody)>
   cmd->add_option("--ground-truth", args->ground_truth,
                   "Compare with ground truth (dataset, folder or cameras.csv)");
   cmd->add_option("--against", args->against, "Compare with another registration directory");
+  cmd->add_option("--record", args->record,
+                  "The facility's registration on record: re-check this drive against it (which "
+                  "cameras moved, as lookboth check)")
+      ->check(CLI::ExistingDirectory);
+  cmd->add_option("--min-move-m", args->recheck.min_position_m,
+                  "With --record: smaller position changes are 'unchanged' [m]")
+      ->capture_default_str();
+  cmd->add_option("--min-turn-deg", args->recheck.min_rotation_deg,
+                  "With --record: smaller rotation changes are 'unchanged' [deg]")
+      ->capture_default_str();
   cmd->add_flag("--with-scale", args->with_scale, "Align comparisons with Sim(3)");
   cmd->add_option("--frames", args->frames, "Fisheye frames shown: auto, i,j,k or t0:t1 [s]")
       ->capture_default_str();

@@ -173,6 +173,19 @@ recheck)
   "$L" check reg2 --against reg1 | tee check.log
   grep -q "^1 moved, 5 unchanged" check.log || fail "expected exactly one camera moved"
   grep -Eq "^  cam03 +moved" check.log || fail "cam03 is not the one flagged"
+  # The same verdicts in the later drive's report, which says to act on them.
+  "$L" report drive2.rawlog reg2 --record reg1 --out report.html --no-overview | tee report.log
+  grep -q "1 camera(s) moved since the record" report.log || fail "the report's verdict misses the move"
+  python3 - report.html <<'PY'
+import re, sys
+html = open(sys.argv[1]).read()
+section = html.split("<h2>Re-check against the record")[1].split("<h2>")[0]
+rows = re.findall(r"<tr[^>]*><td class=l>(cam\d+)</td><td class=l>([a-z ]+)</td>", section)
+moved = [label for label, verdict in rows if verdict == "moved"]
+if "1 moved, 5 unchanged" not in section or moved != ["cam03"] or len(rows) != 6:
+    sys.exit(f"FAIL: the report's re-check: {rows}")
+print("report: re-check section with cam03 moved, 5 unchanged")
+PY
   # The record updated: cam03 from the later drive, in the record's frame.
   "$L" check reg2 --against reg1 --update-out updated >/dev/null
   "$L" evaluate updated --ground-truth drive2.rawlog --json updated.json >/dev/null

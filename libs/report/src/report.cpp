@@ -38,6 +38,9 @@ std::string ReportOptions::check() const {
   if (!(max_position_nees_per_dof > 0)) return "'max_position_nees_per_dof': must be positive";
   if (auto_frames < 1) return "'auto_frames': must be at least 1";
   if (max_env_views < 0) return "'max_env_views': must be >= 0";
+  if (!record.empty()) {
+    if (const std::string why = recheck.check(); !why.empty()) return "'recheck': " + why;
+  }
   return {};
 }
 
@@ -220,6 +223,7 @@ class ReportWriter {
     writeWorldFrame();
     writeReprojectionTable();
     writeComparisons();
+    writeRecheck();
     writeRobot();
     writePictures();
     const std::string html = out_.str();
@@ -243,6 +247,9 @@ class ReportWriter {
       other_poses_ =
           poseSetOfRegistration(loadRegistration(options_.against), options_.against.string());
       against_ = comparePoses(*other_poses_, estimate, compare);
+    }
+    if (!options_.record.empty()) {
+      recheck_ = checkFacility(registration_, loadRegistration(options_.record), options_.recheck);
     }
     reprojection_ = reprojectionTable(view_.blob_associations);
     int fisheye_width = 1920;
@@ -309,6 +316,11 @@ class ReportWriter {
           "freedom " +
           fixed(*ground_truth->position_nees_per_dof, 2) + " against ground truth (above " +
           fixed(options.max_position_nees_per_dof, 1) + ")");
+    }
+    if (recheck_ && recheck_->moved > 0) {
+      reasons.push_back(std::to_string(recheck_->moved) +
+                        " camera(s) moved since the record (see Re-check); lookboth check "
+                        "--update-out writes the record updated by this drive");
     }
     // Notes (a prior held what a flat floor cannot determine, detections set
     // aside at the ends) are expected and leave the verdict alone.
@@ -530,6 +542,47 @@ class ReportWriter {
     }
   }
 
+  /// This drive against the registration on record: each camera's verdict.
+  void writeRecheck() {
+    if (!recheck_) return;
+    std::ostringstream& out = out_;
+    const FacilityCheck& check = *recheck_;
+    out << "<h2>Re-check against the record " << escape(options_.record.string()) << "</h2>\n<p>"
+        << check.moved << " moved, " << check.unchanged << " unchanged, " << check.not_seen
+        << " not seen by this drive, " << check.added
+        << " new. The two registrations aligned over the cameras that agree; a camera moved when "
+           "its change is significant (chi-square over 3 dof above "
+        << fixed(options_.recheck.max_chi2, 2) << ") and larger than "
+        << fixed(options_.recheck.min_position_m * 1000, 0) << " mm or "
+        << fixed(options_.recheck.min_rotation_deg, 1) << "&deg;.</p>\n";
+    out << "<table><tr><th class=l>camera</th><th class=l>verdict</th><th>moved [mm]</th>"
+           "<th>sigmas</th><th>turned [&deg;]</th><th>sigmas</th><th class=l>alignment</th>"
+           "</tr>\n";
+    for (const CameraCheck& c : check.cameras) {
+      const bool compared =
+          c.verdict == CameraVerdict::kMoved || c.verdict == CameraVerdict::kUnchanged;
+      const char* row = c.verdict == CameraVerdict::kMoved     ? " class=unregistered"
+                        : c.verdict == CameraVerdict::kNotSeen ? " class=suspect"
+                                                               : "";
+      out << "<tr" << row << "><td class=l>" << escape(c.label) << "</td><td class=l>"
+          << cameraVerdictName(c.verdict) << "</td>";
+      if (compared) {
+        out << "<td>" << fixed(c.moved_m.norm() * 1000, 1) << "</td><td>"
+            << fixed(std::sqrt(c.position_chi2), 1) << "</td><td>" << fixed(c.rotated_deg, 3)
+            << "</td><td>" << fixed(std::sqrt(c.rotation_chi2), 1) << "</td>";
+      } else {
+        out << "<td>-</td><td>-</td><td>-</td><td>-</td>";
+      }
+      out << "<td class=l>"
+          << (c.used_for_alignment ? "used"
+              : compared           ? "left out"
+                                   : "")
+          << "</td></tr>\n";
+    }
+    out << "</table>\n<p class=note>Sigmas: the square root of the change's chi-square under "
+           "both registrations' covariances. Moved cameras are left out of the alignment.</p>\n";
+  }
+
   /// The robot's calibration, observability, warnings and notes.
   /// Which frame the poses are in and, for a site frame, its control points' residuals.
   void writeWorldFrame() {
@@ -626,6 +679,7 @@ class ReportWriter {
   const RegistrationView view_;
   std::optional<CameraPoseSet> truth_poses_, other_poses_;
   std::optional<PoseComparison> ground_truth_, against_;
+  std::optional<FacilityCheck> recheck_;
   ReprojectionTable reprojection_;
   double max_reprojection_ = 0;  ///< [px]
   ReportSummary summary_;

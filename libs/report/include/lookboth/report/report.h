@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "lookboth/core/progress.h"
+#include "lookboth/registration/facility_check.h"
 #include "lookboth/report/snapshot.h"
 
 namespace lookboth::report {
@@ -18,12 +19,16 @@ struct ReportOptions {
   std::filesystem::path out;           ///< The HTML file to write.
   std::filesystem::path ground_truth;  ///< Dataset, folder or cameras.csv; empty = none.
   std::filesystem::path against;       ///< Another registration directory; empty = none.
-  bool with_scale = false;             ///< Sim(3) alignment for the comparisons.
-  FrameSelection frames;               ///< Fisheye frames to show.
-  cv::Size size{0, 0};                 ///< Picture size (see SnapshotOptions::size).
-  int auto_frames = 4;                 ///< Fisheye frames picked automatically.
-  int max_env_views = 6;               ///< Environment camera pictures at most.
-  bool overview = true;                ///< The 3-D overview (needs EGL).
+  /// The registration on record for this facility: the report re-checks this
+  /// drive against it (which cameras moved; `lookboth check`); empty = none.
+  std::filesystem::path record;
+  FacilityCheckOptions recheck;  ///< How a move is told from noise (with `record`).
+  bool with_scale = false;       ///< Sim(3) alignment for the comparisons.
+  FrameSelection frames;         ///< Fisheye frames to show.
+  cv::Size size{0, 0};           ///< Picture size (see SnapshotOptions::size).
+  int auto_frames = 4;           ///< Fisheye frames picked automatically.
+  int max_env_views = 6;         ///< Environment camera pictures at most.
+  bool overview = true;          ///< The 3-D overview (needs EGL).
   /// Verdict thresholds. Reprojection RMS after refinement [px]; 0 = 3 px
   /// at 1920 px of fisheye width, scaled to the fisheye's width, but not
   /// below 2 px (blob centres are not located better at low resolution).
