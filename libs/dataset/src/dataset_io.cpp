@@ -66,12 +66,14 @@ void DatasetReader::reportNote(const std::string& where, const std::string& mess
   // stages): a note is told once per process, and kept in every reader's issues().
   static std::mutex mutex;
   static std::set<std::string> told;
-  bool first = false;
-  {
-    const std::lock_guard<std::mutex> lock(mutex);
-    first = told.insert(where + '\n' + message).second;
+  if (options_.on_issue) {  // told only by a reader that tells it
+    bool first = false;
+    {
+      const std::lock_guard<std::mutex> lock(mutex);
+      first = told.insert(where + '\n' + message).second;
+    }
+    if (first) options_.on_issue(note);
   }
-  if (first && options_.on_issue) options_.on_issue(note);
   issues_.push_back(std::move(note));
 }
 
