@@ -108,12 +108,12 @@ inline void writeSampleRawlog(const std::filesystem::path& rawlog, bool calibrat
 inline RosbagImportOptions fuzzBagOptions() {
   RosbagImportOptions options;
   options.topics = {
-      {"/fisheye/image_raw", "", "fisheye", true, "", ""},
-      {"/fisheye/camera_info", "", "fisheye", true, "", ""},
-      {"/cam03/image/compressed", "cam03", "env_camera", true, "", ""},
-      {"/cam03/camera_info", "cam03", "env_camera", true, "", ""},
-      {"/odom", "", "odometry", false, "", ""},
-      {"/ground_truth/pose", "", "ground_truth", true, "", ""},
+      {"/fisheye/image_raw", "", "fisheye", true, "", "", ""},
+      {"/fisheye/camera_info", "", "fisheye", true, "", "", ""},
+      {"/cam03/image/compressed", "cam03", "env_camera", true, "", "", ""},
+      {"/cam03/camera_info", "cam03", "env_camera", true, "", "", ""},
+      {"/odom", "", "odometry", false, "", "", ""},
+      {"/ground_truth/pose", "", "ground_truth", true, "", "", ""},
   };
   options.on_warning = [](const std::string&) {};
   return options;
