@@ -9,7 +9,9 @@
 namespace lookboth::studio_app {
 
 namespace {
-constexpr int kColumns = 8;
+constexpr int kColumns = 9;
+/// The columns as shown: the check's verdict next to the status, where it is seen.
+constexpr int kShown[kColumns] = {0, 1, 2, 8, 3, 4, 5, 6, 7};
 
 std::string formatPosition(const Eigen::Vector3d& t) {
   return formatFixed(t.x(), 3) + ", " + formatFixed(t.y(), 3) + ", " + formatFixed(t.z(), 3);
@@ -20,8 +22,9 @@ std::string formatPosition(const Eigen::Vector3d& t) {
 struct CameraTable::Row {
   std::string label;
   std::string cells[kColumns];
-  double sort_keys[kColumns] = {0, 0, 0, 0, 0, 0, 0, 0};
+  double sort_keys[kColumns] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
   bool warn = false;
+  bool moved = false;
 };
 
 CameraTable::CameraTable(wxWindow* parent, std::function<void(const std::string&)> on_select)
@@ -30,9 +33,9 @@ CameraTable::CameraTable(wxWindow* parent, std::function<void(const std::string&
       on_select_(std::move(on_select)) {
   const char* columns[kColumns] = {"Camera",        "Detections",      "Status",
                                    "Residual [mm]", "Sigma pos. [mm]", "Reprojection [px]",
-                                   "Position [m]",  "Warnings"};
-  const int widths[kColumns] = {75, 85, 95, 105, 120, 125, 175, 320};
-  for (int i = 0; i < kColumns; ++i) AppendColumn(columns[i], wxLIST_FORMAT_LEFT, widths[i]);
+                                   "Position [m]",  "Warnings",        "Since the record"};
+  const int widths[kColumns] = {75, 85, 95, 105, 120, 125, 175, 320, 195};
+  for (const int i : kShown) AppendColumn(columns[i], wxLIST_FORMAT_LEFT, widths[i]);
   Bind(wxEVT_LIST_ITEM_SELECTED, [this](wxListEvent& e) {
     const long row = e.GetIndex();
     if (row >= 0 && static_cast<size_t>(row) < labels_.size() && on_select_)
@@ -53,6 +56,11 @@ void CameraTable::show(std::shared_ptr<const studio::DatasetIndex> index,
                        std::shared_ptr<const Registration> registration) {
   index_ = std::move(index);
   registration_ = std::move(registration);
+  refresh();
+}
+
+void CameraTable::showCheck(std::shared_ptr<const FacilityCheck> check) {
+  check_ = std::move(check);
   refresh();
 }
 
@@ -115,14 +123,35 @@ CameraTable::Row CameraTable::rowOf(const studio::CameraSummary& summary) const 
   return row;
 }
 
+namespace {
+
+/// "moved 51 mm 0.18 deg", "unchanged 6 mm 0.14 deg", "not seen", "new".
+std::string sinceRecord(const CameraCheck& c) {
+  if (c.verdict != CameraVerdict::kMoved && c.verdict != CameraVerdict::kUnchanged)
+    return cameraVerdictName(c.verdict);
+  return std::string(cameraVerdictName(c.verdict)) + " " + formatFixed(c.moved_m.norm() * 1000, 0) +
+         " mm " + formatFixed(c.rotated_deg, 2) + " deg";
+}
+
+}  // namespace
+
 void CameraTable::refresh() {
   DeleteAllItems();
   labels_.clear();
   if (!index_) return;
   std::vector<Row> rows;
-  for (const auto& summary : index_->cameraSummaries()) rows.push_back(rowOf(summary));
-  const int column = std::clamp(sort_column_, 0, kColumns - 1);
-  const bool numeric = column >= 1 && column <= 5;
+  for (const auto& summary : index_->cameraSummaries()) {
+    rows.push_back(rowOf(summary));
+    if (!check_) continue;
+    for (const CameraCheck& c : check_->cameras) {
+      if (c.label != summary.label) continue;
+      rows.back().cells[8] = sinceRecord(c);
+      rows.back().sort_keys[8] = c.position_chi2;
+      rows.back().moved = c.verdict == CameraVerdict::kMoved;
+    }
+  }
+  const int column = kShown[std::clamp(sort_column_, 0, kColumns - 1)];
+  const bool numeric = (column >= 1 && column <= 5) || column == 8;
   std::stable_sort(rows.begin(), rows.end(), [&](const Row& a, const Row& b) {
     const bool less =
         numeric ? a.sort_keys[column] < b.sort_keys[column] : a.cells[column] < b.cells[column];
@@ -132,8 +161,9 @@ void CameraTable::refresh() {
   });
   for (const auto& r : rows) {
     const long i = InsertItem(GetItemCount(), wxString::FromUTF8(r.cells[0]));
-    for (int c = 1; c < kColumns; ++c) SetItem(i, c, wxString::FromUTF8(r.cells[c]));
+    for (int c = 1; c < kColumns; ++c) SetItem(i, c, wxString::FromUTF8(r.cells[kShown[c]]));
     if (r.warn) SetItemTextColour(i, wxColour(190, 90, 0));
+    if (r.moved) SetItemTextColour(i, wxColour(200, 30, 30));
     labels_.push_back(r.label);
     if (r.label == selected_) SetItemState(i, wxLIST_STATE_SELECTED, wxLIST_STATE_SELECTED);
   }

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "lookboth/registration/facility_check.h"
 #include "lookboth/registration/registration.h"
 #include "lookboth/studio/dataset_index.h"
 
@@ -25,6 +26,9 @@ class CameraTable : public wxListCtrl {
   void show(std::shared_ptr<const studio::DatasetIndex> index,
             std::shared_ptr<const Registration> registration);
   void setSelected(const std::string& label);
+  /// The registration checked against the one on record (null: no check):
+  /// each camera's verdict in the last column, moved ones in red.
+  void showCheck(std::shared_ptr<const FacilityCheck> check);
 
  private:
   struct Row;
@@ -34,6 +38,7 @@ class CameraTable : public wxListCtrl {
   std::function<void(const std::string&)> on_select_;
   std::shared_ptr<const studio::DatasetIndex> index_;
   std::shared_ptr<const Registration> registration_;
+  std::shared_ptr<const FacilityCheck> check_;
   std::vector<std::string> labels_;  ///< The camera of each row, in the order shown.
   std::string selected_;
   int sort_column_ = 0;

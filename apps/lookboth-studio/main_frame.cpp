@@ -68,6 +68,7 @@ enum MenuId {
   kIdExportFormatLast = kIdExportFormatFirst + 8,
   kIdAlignFloor,
   kIdAlignControlPoints,
+  kIdCheckAgainst,
   kIdViewShotFirst,  // one per view: scene, fisheye, camera, table
   kIdViewShotLast = kIdViewShotFirst + 3,
   kIdCycleOverlay,
@@ -241,6 +242,8 @@ wxMenu* MainFrame::buildFileMenu() {
   site->Append(kIdAlignControlPoints, "In the &site frame (control points)...",
                "Write the registration in the frame of surveyed camera positions (CSV)");
   file->AppendSubMenu(site, "Site &frame");
+  file->Append(kIdCheckAgainst, "&Check against the record...",
+               "Which cameras moved since the registration on record (lookboth check)");
   file->AppendSeparator();
   file->Append(kIdScreenshot, "Save &screenshot of the window...\tCtrl+Shift+S",
                "Save a PNG of the window");
@@ -349,6 +352,7 @@ void MainFrame::bindMenus() {
     on(kIdExportFormatFirst + static_cast<int>(i), [this, name] { chooseAndExportFormats(name); });
   }
   on(kIdAlignFloor, [this] { chooseAndAlign(true); });
+  on(kIdCheckAgainst, [this] { chooseAndCheck(); });
   on(kIdAlignControlPoints, [this] { chooseAndAlign(false); });
   on(kIdCycleOverlay, [this] { views_->cycleOverlay(); });
   on(kIdLoadCalibration, [this] { chooseAndLoadCalibration(); });
@@ -616,6 +620,7 @@ void MainFrame::refreshSteps() {
   }
   GetMenuBar()->Enable(kIdAlignFloor, idle && registration_ != nullptr);
   GetMenuBar()->Enable(kIdAlignControlPoints, idle && registration_ != nullptr);
+  GetMenuBar()->Enable(kIdCheckAgainst, idle && registration_ != nullptr);
 }
 
 void MainFrame::validateSettings() {
@@ -721,6 +726,7 @@ void MainFrame::registrationReady(std::shared_ptr<const Registration> registrati
   registration_view_ = std::make_shared<const report::RegistrationView>(
       report::viewOfRegistration(*registration_, "registration"));
   rays_ = std::move(rays);
+  table_->showCheck(nullptr);  // a check was of the registration before this one
   // Stage by stage, the same messages come again: each is logged once.
   auto once = [this](const std::string& line) {
     if (logged_.insert(line).second) log("  " + wxString::FromUTF8(line));
@@ -847,6 +853,40 @@ void MainFrame::alignToFloor(const std::string& dir) {
   } catch (const std::exception& e) {
     fail(wxString::FromUTF8(e.what()), "Not aligned");
   }
+}
+
+void MainFrame::checkAgainst(const std::string& record) {
+  if (!registration_) {
+    fail("no registration yet: run the stages first", "Not checked");
+    return;
+  }
+  try {
+    auto check = std::make_shared<const FacilityCheck>(
+        checkFacility(*registration_, loadRegistration(record)));
+    log(wxString::Format("check against %s: %d moved, %d unchanged, %d not seen, %d new",
+                         wxString::FromUTF8(record), check->moved, check->unchanged,
+                         check->not_seen, check->added));
+    for (const CameraCheck& c : check->cameras) {
+      if (c.verdict != CameraVerdict::kMoved) continue;
+      log(wxString::FromUTF8("  " + c.label + " moved " + formatFixed(c.moved_m.norm() * 1000, 1) +
+                             " mm, " + formatFixed(c.rotated_deg, 3) + " deg"));
+    }
+    SetStatusText(wxString::Format("%d camera(s) moved since the record", check->moved), 1);
+    table_->showCheck(std::move(check));
+  } catch (const std::exception& e) {
+    fail(wxString::FromUTF8(e.what()), "Not checked");
+  }
+}
+
+void MainFrame::chooseAndCheck() {
+  if (!registration_) {
+    fail("no registration yet: run the stages first", "Not checked");
+    return;
+  }
+  wxDirDialog dialog(this, "The registration on record (a registration folder)", "",
+                     wxDD_DEFAULT_STYLE | wxDD_DIR_MUST_EXIST);
+  if (dialog.ShowModal() != wxID_OK) return;
+  checkAgainst(dialog.GetPath().ToStdString());
 }
 
 void MainFrame::chooseAndAlign(bool floor) {

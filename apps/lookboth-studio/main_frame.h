@@ -124,6 +124,8 @@ class MainFrame : public wxFrame, private studio::ScriptedStartup::Target {
   void show(int overlay_mode, const std::string& camera, int frame) override;
   void exportRegistration(const std::string& dir) override;
   void alignToFloor(const std::string& dir) override;
+  void checkAgainst(const std::string& record) override;
+  void chooseAndCheck();
   void exportFormats(const std::string& formats, const std::string& dir) override;
   void writeAligned(const AlignedRegistration& aligned, const std::string& dir);
   void exportReport(const std::string& path) override;

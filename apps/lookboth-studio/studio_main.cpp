@@ -1,7 +1,7 @@
 // lookboth-studio: the desktop app for calibration technicians. Usage:
 //   lookboth-studio [dataset] [--simulate small] [--run-all | --run-until look_down]
 //                   [--select cam03] [--frame N] [--overlay before|after|both]
-//                   [--export-registration dir] [--align-floor dir]
+//                   [--export-registration dir] [--align-floor dir] [--check-against dir]
 //                   [--export-formats colmap,ros=dir] [--export-report report.html]
 //                   [--screenshot out.png] [--exit]
 // The options let tests and demos drive the same code paths a click uses.
@@ -70,6 +70,9 @@ class StudioApp : public wxApp {
     parser.AddOption("", "export-registration", "write the registration files into this folder");
     parser.AddOption("", "align-floor",
                      "write the registration in its floor frame into this folder");
+    parser.AddOption("", "check-against",
+                     "check the registration against the one on record in this folder (which "
+                     "cameras moved)");
     parser.AddOption("", "export-formats",
                      "FORMATS=DIR: export for other systems (colmap, json, opencv, ros, mrpt, "
                      "all) into this folder");
@@ -111,6 +114,7 @@ class StudioApp : public wxApp {
     if (parser.Found("export-registration", &text))
       actions_.export_registration = text.ToStdString();
     if (parser.Found("align-floor", &text)) actions_.align_floor = text.ToStdString();
+    if (parser.Found("check-against", &text)) actions_.check_against = text.ToStdString();
     if (parser.Found("export-formats", &text)) {
       const std::string value = text.ToStdString();
       const auto equals = value.find('=');

@@ -81,6 +81,7 @@ bool ScriptedStartup::showStep() {
   if (!actions_.export_registration.empty())
     target_.exportRegistration(actions_.export_registration);
   if (!actions_.align_floor.empty()) target_.alignToFloor(actions_.align_floor);
+  if (!actions_.check_against.empty()) target_.checkAgainst(actions_.check_against);
   if (!actions_.export_formats.empty()) {
     target_.exportFormats(actions_.export_formats, actions_.export_formats_dir);
   }

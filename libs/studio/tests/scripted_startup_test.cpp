@@ -46,6 +46,7 @@ class RecordingTarget : public ScriptedStartup::Target {
   }
   void exportRegistration(const std::string& d) override { calls.push_back("registration " + d); }
   void alignToFloor(const std::string& d) override { calls.push_back("floor " + d); }
+  void checkAgainst(const std::string& d) override { calls.push_back("check " + d); }
   void exportFormats(const std::string& f, const std::string& d) override {
     calls.push_back("export " + f + " " + d);
   }
@@ -85,17 +86,24 @@ TEST(ScriptedStartup, EveryActionInOrderEachAfterTheOneBefore) {
   a.frame = 12;
   a.export_registration = "reg";
   a.align_floor = "reg_floor";
+  a.check_against = "record";
   a.export_formats = "colmap,ros";
   a.export_formats_dir = "exports";
   a.export_report = "r.html";
   a.screenshot = "s.png";
   a.exit = true;
   RecordingTarget target;
-  const std::vector<std::string> expected = {
-      "simulate small",     "calibration cam00=a.yaml",  "calibration cam01=b.yaml",
-      "run through 2",      "show 1 'cam03' 12",         "registration reg",
-      "floor reg_floor",    "export colmap,ros exports", "report r.html",
-      "finish 's.png' exit"};
+  const std::vector<std::string> expected = {"simulate small",
+                                             "calibration cam00=a.yaml",
+                                             "calibration cam01=b.yaml",
+                                             "run through 2",
+                                             "show 1 'cam03' 12",
+                                             "registration reg",
+                                             "floor reg_floor",
+                                             "check record",
+                                             "export colmap,ros exports",
+                                             "report r.html",
+                                             "finish 's.png' exit"};
   EXPECT_EQ(runScript(a, target), expected);
 }
 

@@ -33,6 +33,8 @@ struct StartupActions {
   std::string export_registration;  ///< Write the registration files into this folder.
   /// Write the registration re-expressed in its floor frame into this folder.
   std::string align_floor;
+  /// Check the registration against the one on record in this folder (which cameras moved).
+  std::string check_against;
   /// Export for other systems: formats ("colmap,ros", "all") and the folder.
   std::string export_formats;
   std::string export_formats_dir;
@@ -69,6 +71,7 @@ class ScriptedStartup {
     virtual void show(int overlay_mode, const std::string& camera, int frame) = 0;
     virtual void exportRegistration(const std::string& dir) = 0;
     virtual void alignToFloor(const std::string& dir) = 0;
+    virtual void checkAgainst(const std::string& record) = 0;
     virtual void exportFormats(const std::string& formats, const std::string& dir) = 0;
     virtual void exportReport(const std::string& path) = 0;  ///< Async.
     /// The last action: a screenshot ("" none), then quit when `exit`.
