@@ -1,6 +1,16 @@
-// The ROS 2 message definitions the benchmark and demo recordings use, as
-// rosbag2 stores them in an MCAP schema (the type, then each dependency after
-// a line of '='), for @foxglove/rosmsg2-serialization.
+// Shared by the benchmark's and the demo's recording writers: the ROS 2
+// message definitions they use, as rosbag2 stores them in an MCAP schema (the
+// type, then each dependency after a line of '='), for
+// @foxglove/rosmsg2-serialization; and a file sink for @mcap/core's writer
+// that streams (a recording need not fit in memory).
+import fs from "node:fs";
+
+export class FileSink {
+  constructor(file) { this.fd = fs.openSync(file, "w"); this.length = 0n; }
+  async write(buffer) { fs.writeSync(this.fd, buffer); this.length += BigInt(buffer.byteLength); }
+  position() { return this.length; }
+}
+
 export const SEP = "=".repeat(80);
 export const DEFS = {
   "builtin_interfaces/Time": "int32 sec\nuint32 nanosec",

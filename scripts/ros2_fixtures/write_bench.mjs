@@ -14,7 +14,7 @@ import zstd from "@foxglove/wasm-zstd";
 import jpeg from "jpeg-js";
 import fs from "node:fs";
 import path from "node:path";
-import { schemaText } from "./ros2_schemas.mjs";
+import { FileSink, schemaText } from "./ros2_schemas.mjs";
 
 const [out, name, seconds] = [process.argv[2], process.argv[3], Number(process.argv[4])];
 const TOPICS = [
@@ -55,12 +55,6 @@ const mono = Buffer.alloc(MW * MH * 2);
 for (let i = 0; i < mono.length; i++) mono[i] = clamp(texture(i % MW, Math.floor(i / MW), 0) + (rnd() - 128) / 16);
 const monoFrame = (k) => mono.subarray((k * 6133) % (MW * MH), (k * 6133) % (MW * MH) + MW * MH);
 
-// A streaming sink (the recording does not fit comfortably in memory).
-class FileSink {
-  constructor(file) { this.fd = fs.openSync(file, "w"); this.length = 0n; }
-  async write(buffer) { fs.writeSync(this.fd, buffer); this.length += BigInt(buffer.byteLength); }
-  position() { return this.length; }
-}
 async function openMcap(file, options) {
   const sink = new FileSink(path.join(out, file));
   const writer = new McapWriter({ writable: sink, chunkSize: 768 * 1024, ...options });

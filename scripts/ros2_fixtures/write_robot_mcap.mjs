@@ -12,7 +12,7 @@ import { MessageWriter } from "@foxglove/rosmsg2-serialization";
 import zstd from "@foxglove/wasm-zstd";
 import fs from "node:fs";
 import path from "node:path";
-import { schemaText } from "./ros2_schemas.mjs";
+import { FileSink, schemaText } from "./ros2_schemas.mjs";
 
 const [dataset, out] = [process.argv[2], process.argv[3]];
 const TOPICS = [
@@ -40,11 +40,6 @@ for (const line of rows(path.join(dataset, "odometry/trajectory.tum"))) {
 }
 records.sort((a, b) => (a.t < b.t ? -1 : a.t > b.t ? 1 : a.topic - b.topic));
 
-class FileSink {
-  constructor(file) { this.fd = fs.openSync(file, "w"); this.length = 0n; }
-  async write(buffer) { fs.writeSync(this.fd, buffer); this.length += BigInt(buffer.byteLength); }
-  position() { return this.length; }
-}
 await zstd.isLoaded;
 const sink = new FileSink(out);
 const writer = new McapWriter({ writable: sink, chunkSize: 768 * 1024,

@@ -551,6 +551,16 @@ Rigid3d poseFromRos(const geometry_msgs::Pose& pose) {
   return Rigid3d(q, Eigen::Vector3d(p.x, p.y, p.z));
 }
 
+/// A transform's parent_from_child as a pose (of the child in the parent).
+geometry_msgs::Pose poseOfTransform(const geometry_msgs::TransformStamped& transform) {
+  geometry_msgs::Pose pose;
+  pose.position.x = transform.transform.translation.x;
+  pose.position.y = transform.transform.translation.y;
+  pose.position.z = transform.transform.translation.z;
+  pose.orientation = transform.transform.rotation;
+  return pose;
+}
+
 /// The static transforms of /tf_static (the robot's mounts): each frame's
 /// parent and parent_from_child, and any two connected frames' a_from_b.
 class StaticFrames {
@@ -808,23 +818,33 @@ class Importer {
       CameraState& state = cameras_.at(plan.label);
       if (state.from_file) continue;
       TopicPlan probe = plan;
-      try {
-        source_->forEach({topic}, [&](const bag::BagMessage& message) {
-          ++probe.messages;
-          const auto msg = decode(probe, [&] { return message.cameraInfo(); });
-          if (std::optional<Camera> camera = convertInfo(probe, msg)) {
-            state.camera = std::move(camera);
-            state.calibration_source = "CameraInfo on " + topic;
-            return false;
-          }
-          return true;
-        });
-      } catch (const Error&) {
-        throw;
-      } catch (const std::exception& e) {
-        throw Error(bagContext(), "cannot read the bag (topic " + topic + ", message " +
-                                      std::to_string(probe.messages + 1) + "): " + e.what());
-      }
+      readTopic(probe, [&](const bag::BagMessage& message) {
+        const auto msg = decode(probe, [&] { return message.cameraInfo(); });
+        if (std::optional<Camera> camera = convertInfo(probe, msg)) {
+          state.camera = std::move(camera);
+          state.calibration_source = "CameraInfo on " + topic;
+          return false;
+        }
+        return true;
+      });
+    }
+  }
+
+  /// Reads `probe`'s topic ahead of the import, message by message while
+  /// `visit` returns true; a reader's failure becomes an error naming the message.
+  template <typename Visit>
+  void readTopic(TopicPlan& probe, Visit&& visit) {
+    const std::string& topic = probe.mapping.topic;
+    try {
+      source_->forEach({topic}, [&](const bag::BagMessage& message) {
+        ++probe.messages;
+        return visit(message);
+      });
+    } catch (const Error&) {
+      throw;
+    } catch (const std::exception& e) {
+      throw Error(bagContext(), "cannot read the bag (topic " + topic + ", message " +
+                                    std::to_string(probe.messages + 1) + "): " + e.what());
     }
   }
 
@@ -842,31 +862,18 @@ class Importer {
     }
     TopicPlan probe;
     probe.mapping.topic = topic;
-    try {
-      source_->forEach({topic}, [&](const bag::BagMessage& message) {
-        ++probe.messages;
-        for (const geometry_msgs::TransformStamped& transform :
-             decode(probe, [&] { return message.transforms(); })) {
-          geometry_msgs::Pose pose;
-          pose.position.x = transform.transform.translation.x;
-          pose.position.y = transform.transform.translation.y;
-          pose.position.z = transform.transform.translation.z;
-          pose.orientation = transform.transform.rotation;
-          try {
-            static_frames_.add(transform.header.frame_id, transform.child_frame_id,
-                               poseFromRos(pose));
-          } catch (const Problem& problem) {
-            fail(probe, problem.why);
-          }
+    readTopic(probe, [&](const bag::BagMessage& message) {
+      for (const geometry_msgs::TransformStamped& transform :
+           decode(probe, [&] { return message.transforms(); })) {
+        try {
+          static_frames_.add(transform.header.frame_id, transform.child_frame_id,
+                             poseFromRos(poseOfTransform(transform)));
+        } catch (const Problem& problem) {
+          fail(probe, problem.why);
         }
-        return true;
-      });
-    } catch (const Error&) {
-      throw;
-    } catch (const std::exception& e) {
-      throw Error(bagContext(), "cannot read the bag (topic " + topic + ", message " +
-                                    std::to_string(probe.messages + 1) + "): " + e.what());
-    }
+      }
+      return true;
+    });
   }
 
   /// Cameras with no calibration at all (no usable CameraInfo, no file).
@@ -1121,12 +1128,8 @@ class Importer {
         plan.parent_mismatch_warned = true;
         continue;
       }
-      geometry_msgs::Pose pose;
-      pose.position.x = transform.transform.translation.x;
-      pose.position.y = transform.transform.translation.y;
-      pose.position.z = transform.transform.translation.z;
-      pose.orientation = transform.transform.rotation;
-      writePose(message, plan, writer, transform.header.stamp, pose, transform.child_frame_id);
+      writePose(message, plan, writer, transform.header.stamp, poseOfTransform(transform),
+                transform.child_frame_id);
     }
   }
 
