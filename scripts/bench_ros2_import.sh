@@ -31,13 +31,9 @@ for len in short long; do
   rm "$work/bags/$len.msgs"
 done
 
-# Timings mean little while other jobs run: wait (at most 20 min) for a quiet machine.
-load() { cut -d' ' -f1 /proc/loadavg; }
-for ((i = 0; i < 40; i++)); do
-  awk -v l="$(load)" 'BEGIN { exit !(l < 1.0) }' && break
-  sleep 30
-done
-echo "load average (1 min) before the timed runs: $(load)"
+# shellcheck source=bench_common.sh
+source "$here/bench_common.sh"
+wait_for_quiet_machine
 
 # run NAME CMD...: wall ms (ns clock) and peak RSS (KB, /usr/bin/time -v) of CMD.
 run() {

@@ -45,13 +45,9 @@ seconds=$(awk -v n="$frames" 'BEGIN { printf "%.1f", n / 30 }')
 mb=$(du -m "$work/video/cameras/cam00/video.mp4" | cut -f1)
 png_mb=$(du -sm "$work/png/cameras/cam00/frames" | cut -f1)
 
-# Timings mean little while other jobs run: wait (at most 20 min) for a quiet machine.
-load() { cut -d' ' -f1 /proc/loadavg; }
-for ((i = 0; i < 40; i++)); do
-  awk -v l="$(load)" 'BEGIN { exit !(l < 1.0) }' && break
-  sleep 30
-done
-echo "load average (1 min) before the timed runs: $(load)"
+# shellcheck source=bench_common.sh
+source "$here/bench_common.sh"
+wait_for_quiet_machine
 
 run() {  # run NAME CMD...: wall ms of CMD, pinned to one core
   local name=$1; shift

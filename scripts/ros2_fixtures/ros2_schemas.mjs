@@ -1,8 +1,9 @@
 // Shared by the benchmark's and the demo's recording writers: the ROS 2
 // message definitions they use, as rosbag2 stores them in an MCAP schema (the
 // type, then each dependency after a line of '='), for
-// @foxglove/rosmsg2-serialization; and a file sink for @mcap/core's writer
-// that streams (a recording need not fit in memory).
+// @foxglove/rosmsg2-serialization; and an MCAP file opened as rosbag2 writes
+// one, streamed to disk (a recording need not fit in memory).
+import { McapWriter } from "@mcap/core";
 import fs from "node:fs";
 
 export class FileSink {
@@ -32,3 +33,19 @@ export const DEPS = {
   "nav_msgs/Odometry": ["std_msgs/Header", "builtin_interfaces/Time", "geometry_msgs/PoseWithCovariance", "geometry_msgs/Pose", "geometry_msgs/Point", "geometry_msgs/Quaternion", "geometry_msgs/TwistWithCovariance", "geometry_msgs/Twist", "geometry_msgs/Vector3"],
 };
 export const schemaText = (t) => [DEFS[t], ...DEPS[t].map((d) => `${SEP}\nMSG: ${d}\n${DEFS[d]}`)].join("\n") + "\n";
+
+/// Opens `file` as a rosbag2 MCAP (768 KiB chunks; `options` adds e.g. chunk
+/// compression) with one channel per [topic, type] of `topics`, in that order.
+export async function openRos2Mcap(file, topics, library, options = {}) {
+  const sink = new FileSink(file);
+  const writer = new McapWriter({ writable: sink, chunkSize: 768 * 1024, ...options });
+  await writer.start({ profile: "ros2", library });
+  const channels = [];
+  for (const [topic, type] of topics) {
+    const schemaId = await writer.registerSchema({ name: type.replace("/", "/msg/"), encoding: "ros2msg",
+      data: new TextEncoder().encode(schemaText(type)) });
+    channels.push(await writer.registerChannel({ topic, schemaId, messageEncoding: "cdr",
+      metadata: new Map([["offered_qos_profiles", ""]]) }));
+  }
+  return { writer, sink, channels };
+}

@@ -7,14 +7,13 @@
 // (u8 topic, u64 log time, u32 size, bytes) for write_bench_db3.py.
 // Topics: /fisheye/image/compressed (1280x720 JPEG, ~300 KB, 20 Hz),
 // /cam/image_raw (640x480 mono8, 20 Hz), /odom (nav_msgs/Odometry, 100 Hz).
-import { McapWriter } from "@mcap/core";
 import { parse } from "@foxglove/rosmsg";
 import { MessageWriter } from "@foxglove/rosmsg2-serialization";
 import zstd from "@foxglove/wasm-zstd";
 import jpeg from "jpeg-js";
 import fs from "node:fs";
 import path from "node:path";
-import { FileSink, schemaText } from "./ros2_schemas.mjs";
+import { openRos2Mcap, schemaText } from "./ros2_schemas.mjs";
 
 const [out, name, seconds] = [process.argv[2], process.argv[3], Number(process.argv[4])];
 const TOPICS = [
@@ -55,19 +54,8 @@ const mono = Buffer.alloc(MW * MH * 2);
 for (let i = 0; i < mono.length; i++) mono[i] = clamp(texture(i % MW, Math.floor(i / MW), 0) + (rnd() - 128) / 16);
 const monoFrame = (k) => mono.subarray((k * 6133) % (MW * MH), (k * 6133) % (MW * MH) + MW * MH);
 
-async function openMcap(file, options) {
-  const sink = new FileSink(path.join(out, file));
-  const writer = new McapWriter({ writable: sink, chunkSize: 768 * 1024, ...options });
-  await writer.start({ profile: "ros2", library: "lookboth bench_ros2_import (@mcap/core)" });
-  const channels = [];
-  for (const [topic, type] of TOPICS) {
-    const schemaId = await writer.registerSchema({ name: type.replace("/", "/msg/"), encoding: "ros2msg",
-      data: new TextEncoder().encode(schemaText(type)) });
-    channels.push(await writer.registerChannel({ topic, schemaId, messageEncoding: "cdr",
-      metadata: new Map([["offered_qos_profiles", ""]]) }));
-  }
-  return { writer, sink, channels };
-}
+const openMcap = (file, options) =>
+  openRos2Mcap(path.join(out, file), TOPICS, "lookboth bench_ros2_import (@mcap/core)", options);
 
 await zstd.isLoaded;
 const mcaps = [

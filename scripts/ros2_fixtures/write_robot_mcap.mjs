@@ -6,13 +6,12 @@
 // each stamped with its dataset time and logged 5 ms later. For
 // scripts/demo_ros2_video.sh. Usage:
 //   node write_robot_mcap.mjs <dataset folder> <out.mcap>
-import { McapWriter } from "@mcap/core";
 import { parse } from "@foxglove/rosmsg";
 import { MessageWriter } from "@foxglove/rosmsg2-serialization";
 import zstd from "@foxglove/wasm-zstd";
 import fs from "node:fs";
 import path from "node:path";
-import { FileSink, schemaText } from "./ros2_schemas.mjs";
+import { openRos2Mcap, schemaText } from "./ros2_schemas.mjs";
 
 const [dataset, out] = [process.argv[2], process.argv[3]];
 const TOPICS = [
@@ -41,17 +40,8 @@ for (const line of rows(path.join(dataset, "odometry/trajectory.tum"))) {
 records.sort((a, b) => (a.t < b.t ? -1 : a.t > b.t ? 1 : a.topic - b.topic));
 
 await zstd.isLoaded;
-const sink = new FileSink(out);
-const writer = new McapWriter({ writable: sink, chunkSize: 768 * 1024,
-  compressChunk: (d) => ({ compression: "zstd", compressedData: zstd.compress(d, 3) }) });
-await writer.start({ profile: "ros2", library: "lookboth demo_ros2_video (@mcap/core)" });
-const channels = [];
-for (const [topic, type] of TOPICS) {
-  const schemaId = await writer.registerSchema({ name: type.replace("/", "/msg/"), encoding: "ros2msg",
-    data: new TextEncoder().encode(schemaText(type)) });
-  channels.push(await writer.registerChannel({ topic, schemaId, messageEncoding: "cdr",
-    metadata: new Map([["offered_qos_profiles", ""]]) }));
-}
+const { writer, sink, channels } = await openRos2Mcap(out, TOPICS, "lookboth demo_ros2_video (@mcap/core)",
+  { compressChunk: (d) => ({ compression: "zstd", compressedData: zstd.compress(d, 3) }) });
 const stamp = (ns) => ({ sec: Number(ns / 1000000000n), nanosec: Number(ns % 1000000000n) });
 const zeros = Array(36).fill(0);
 let sequence = 0;

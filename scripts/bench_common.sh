@@ -1,0 +1,14 @@
+# Sourced by the timed benchmark scripts (scripts/bench_*.sh).
+
+# The 1-minute load average.
+load() { cut -d' ' -f1 /proc/loadavg; }
+
+# Timings mean little while other jobs run: waits (at most 20 min) for a
+# quiet machine, then says how loaded it was.
+wait_for_quiet_machine() {
+  for ((i = 0; i < 40; i++)); do
+    awk -v l="$(load)" 'BEGIN { exit !(l < 1.0) }' && break
+    sleep 30
+  done
+  echo "load average (1 min) before the timed runs: $(load)"
+}
