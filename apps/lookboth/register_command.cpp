@@ -70,6 +70,7 @@ int runRegister(const RegisterArgs& args) {
     for (const auto& step : result.steps) std::cout << step << "\n";
     const RegistrationRun& run = result.run;
     std::cout << registrationSummary(run.registration, args.verbose);
+    std::cout << describeTimes(result) << "\n";
     std::cout << "wrote " << args.out << "\n";
     if (run.registration.registeredCount() == 0) {
       std::cerr << "lookboth: no camera could be registered\n";

@@ -73,6 +73,7 @@ guide)
   expect "^detect: [0-9]+ marker detections, [0-9]+ fisheye frames with blobs added to site" out.log
   expect "^odometry: [0-9]+ poses added as trajectory 'vo' to site" out.log
   expect "registered 6 of 6 cameras" out.log
+  expect "^run time: detect [0-9.]+ s, odometry [0-9.]+ s, stages [0-9.]+ s, output [0-9.]+ s; [0-9.]+ s in all, [0-9.]+x the drive \(36\.[0-9] s\)" out.log
   expect "^warnings: none" out.log
   expect "Verdict: ok" site_report.html
   ;;

@@ -3,8 +3,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 
 #include "lookboth/core/error.h"
+#include "lookboth/core/text.h"
 #include "lookboth/dataset/dataset_io.h"
 #include "lookboth/detect/detect_dataset.h"
 #include "lookboth/vo/run.h"
@@ -99,6 +101,9 @@ DatasetContents inspectDataset(const std::filesystem::path& dataset,
   std::int64_t n = 0;
   const std::int64_t expected = std::max<std::int64_t>(reader->expectedCount(), 0);
   while (auto record = reader->next()) {
+    const TimeNs t = recordTime(*record);
+    contents.first = n == 0 ? t : std::min(contents.first, t);
+    contents.last = n == 0 ? t : std::max(contents.last, t);
     if (const auto* frame = std::get_if<ImageFrame>(&*record)) {
       if (fisheye && frame->sensor == fisheye->label) {
         ++contents.fisheye_frames;
@@ -329,6 +334,7 @@ StepOutcome RegistrationPipeline::runNext(const ProgressReporter& progress) {
   if (finished()) throw Error("the pipeline has run every step");
   if (!prepared_) prepare(progress);
   const std::string& name = steps_[next_];
+  const auto started = std::chrono::steady_clock::now();
   StepOutcome outcome;
   if (next_ == 0) {
     outcome = detect(progress);
@@ -344,6 +350,8 @@ StepOutcome RegistrationPipeline::runNext(const ProgressReporter& progress) {
   if (name == "detect" || name == "odometry" || next_ + 1 == steps_.size()) {
     lines_.push_back(outcome.summary);
   }
+  times_.push_back(
+      {name, std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count()});
   ++next_;
   return outcome;
 }
@@ -361,7 +369,32 @@ FullPipelineResult RegistrationPipeline::run(const ProgressReporter& progress) {
   FullPipelineResult result;
   result.steps = lines_;
   result.run = state_->session->current();
+  result.times = times_;
+  result.drive_seconds = static_cast<double>(state_->contents.last - state_->contents.first) * 1e-9;
   return result;
+}
+
+std::string describeTimes(const FullPipelineResult& result) {
+  // The stages are quick next to detection and odometry: one figure for them.
+  double total = 0, stages = 0;
+  std::string text = "run time:";
+  for (const StepTime& step : result.times) {
+    total += step.seconds;
+    const bool stage = step.step != "detect" && step.step != "odometry" && step.step != "output";
+    if (stage) {
+      stages += step.seconds;
+      continue;
+    }
+    if (step.step == "output") text += " stages " + formatFixed(stages, 1) + " s,";
+    text += " " + step.step + " " + formatFixed(step.seconds, 1) + " s" +
+            (step.step == "output" ? ";" : ",");
+  }
+  text += " " + formatFixed(total, 1) + " s in all";
+  if (result.drive_seconds > 0) {
+    text += ", " + formatFixed(total / result.drive_seconds, 2) + "x the drive (" +
+            formatFixed(result.drive_seconds, 1) + " s)";
+  }
+  return text;
 }
 
 FullPipelineResult runFullPipeline(const FullPipelineOptions& options,

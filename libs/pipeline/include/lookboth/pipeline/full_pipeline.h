@@ -58,6 +58,8 @@ struct DatasetContents {
   std::int64_t markers = 0;
   std::int64_t blob_records = 0;
   std::vector<TrajectoryInfo> trajectories;  ///< As the manifest describes them.
+  /// The recording's span: its earliest and latest record [ns]; equal when empty.
+  TimeNs first = 0, last = 0;
   bool hasTrajectory(const std::string& label) const;
 };
 DatasetContents inspectDataset(const std::filesystem::path& dataset,
@@ -104,10 +106,22 @@ StepOutcome runOdometryStep(const FullPipelineOptions& options,
                             const ProgressReporter& progress,
                             const std::filesystem::path& out = {});
 
+/// How long a step of the pipeline took (wall clock).
+struct StepTime {
+  std::string step;  ///< "detect", "odometry", a stage's name, "output".
+  double seconds = 0;
+};
+
 struct FullPipelineResult {
   std::vector<std::string> steps;  ///< One line per step run or skipped, and why.
   RegistrationRun run;
+  std::vector<StepTime> times;  ///< Every step, in order (a skipped one takes next to nothing).
+  double drive_seconds = 0;     ///< The recording's span (DatasetContents first to last).
 };
+
+/// "run time: detect 12.3 s, odometry 8.1 s, stages 0.9 s, output 0.2 s; 21.5 s in all, 0.59x the
+/// drive (36.3 s)": how the work compares with the recording it processed.
+std::string describeTimes(const FullPipelineResult& result);
 
 /// The steps above as one controller, for the command line (run) and the
 /// desktop app (runNext, one step per job): "detect", "odometry", each
@@ -124,6 +138,8 @@ class RegistrationPipeline {
   RegistrationPipeline(RegistrationPipeline&&) noexcept;
 
   const std::vector<std::string>& steps() const { return steps_; }
+  /// The steps run so far and how long each took.
+  const std::vector<StepTime>& times() const { return times_; }
   std::size_t stepsRun() const { return next_; }
   bool finished() const { return next_ >= steps_.size(); }
   /// Runs the next step (the first also inspects the dataset and chooses
@@ -149,6 +165,7 @@ class RegistrationPipeline {
   std::unique_ptr<State> state_;
   std::vector<std::string> steps_;
   std::vector<std::string> lines_;  ///< What each step did, for FullPipelineResult::steps.
+  std::vector<StepTime> times_;
   std::size_t next_ = 0;
   bool prepared_ = false;
 };
