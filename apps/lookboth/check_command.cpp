@@ -64,6 +64,15 @@ int runCheck(const CheckArgs& args) {
 
 }  // namespace
 
+void addMoveTolerances(CLI::App* cmd, FacilityCheckOptions& options, const std::string& when) {
+  cmd->add_option("--min-move-m", options.min_position_m,
+                  when + "Smaller position changes are 'unchanged' [m]")
+      ->capture_default_str();
+  cmd->add_option("--min-turn-deg", options.min_rotation_deg,
+                  when + "Smaller rotation changes are 'unchanged' [deg]")
+      ->capture_default_str();
+}
+
 void registerCheckCommand(CLI::App& app, const std::function<void(CommandBody)>& set_body) {
   auto args = std::make_shared<CheckArgs>();
   CLI::App* cmd = app.add_subcommand(
@@ -74,12 +83,7 @@ void registerCheckCommand(CLI::App& app, const std::function<void(CommandBody)>&
   cmd->add_option("--against", args->against, "The registration on record")
       ->required()
       ->check(CLI::ExistingDirectory);
-  cmd->add_option("--min-move-m", args->options.min_position_m,
-                  "Smaller position changes are 'unchanged' [m]")
-      ->capture_default_str();
-  cmd->add_option("--min-turn-deg", args->options.min_rotation_deg,
-                  "Smaller rotation changes are 'unchanged' [deg]")
-      ->capture_default_str();
+  addMoveTolerances(cmd, args->options, "");
   cmd->add_option("--update-out", args->update_out,
                   "Write the record updated by this drive here: the moved and new cameras "
                   "re-registered, the others kept, in the record's frame");

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "lookboth/dataset/dataset_io.h"
+#include "lookboth/registration/facility_check.h"
 
 namespace lookboth::app {
 
@@ -35,6 +36,10 @@ void registerExportCommand(CLI::App& app, const std::function<void(CommandBody)>
 /// Prints an input issue on stderr: "lookboth: warning: <where>: <message>",
 /// or "lookboth: note: ..." for a note (nothing skipped).
 void printDatasetIssue(const DatasetIssue& issue);
+
+/// The tolerances of a facility check (`check`, `report --record`):
+/// --min-move-m and --min-turn-deg, their help starting with `when`.
+void addMoveTolerances(CLI::App* cmd, FacilityCheckOptions& options, const std::string& when);
 
 /// "cannot write 'path': No space left on device" for a failed file operation.
 std::string describeFilesystemError(const std::filesystem::filesystem_error& e);

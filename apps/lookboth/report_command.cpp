@@ -87,12 +87,7 @@ void registerReportCommand(CLI::App& app, const std::function<void(CommandBody)>
                   "The facility's registration on record: re-check this drive against it (which "
                   "cameras moved, as lookboth check)")
       ->check(CLI::ExistingDirectory);
-  cmd->add_option("--min-move-m", args->recheck.min_position_m,
-                  "With --record: smaller position changes are 'unchanged' [m]")
-      ->capture_default_str();
-  cmd->add_option("--min-turn-deg", args->recheck.min_rotation_deg,
-                  "With --record: smaller rotation changes are 'unchanged' [deg]")
-      ->capture_default_str();
+  addMoveTolerances(cmd, args->recheck, "With --record: ");
   cmd->add_flag("--with-scale", args->with_scale, "Align comparisons with Sim(3)");
   cmd->add_option("--frames", args->frames, "Fisheye frames shown: auto, i,j,k or t0:t1 [s]")
       ->capture_default_str();

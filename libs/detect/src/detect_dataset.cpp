@@ -303,6 +303,9 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
   // Jobs: one per environment camera, chunks of the fisheye's frames.
   std::vector<Job> jobs;
   std::int64_t total = 0;
+  const int wanted_threads =
+      options.threads > 0 ? options.threads
+                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   for (size_t c = 0; c < work.size(); ++c) {
     std::stable_sort(work[c].frames.begin(), work[c].frames.end(),
                      [](const ImageFrame& a, const ImageFrame& b) { return a.t < b.t; });
@@ -311,8 +314,7 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
     // A chunk of a video starts with a seek and decodes from the key frame
     // before it: a video's chunks are as long as the threads allow.
     const bool video = n > 0 && isVideoFrame(work[c].frames.front());
-    const size_t threads = static_cast<size_t>(
-        options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency()));
+    const size_t threads = static_cast<size_t>(wanted_threads);
     const size_t chunk = !work[c].fisheye ? std::max<size_t>(n, 1)
                          : video          ? std::max<size_t>(64, (n + threads - 1) / threads)
                                           : 64;
@@ -334,10 +336,7 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
   std::mutex error_mutex;
   std::exception_ptr error;
   const int threads = std::max(
-      1, std::min<int>(options.threads > 0
-                           ? options.threads
-                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
-                       static_cast<int>(std::max<size_t>(1, jobs.size()))));
+      1, std::min<int>(wanted_threads, static_cast<int>(std::max<size_t>(1, jobs.size()))));
   // Workers leave as soon as the stop flag is up; the loop below waits for
   // all of them (not for the job queue to drain, which never happens then).
   auto worker = [&] {
