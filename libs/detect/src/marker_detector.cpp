@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "lookboth/core/error.h"
+#include "lookboth/core/text.h"
 #include "lookboth/geometry/lie.h"
 
 namespace lookboth {
@@ -90,6 +91,63 @@ std::optional<Eigen::Matrix<double, 8, 6>> jacobian(const Camera& camera, const 
   return jac;
 }
 
+/// OpenCV's predefined dictionary a valid MarkerSpec names; throws
+/// lookboth::Error for an invalid spec.
+cv::Ptr<cv::aruco::Dictionary> predefinedDictionary(const MarkerSpec& marker) {
+  if (const std::string why = marker.check(); !why.empty()) throw Error("marker: " + why);
+  return cv::aruco::getPredefinedDictionary(arucoDictionaryId(marker.dictionary));
+}
+
+/// The fields readDictionary reads, checked first: it writes each marker's
+/// bits into a markersize^2 matrix without checking the string's length.
+void checkDictionaryNode(const cv::FileNode& root, const std::string& file) {
+  const auto fail = [&file](const std::string& field, const std::string& why) {
+    throw Error(ErrorContext{file, 0, field, ""}, why);
+  };
+  if (!root.isMap())
+    fail("", "not an ArUco dictionary (a map of nmarkers, markersize, marker_0...)");
+  const cv::FileNode count = root["nmarkers"], side = root["markersize"];
+  if (!count.isInt() || static_cast<int>(count) < 1)
+    fail("nmarkers", "missing or not a positive integer");
+  if (!side.isInt() || static_cast<int>(side) < 1)
+    fail("markersize", "missing or not a positive integer (bits per side)");
+  const size_t bits =
+      static_cast<size_t>(static_cast<int>(side)) * static_cast<size_t>(static_cast<int>(side));
+  for (int i = 0; i < static_cast<int>(count); ++i) {
+    const std::string key = "marker_" + std::to_string(i);
+    const cv::FileNode marker = root[key];
+    if (!marker.isString()) fail(key, "missing or not a string of bits");
+    const std::string value = marker.string();
+    if (value.size() != bits || value.find_first_not_of("01") != std::string::npos)
+      fail(key, "not a string of " + std::to_string(bits) + " '0'/'1' bits (markersize^2)");
+  }
+}
+
+/// A custom dictionary from an OpenCV FileStorage file; throws lookboth::Error naming the file.
+cv::Ptr<cv::aruco::Dictionary> readDictionaryFile(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  if (!std::filesystem::is_regular_file(path)) {
+    throw Error(ErrorContext{file, 0, "", ""},
+                std::string("cannot open the ArUco dictionary file: ") +
+                    (std::filesystem::exists(path) ? "not a regular file" : "no such file"));
+  }
+  cv::FileStorage storage;
+  try {
+    if (!storage.open(file, cv::FileStorage::READ))
+      throw Error(ErrorContext{file, 0, "", ""}, "cannot open the ArUco dictionary file");
+    checkDictionaryNode(storage.root(), file);
+    auto dictionary = cv::makePtr<cv::aruco::Dictionary>();
+    if (!dictionary->readDictionary(storage.root()))
+      throw Error(ErrorContext{file, 0, "", ""}, "OpenCV cannot read it as an ArUco dictionary");
+    return dictionary;
+  } catch (const cv::Exception& e) {
+    // OpenCV 4.6 puts a parse error's "file(line): reason" in `func`, the parser's name in `err`.
+    const std::string why = e.code == cv::Error::StsParseError ? e.func : e.err;
+    throw Error(ErrorContext{file, 0, "", ""},
+                "OpenCV cannot read it as an ArUco dictionary (" + why + ")");
+  }
+}
+
 }  // namespace
 
 std::string MarkerDetectorOptions::check() const {
@@ -108,9 +166,11 @@ std::string MarkerDetectorOptions::check() const {
 }
 
 struct MarkerDetector::Impl {
-  MarkerSpec marker;
+  Impl(const Camera& camera_, cv::Ptr<cv::aruco::Dictionary> dictionary_, int id_)
+      : camera(camera_), dictionary(std::move(dictionary_)), id(id_) {}
   Camera camera;
   cv::Ptr<cv::aruco::Dictionary> dictionary;
+  int id = 0;  ///< The marker's index in the dictionary.
   cv::Ptr<cv::aruco::DetectorParameters> parameters;
   int cells = 6;  ///< Marker side in cells, including the black border.
   std::array<Eigen::Vector3d, 4> object;
@@ -120,15 +180,36 @@ struct MarkerDetector::Impl {
 
 MarkerDetector::MarkerDetector(const MarkerSpec& marker, const Camera& camera,
                                const MarkerDetectorOptions& options)
-    : impl_(new Impl{marker, camera, {}, {}, 6, {}, std::nullopt, 1}), options_(options) {
-  if (const std::string why = marker.check(); !why.empty()) throw Error("marker: " + why);
+    : MarkerDetector(std::make_unique<Impl>(camera, predefinedDictionary(marker), marker.id),
+                     marker.size_m, options) {}
+
+MarkerDetector MarkerDetector::withDictionaryFile(const std::filesystem::path& dictionary_file,
+                                                  int id, double size_m, const Camera& camera,
+                                                  const MarkerDetectorOptions& options) {
+  cv::Ptr<cv::aruco::Dictionary> dictionary = readDictionaryFile(dictionary_file);
+  const int count = dictionary->bytesList.rows;
+  if (id < 0 || id >= count) {
+    throw Error(ErrorContext{dictionary_file.string(), 0, "id", ""},
+                std::to_string(id) + " is not in this dictionary (ids 0.." +
+                    std::to_string(count - 1) + ")");
+  }
+  if (!(size_m > 0) || !std::isfinite(size_m)) {
+    throw Error("marker: 'size_m': must be a positive length in metres, got " +
+                formatDouble(size_m));
+  }
+  return MarkerDetector(std::make_unique<Impl>(camera, std::move(dictionary), id), size_m, options);
+}
+
+MarkerDetector::MarkerDetector(std::unique_ptr<Impl> impl, double size_m,
+                               const MarkerDetectorOptions& options)
+    : impl_(std::move(impl)), options_(options) {
   if (const std::string why = options.check(); !why.empty()) throw Error("detect.markers: " + why);
-  impl_->dictionary = cv::aruco::getPredefinedDictionary(arucoDictionaryId(marker.dictionary));
   impl_->cells = impl_->dictionary->markerSize + 2;
   impl_->parameters = cv::aruco::DetectorParameters::create();
   impl_->parameters->cornerRefinementMethod = cv::aruco::CORNER_REFINE_NONE;
-  impl_->object = squareCorners(marker.size_m);
-  impl_->scale = options.detect_scale > 0 ? options.detect_scale : (camera.width() > 1280 ? 2 : 1);
+  impl_->object = squareCorners(size_m);
+  impl_->scale =
+      options.detect_scale > 0 ? options.detect_scale : (impl_->camera.width() > 1280 ? 2 : 1);
 }
 
 MarkerDetector::~MarkerDetector() = default;
@@ -348,7 +429,7 @@ std::vector<MarkerDetection> MarkerDetector::detect(const cv::Mat& grey) {
     std::vector<int> ids;
     cv::aruco::detectMarkers(image, impl_->dictionary, corners, ids, impl_->parameters, rejected);
     for (size_t i = 0; i < ids.size(); ++i) {
-      if (ids[i] != impl_->marker.id) continue;
+      if (ids[i] != impl_->id) continue;
       std::array<Eigen::Vector2d, 4> c;
       for (size_t k = 0; k < 4; ++k) {
         // Pixel centres: full = scale * (reduced + 0.5) - 0.5.
@@ -420,7 +501,7 @@ std::vector<MarkerDetection> MarkerDetector::detect(const cv::Mat& grey) {
       continue;
     }
     MarkerDetection detection;
-    detection.marker_id = impl_->marker.id;
+    detection.marker_id = impl_->id;
     detection.corners_px = corners;
     detection.corner_sigma_px = sigma;
     detection.hypotheses = solvePose(corners, sigma);

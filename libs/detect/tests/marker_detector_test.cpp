@@ -5,15 +5,23 @@
 #include <Eigen/Eigenvalues>
 #include <numeric>
 
+#include <unistd.h>
+#include <Eigen/Geometry>
 #include <filesystem>
+#include <fstream>
+#include <functional>
 #include <map>
 #include <opencv2/aruco.hpp>
+#include <opencv2/aruco/charuco.hpp>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <set>
 
 #include "lookboth/cameras/camera_io.h"
 #include "lookboth/core/error.h"
+#include "lookboth/core/text.h"
 #include "lookboth/dataset/marker_dictionary.h"
 #include "lookboth/detect/detection_evaluation.h"
 #include "lookboth/geometry/lie.h"
@@ -511,6 +519,73 @@ TEST(MarkerDetector, EdgeFitFailureFallsBackToOpenCvCorners) {
   EXPECT_EQ(sharp.stats().fallbacks, 0);
 }
 
+/// Text written to a file, for the dictionary file tests.
+void writeText(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
+
+// A dictionary the caller supplies in a file (OpenCV's FileStorage form)
+// works as the predefined one MarkerSpec names: DICT_4X4_50 written out by
+// OpenCV and read back finds the same marker at the same corners. A file
+// that is no such dictionary, or lacks the id, is an error naming the file.
+TEST(MarkerDetector, DictionaryFromAFile) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("lookboth_marker_dictionary_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  struct RemovedAtTheEnd {
+    std::filesystem::path path;
+    ~RemovedAtTheEnd() {
+      std::error_code ignored;
+      std::filesystem::remove_all(path, ignored);
+    }
+  } removed{dir};
+  const std::filesystem::path file = dir / "dict_4x4_50.yml";
+  {
+    auto storage = cv::makePtr<cv::FileStorage>(file.string(), cv::FileStorage::WRITE);
+    cv::aruco::getPredefinedDictionary(cv::aruco::DICT_4X4_50)->writeDictionary(storage);
+  }
+  const Camera camera(PinholeModel{}, 640, 480, {600.0, 600.0, 319.5, 239.5});
+  cv::Mat image(480, 640, CV_8UC1, cv::Scalar(255));
+  drawDecoy(image, 7, {250, 170}, 120);
+  MarkerDetectorOptions options;
+  options.max_reprojection_px = 100;  // a drawn marker: no true pose
+  MarkerDetector predefined(MarkerSpec{"DICT_4X4_50", 7, 0.2}, camera, options);
+  MarkerDetector from_file = MarkerDetector::withDictionaryFile(file, 7, 0.2, camera, options);
+  const auto expected = predefined.detect(image);
+  const auto found = from_file.detect(image);
+  ASSERT_EQ(expected.size(), 1u);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].marker_id, 7);
+  for (size_t k = 0; k < 4; ++k) EXPECT_EQ(found[0].corners_px[k], expected[0].corners_px[k]);
+  EXPECT_TRUE(MarkerDetector::withDictionaryFile(file, 3, 0.2, camera).detect(image).empty());
+
+  const auto expectError = [&](const std::filesystem::path& path, int id, const std::string& why) {
+    try {
+      MarkerDetector::withDictionaryFile(path, id, 0.2, camera);
+      ADD_FAILURE() << path << ": no error";
+    } catch (const Error& e) {
+      const std::string message = e.what();
+      EXPECT_NE(message.find(path.string()), std::string::npos) << message;
+      EXPECT_NE(message.find(why), std::string::npos) << message;
+    }
+  };
+  expectError(dir / "missing.yml", 0, "cannot open");
+  expectError(file, 50, "'id': 50 is not in this dictionary (ids 0..49)");
+  writeText(dir / "broken.yml", "%YAML:1.0\nnmarkers: [2\n");
+  expectError(dir / "broken.yml", 0, "cannot read it");
+  writeText(dir / "list.yml", "%YAML:1.0\n---\n- 1\n- 2\n");
+  expectError(dir / "list.yml", 0, "not an ArUco dictionary");
+  writeText(dir / "no_size.yml", "%YAML:1.0\nnmarkers: 1\nmarker_0: \"1001\"\n");
+  expectError(dir / "no_size.yml", 0, "'markersize'");
+  // A marker of more bits than markersize^2 (OpenCV would write past its matrix).
+  writeText(dir / "long.yml",
+            "%YAML:1.0\nnmarkers: 2\nmarkersize: 2\nmarker_0: \"1001\"\nmarker_1: \"10011\"\n");
+  expectError(dir / "long.yml", 0, "'marker_1'");
+  writeText(dir / "short.yml", "%YAML:1.0\nnmarkers: 2\nmarkersize: 2\nmarker_0: \"1001\"\n");
+  expectError(dir / "short.yml", 0, "'marker_1'");
+  EXPECT_THROW(MarkerDetector::withDictionaryFile(file, 7, 0.0, camera), Error);
+}
+
 // The ArUco photographs and pictures of Debian's opencv-doc (OpenCV's
 // tutorials): each marker plain OpenCV finds (cv::aruco::detectMarkers,
 // default parameters) in each dictionary, lookboth's detector finds too, as
@@ -562,6 +637,493 @@ TEST(MarkerDetector, FindsEveryMarkerPlainOpenCvFindsInRealPhotos) {
       "opencv-doc pictures: %d; plain OpenCV %d markers, lookboth %d of them (%d by the "
       "fallback to OpenCV's corners)\n",
       photos, opencv_total, ours_total, fallbacks);
+}
+
+// Pose consistency where a board gives the reference: each marker of a
+// board, with its place on the board, gives a pose of the whole board; the
+// markers of one photo must agree with the board's pose fitted to all of
+// them at once.
+
+/// A calibration as OpenCV's matrices (camera_matrix, distortion k1 k2 p1 p2
+/// k3) and as our radtan camera (the same model as cv::projectPoints with 5
+/// coefficients).
+struct OpenCvCalibration {
+  cv::Mat camera_matrix, distortion;
+  std::optional<Camera> camera;
+};
+
+OpenCvCalibration makeCalibration(const cv::Mat& camera_matrix, const cv::Mat& distortion,
+                                  const cv::Size& size) {
+  OpenCvCalibration out{camera_matrix.clone(), distortion.reshape(1, 1).clone(), std::nullopt};
+  const cv::Mat& k = out.camera_matrix;
+  const cv::Mat& d = out.distortion;
+  if (k.size() != cv::Size(3, 3) || k.type() != CV_64F || d.total() != 5 || d.type() != CV_64F)
+    return out;
+  out.camera.emplace(RadTanModel{}, size.width, size.height,
+                     std::vector<double>{k.at<double>(0, 0), k.at<double>(1, 1), k.at<double>(0, 2),
+                                         k.at<double>(1, 2), d.at<double>(0), d.at<double>(1),
+                                         d.at<double>(2), d.at<double>(3), d.at<double>(4)});
+  return out;
+}
+
+/// An OpenCV FileStorage calibration (camera_matrix, distortion_coefficients).
+OpenCvCalibration readOpenCvCalibration(const std::filesystem::path& path, const cv::Size& size) {
+  cv::FileStorage storage(path.string(), cv::FileStorage::READ);
+  cv::Mat k, d;
+  storage["camera_matrix"] >> k;
+  storage["distortion_coefficients"] >> d;
+  return makeCalibration(k, d, size);
+}
+
+Rigid3d rigidFromOpenCv(const cv::Vec3d& rvec, const cv::Vec3d& tvec) {
+  cv::Matx33d r;
+  cv::Rodrigues(rvec, r);
+  Eigen::Matrix3d rotation;
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) rotation(a, b) = r(a, b);
+  return Rigid3d(Eigen::Quaterniond(rotation).normalized(),
+                 Eigen::Vector3d(tvec[0], tvec[1], tvec[2]));
+}
+
+/// board_from_marker of one marker of an OpenCV board. Board::objPoints
+/// lists a marker's corners in the order detectMarkers reports them (the
+/// marker's top-left, top-right, bottom-right, bottom-left); our marker frame
+/// puts those corners at (-s/2, s/2), (s/2, s/2), (s/2, -s/2), (-s/2, -s/2)
+/// (MarkerDetection::corners_px, x right, y up, z out of the marker towards
+/// the camera), as estimatePoseSingleMarkers does by default (CCW_center).
+/// OpenCV 4.6's board frames have their origin at the first marker's
+/// top-left corner, x right, y down the board and so z into it: the marker
+/// frame is the board's turned by 180 degrees about x and moved to the
+/// marker's centre. Rather than assume that, the motion is fitted (Umeyama,
+/// no scale) to the four corner pairs; `residual_m` says how well it maps them.
+Rigid3d boardFromMarker(const std::vector<cv::Point3f>& board_corners, double side,
+                        double* residual_m) {
+  Eigen::Matrix<double, 3, 4> marker, board;
+  const double h = side / 2;
+  marker << -h, h, h, -h, h, h, -h, -h, 0, 0, 0, 0;
+  for (size_t k = 0; k < 4; ++k) {
+    const cv::Point3f& c = board_corners[k];
+    board.col(static_cast<int>(k)) = Eigen::Vector3d(c.x, c.y, c.z);
+  }
+  const Eigen::Matrix4d t = Eigen::umeyama(marker, board, false);
+  const Rigid3d pose(Eigen::Quaterniond(Eigen::Matrix3d(t.topLeftCorner<3, 3>())).normalized(),
+                     t.topRightCorner<3, 1>());
+  *residual_m = 0;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector3d mapped = pose * Eigen::Vector3d(marker.col(k));
+    *residual_m = std::max(*residual_m, (mapped - board.col(k)).norm());
+  }
+  return pose;
+}
+
+/// Points of a board photo (board coordinates, pixels) that fix the board's
+/// pose independently of where any detector puts the markers' edges.
+struct ReferencePoints {
+  std::string name;
+  std::vector<cv::Point3f> object;
+  std::vector<cv::Point2f> image;
+};
+
+/// A photo of one of OpenCV's boards, and our detector for one marker id of
+/// the board's dictionary with a given camera.
+struct BoardPhoto {
+  std::string name;
+  cv::Mat grey;
+  cv::Ptr<cv::aruco::Board> board;
+  double marker_length = 0;  ///< [m], as the board was created with.
+  std::function<MarkerDetector(int id, const Camera& camera)> ours;
+  /// The reference points, found with a calibration.
+  std::function<ReferencePoints(const OpenCvCalibration& calibration)> reference_points;
+};
+
+struct PlainMarkers {
+  std::vector<std::vector<cv::Point2f>> corners;
+  std::vector<int> ids;
+};
+
+PlainMarkers detectPlain(const BoardPhoto& photo, int corner_refinement) {
+  auto parameters = cv::aruco::DetectorParameters::create();
+  parameters->cornerRefinementMethod = corner_refinement;
+  PlainMarkers out;
+  cv::aruco::detectMarkers(photo.grey, photo.board->dictionary, out.corners, out.ids, parameters);
+  return out;
+}
+
+/// The image of each board marker's centre, with its board coordinates:
+/// where the marker's diagonals meet (a perspective map keeps lines and
+/// their intersections), in undistorted coordinates, projected back through
+/// the distortion. Printed squares grown or shrunk about their centres (ink
+/// spread) leave it where it is, and so, nearly, do a detector's edges
+/// offset evenly outwards or inwards.
+ReferencePoints markerCentres(const BoardPhoto& photo, const PlainMarkers& markers,
+                              const OpenCvCalibration& calibration) {
+  ReferencePoints out{"marker centres", {}, {}};
+  std::vector<cv::Point3d> centres;
+  for (size_t i = 0; i < markers.ids.size(); ++i) {
+    const auto at = std::find(photo.board->ids.begin(), photo.board->ids.end(), markers.ids[i]);
+    if (at == photo.board->ids.end()) continue;
+    const auto& corners =
+        photo.board->objPoints[static_cast<size_t>(at - photo.board->ids.begin())];
+    out.object.push_back(0.25f * (corners[0] + corners[1] + corners[2] + corners[3]));
+    const std::vector<cv::Point2d> pixels(markers.corners[i].begin(), markers.corners[i].end());
+    std::vector<cv::Point2d> normalised;
+    cv::undistortPoints(pixels, normalised, calibration.camera_matrix, calibration.distortion);
+    // Corners 0-2 and 1-3: p0 + a (p2 - p0) = p1 + b (p3 - p1).
+    const cv::Point2d d0 = normalised[2] - normalised[0], d1 = normalised[3] - normalised[1];
+    const cv::Point2d r = normalised[1] - normalised[0];
+    const double a = (r.x * d1.y - r.y * d1.x) / (d0.x * d1.y - d0.y * d1.x);
+    const cv::Point2d c = normalised[0] + a * d0;
+    centres.emplace_back(c.x, c.y, 1.0);
+  }
+  if (centres.empty()) return out;
+  std::vector<cv::Point2d> pixels;
+  cv::projectPoints(centres, cv::Vec3d::zeros(), cv::Vec3d::zeros(), calibration.camera_matrix,
+                    calibration.distortion, pixels);
+  out.image.assign(pixels.begin(), pixels.end());
+  return out;
+}
+
+struct BoardFit {
+  Rigid3d camera_from_board;
+  double rms_px = 0;  ///< Reprojection error of the reference points.
+};
+
+/// The board's pose from its reference points (solvePnP over all of them);
+/// nullopt with fewer than 4.
+std::optional<BoardFit> fitBoard(const ReferencePoints& points,
+                                 const OpenCvCalibration& calibration) {
+  if (points.object.size() < 4) return std::nullopt;
+  cv::Vec3d rvec, tvec;
+  if (!cv::solvePnP(points.object, points.image, calibration.camera_matrix, calibration.distortion,
+                    rvec, tvec))
+    return std::nullopt;
+  std::vector<cv::Point2f> projected;
+  cv::projectPoints(points.object, rvec, tvec, calibration.camera_matrix, calibration.distortion,
+                    projected);
+  double squares = 0;
+  for (size_t i = 0; i < projected.size(); ++i)
+    squares += std::pow(cv::norm(projected[i] - points.image[i]), 2);
+  return BoardFit{rigidFromOpenCv(rvec, tvec),
+                  std::sqrt(squares / static_cast<double>(projected.size()))};
+}
+
+/// The photo's own calibration, fitted to its reference points in this one
+/// view: one focal length (square pixels), k1 and k2; the principal point
+/// kept from `guess` (one planar view cannot fix it).
+OpenCvCalibration calibrateOnPhoto(const BoardPhoto& photo, const OpenCvCalibration& guess) {
+  const ReferencePoints points = photo.reference_points(guess);
+  cv::Mat k = guess.camera_matrix.clone(), d = cv::Mat::zeros(1, 5, CV_64F);
+  std::vector<cv::Mat> rvecs, tvecs;
+  cv::calibrateCamera(
+      std::vector<std::vector<cv::Point3f>>{points.object},
+      std::vector<std::vector<cv::Point2f>>{points.image}, photo.grey.size(), k, d, rvecs, tvecs,
+      cv::CALIB_USE_INTRINSIC_GUESS | cv::CALIB_FIX_PRINCIPAL_POINT | cv::CALIB_FIX_ASPECT_RATIO |
+          cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_FIX_K3);
+  return makeCalibration(k, d, photo.grey.size());
+}
+
+/// One method's markers and their board poses against the reference.
+struct MethodResult {
+  std::string name;
+  std::vector<int> ids;                  ///< Ids found, sorted.
+  std::map<int, double> rotation_deg;    ///< Board pose's deviation, by board marker.
+  std::map<int, double> translation_mm;  ///< Board pose's deviation, by board marker.
+  std::map<int, double> side_mm;         ///< Mean side on the board's plane.
+};
+
+struct BoardPoseComparison {
+  std::string reference_name;
+  double reference_rms_px = 0;
+  std::vector<MethodResult> opencv;  ///< Plain OpenCV: SUBPIX corners, then CONTOUR.
+  MethodResult ours;
+};
+
+/// What a method found of marker `id` (its corners, its pose), against the reference.
+void addMarker(MethodResult& result, int id, const std::array<Eigen::Vector2d, 4>& corners,
+               const Rigid3d& camera_from_marker, const std::map<int, Rigid3d>& marker_from_board,
+               const Rigid3d& reference, const Camera& camera) {
+  result.ids.push_back(id);
+  if (marker_from_board.count(id) == 0) return;
+  const Rigid3d camera_from_board = camera_from_marker * marker_from_board.at(id);
+  result.rotation_deg[id] =
+      rotationAngleBetween(camera_from_board.rotation, reference.rotation) / kDeg;
+  result.translation_mm[id] = 1000 * (camera_from_board.translation - reference.translation).norm();
+  // The corners' rays met with the reference's board plane (z = 0).
+  const Rigid3d board_from_camera = reference.inverse();
+  std::array<Eigen::Vector3d, 4> on_board;
+  for (size_t k = 0; k < 4; ++k) {
+    const Eigen::Vector3d ray = board_from_camera.rotation * *camera.unproject(corners[k]);
+    const Eigen::Vector3d& origin = board_from_camera.translation;
+    on_board[k] = origin - origin.z() / ray.z() * ray;
+  }
+  double sides = 0;
+  for (size_t k = 0; k < 4; ++k) sides += (on_board[(k + 1) % 4] - on_board[k]).norm();
+  result.side_mm[id] = 1000 * sides / 4;
+}
+
+std::array<Eigen::Vector2d, 4> toEigen(const std::vector<cv::Point2f>& corners) {
+  std::array<Eigen::Vector2d, 4> out;
+  for (size_t k = 0; k < 4; ++k) out[k] = Eigen::Vector2d(corners[k].x, corners[k].y);
+  return out;
+}
+
+/// Plain OpenCV: detectMarkers with the given corner refinement (default
+/// parameters otherwise), then estimatePoseSingleMarkers.
+MethodResult plainOpenCv(const BoardPhoto& photo, int refinement, const std::string& name,
+                         const OpenCvCalibration& calibration,
+                         const std::map<int, Rigid3d>& marker_from_board,
+                         const Rigid3d& reference) {
+  MethodResult out{name, {}, {}, {}, {}};
+  const PlainMarkers plain = detectPlain(photo, refinement);
+  if (plain.ids.empty()) return out;
+  std::vector<cv::Vec3d> rvecs, tvecs;
+  cv::aruco::estimatePoseSingleMarkers(plain.corners, static_cast<float>(photo.marker_length),
+                                       calibration.camera_matrix, calibration.distortion, rvecs,
+                                       tvecs);
+  for (size_t i = 0; i < plain.ids.size(); ++i) {
+    addMarker(out, plain.ids[i], toEigen(plain.corners[i]), rigidFromOpenCv(rvecs[i], tvecs[i]),
+              marker_from_board, reference, *calibration.camera);
+  }
+  std::sort(out.ids.begin(), out.ids.end());
+  return out;
+}
+
+/// Ours on every id of the board and every id plain OpenCV reported; the
+/// best-fitting pose hypothesis (the photo alone decides: no track).
+MethodResult ours(const BoardPhoto& photo, const OpenCvCalibration& calibration,
+                  const std::map<int, Rigid3d>& marker_from_board, const Rigid3d& reference,
+                  const std::vector<MethodResult>& opencv) {
+  MethodResult out{"lookboth", {}, {}, {}, {}};
+  std::set<int> tried(photo.board->ids.begin(), photo.board->ids.end());
+  for (const MethodResult& peer : opencv) tried.insert(peer.ids.begin(), peer.ids.end());
+  for (const int id : tried) {
+    MarkerDetector detector = photo.ours(id, *calibration.camera);
+    const auto found = detector.detect(photo.grey);
+    if (found.empty()) continue;
+    EXPECT_EQ(found.size(), 1u) << photo.name << ": id " << id;
+    addMarker(out, id, found[0].corners_px, found[0].pose().camera_from_marker, marker_from_board,
+              reference, *calibration.camera);
+  }
+  return out;
+}
+
+/// Each marker's pose composed with its place on the board, against the
+/// board's pose from its reference points (the reference).
+BoardPoseComparison compareBoardPoses(const BoardPhoto& photo,
+                                      const OpenCvCalibration& calibration) {
+  BoardPoseComparison out;
+  const ReferencePoints reference_points = photo.reference_points(calibration);
+  const auto reference_fit = fitBoard(reference_points, calibration);
+  out.reference_name = reference_points.name;
+  if (!reference_fit) {
+    ADD_FAILURE() << photo.name << ": no reference pose from " << reference_points.name;
+    return out;
+  }
+  const Rigid3d& reference = reference_fit->camera_from_board;
+  out.reference_rms_px = reference_fit->rms_px;
+  std::map<int, Rigid3d> marker_from_board;
+  for (size_t i = 0; i < photo.board->ids.size(); ++i) {
+    double residual = 0;
+    marker_from_board[photo.board->ids[i]] =
+        boardFromMarker(photo.board->objPoints[i], photo.marker_length, &residual).inverse();
+    EXPECT_LT(residual, 1e-6) << "board marker " << photo.board->ids[i];
+  }
+  out.opencv.push_back(plainOpenCv(photo, cv::aruco::CORNER_REFINE_SUBPIX,
+                                   "plain OpenCV, SUBPIX corners", calibration, marker_from_board,
+                                   reference));
+  out.opencv.push_back(plainOpenCv(photo, cv::aruco::CORNER_REFINE_CONTOUR,
+                                   "plain OpenCV, CONTOUR corners", calibration, marker_from_board,
+                                   reference));
+  out.ours = ours(photo, calibration, marker_from_board, reference, out.opencv);
+  return out;
+}
+
+/// Medians and maxima over the board markers every method found.
+struct DeviationSummary {
+  int markers = 0;
+  double rotation_median_deg = 0, rotation_max_deg = 0;
+  double translation_median_mm = 0, translation_max_mm = 0;
+  double side_median_mm = 0;
+};
+
+DeviationSummary summarise(const MethodResult& result, const BoardPoseComparison& c) {
+  std::vector<double> r, t, side;
+  for (const auto& [id, value] : result.rotation_deg) {
+    bool everywhere = c.ours.rotation_deg.count(id) == 1;
+    for (const MethodResult& peer : c.opencv)
+      everywhere = everywhere && peer.rotation_deg.count(id) == 1;
+    if (!everywhere) continue;
+    r.push_back(value);
+    t.push_back(result.translation_mm.at(id));
+    side.push_back(result.side_mm.at(id));
+  }
+  return {static_cast<int>(r.size()), medianOf(r),   quantileOf(r, 1.0), medianOf(t),
+          quantileOf(t, 1.0),         medianOf(side)};
+}
+
+/// One line per method, for doc/benchmarks.md.
+void printBoardPoses(const BoardPhoto& photo, const std::string& calibration_name,
+                     const BoardPoseComparison& c, double nominal_side_mm) {
+  std::printf("board photo %s, calibration %s: reference board pose from %s, %.2f px RMS\n",
+              photo.name.c_str(), calibration_name.c_str(), c.reference_name.c_str(),
+              c.reference_rms_px);
+  std::vector<const MethodResult*> methods;
+  for (const MethodResult& peer : c.opencv) methods.push_back(&peer);
+  methods.push_back(&c.ours);
+  for (const MethodResult* m : methods) {
+    const DeviationSummary s = summarise(*m, c);
+    std::printf(
+        "  %-30s %2zu of %zu markers; board pose per marker (%d in common): rotation median "
+        "%.2f max %.2f deg, translation median %.1f max %.1f mm; marker side on the board's "
+        "plane %.2f mm (nominal %.0f)\n",
+        m->name.c_str(), m->ids.size(), photo.board->ids.size(), s.markers, s.rotation_median_deg,
+        s.rotation_max_deg, s.translation_median_mm, s.translation_max_mm, s.side_median_mm,
+        nominal_side_mm);
+  }
+}
+
+/// Every marker plain OpenCV finds, ours finds; none is off the board.
+void expectBoardMarkersFound(const BoardPhoto& photo, const BoardPoseComparison& c) {
+  const std::set<int> board(photo.board->ids.begin(), photo.board->ids.end());
+  for (const int id : c.ours.ids) EXPECT_EQ(board.count(id), 1u) << "lookboth: id " << id;
+  for (const MethodResult& peer : c.opencv) {
+    for (const int id : peer.ids) {
+      EXPECT_EQ(board.count(id), 1u) << peer.name << ": id " << id;
+      EXPECT_TRUE(std::binary_search(c.ours.ids.begin(), c.ours.ids.end(), id))
+          << photo.name << ": id " << id << " found by " << peer.name << ", not by lookboth";
+    }
+    EXPECT_GE(c.ours.ids.size(), peer.ids.size()) << peer.name;
+  }
+}
+
+/// Bounds on our per-marker board poses' deviations.
+struct BoardPoseBounds {
+  double rotation_median_deg, rotation_max_deg, translation_median_mm;
+};
+
+void expectWithin(const BoardPoseComparison& c, const BoardPoseBounds& bounds) {
+  const DeviationSummary s = summarise(c.ours, c);
+  EXPECT_GE(s.markers, 4);
+  EXPECT_LT(s.rotation_median_deg, bounds.rotation_median_deg);
+  EXPECT_LT(s.rotation_max_deg, bounds.rotation_max_deg);
+  EXPECT_LT(s.translation_median_mm, bounds.translation_median_mm);
+}
+
+const std::filesystem::path kOpenCvHtml = "/usr/share/doc/opencv-doc/opencv4/html";
+const std::filesystem::path kOpenCvArucoExamples = "/usr/share/doc/opencv-doc/examples/aruco";
+
+std::string describeCalibration(const OpenCvCalibration& calibration) {
+  const std::vector<double>& p = calibration.camera->params();
+  return "f " + formatFixed(p[0], 1) + " px, k1 " + formatFixed(p[4], 3) + ", k2 " +
+         formatFixed(p[5], 3);
+}
+
+// OpenCV's board tutorial (tutorial_aruco_board_detection.html): a printed
+// GridBoard 5x7, markers 0.04 m with 0.01 m between them, of the custom
+// dictionary tutorial_dict.yml, and the tutorial's calibration
+// tutorial_camera_params.yml. The reference is the board's pose from the
+// markers' centres (the layout's pitch alone).
+//
+// That calibration does not fit the photo: the centres leave 2 px RMS with
+// it, 0.5 px with a focal length and k1, k2 fitted on the photo itself
+// (calibrateOnPhoto), so both are measured; the misfit roughly doubles every
+// method's rotation deviations. And on the board's plane the printed squares
+// measure 41.5 mm (our edges; OpenCV's SUBPIX corners agree on the near
+// markers, where its window stays inside the border cells) for a pitch of
+// 50 mm, not 40: single-marker poses with the nominal 40 mm come out ~3.5%
+// near (~27 mm at 0.75 m), which dominates the translation deviations of a
+// detector that finds the printed edges. The translation bound on ours
+// allows for that, and so is looser than plain OpenCV's medians here
+// (CONTOUR's corners sit ~0.5 px inside the edges, which offsets the bias).
+TEST(MarkerDetector, MarkersOfAGridBoardAgreeOnTheBoardsPose) {
+  const std::filesystem::path dictionary_file = kOpenCvArucoExamples / "tutorial_dict.yml";
+  BoardPhoto photo;
+  photo.name = "gboriginal.png";
+  photo.grey = cv::imread((kOpenCvHtml / photo.name).string(), cv::IMREAD_GRAYSCALE);
+  if (photo.grey.empty() || !std::filesystem::exists(dictionary_file))
+    GTEST_SKIP() << "opencv-doc is not installed (scripts/setup.sh)";
+  cv::FileStorage storage(dictionary_file.string(), cv::FileStorage::READ);
+  auto dictionary = cv::makePtr<cv::aruco::Dictionary>();
+  ASSERT_TRUE(dictionary->readDictionary(storage.root()));
+  photo.marker_length = 0.04;
+  photo.board = cv::aruco::GridBoard::create(5, 7, 0.04f, 0.01f, dictionary);
+  photo.ours = [&](int id, const Camera& camera) {
+    return MarkerDetector::withDictionaryFile(dictionary_file, id, photo.marker_length, camera);
+  };
+  const PlainMarkers unrefined = detectPlain(photo, cv::aruco::CORNER_REFINE_NONE);
+  photo.reference_points = [&](const OpenCvCalibration& calibration) {
+    return markerCentres(photo, unrefined, calibration);
+  };
+  const OpenCvCalibration tutorial =
+      readOpenCvCalibration(kOpenCvArucoExamples / "tutorial_camera_params.yml", photo.grey.size());
+  ASSERT_TRUE(tutorial.camera);
+  const OpenCvCalibration own = calibrateOnPhoto(photo, tutorial);
+  ASSERT_TRUE(own.camera);
+  const BoardPoseComparison with_tutorial = compareBoardPoses(photo, tutorial);
+  printBoardPoses(photo, "tutorial_camera_params.yml", with_tutorial, 40);
+  const BoardPoseComparison with_own = compareBoardPoses(photo, own);
+  printBoardPoses(photo, "fitted on the photo (" + describeCalibration(own) + ")", with_own, 40);
+  expectBoardMarkersFound(photo, with_tutorial);
+  expectBoardMarkersFound(photo, with_own);
+  // Measured: rotation median 1.98 / 1.04 deg, max 6.63 / 3.03 deg;
+  // translation median 26.9 / 28.1 mm (tutorial's / fitted calibration).
+  // Plain OpenCV's SUBPIX medians: 4.80 / 2.97 deg. A flipped pose (the
+  // other IPPE hypothesis) deviates by 70-110 degrees here.
+  expectWithin(with_tutorial, {3.0, 10.0, 40.0});
+  expectWithin(with_own, {1.6, 5.0, 40.0});
+}
+
+/// The corners between the chessboard's squares of a ChArUco board, found
+/// around the markers plain OpenCV finds (interpolateCornersCharuco, which
+/// refines them with cornerSubPix): saddle points, which no detector's
+/// marker edges enter.
+ReferencePoints chessboardCorners(const BoardPhoto& photo, const PlainMarkers& markers,
+                                  const cv::Ptr<cv::aruco::CharucoBoard>& board,
+                                  const OpenCvCalibration& calibration) {
+  ReferencePoints out{"chessboard corners", {}, {}};
+  std::vector<int> ids;
+  cv::aruco::interpolateCornersCharuco(markers.corners, markers.ids, photo.grey, board, out.image,
+                                       ids, calibration.camera_matrix, calibration.distortion);
+  for (const int id : ids) out.object.push_back(board->chessboardCorners[static_cast<size_t>(id)]);
+  return out;
+}
+
+// OpenCV's ChArUco tutorial (tutorial_charuco_detection.html): a printed
+// CharucoBoard 5x7, squares 0.04 m, markers 0.02 m, DICT_6X6_250, and the
+// tutorial's calibration tutorial_camera_charuco.yml, which fits this photo
+// (0.2 px RMS on the chessboard corners). The photo is choriginal.jpg, the
+// one the tutorial's detect_board_charuco command line names; chaxis.jpg is
+// the same photo with axes and ids drawn over the board, which leave plain
+// OpenCV three of its 17 markers. The reference is the board's pose from the
+// chessboard corners, which no marker detector's edges enter.
+TEST(MarkerDetector, MarkersOfAChArUcoBoardAgreeOnTheBoardsPose) {
+  BoardPhoto photo;
+  photo.name = "choriginal.jpg";
+  photo.grey = cv::imread((kOpenCvHtml / photo.name).string(), cv::IMREAD_GRAYSCALE);
+  const std::filesystem::path calibration_file =
+      kOpenCvArucoExamples / "tutorial_camera_charuco.yml";
+  if (photo.grey.empty() || !std::filesystem::exists(calibration_file))
+    GTEST_SKIP() << "opencv-doc is not installed (scripts/setup.sh)";
+  const auto board = cv::aruco::CharucoBoard::create(
+      5, 7, 0.04f, 0.02f, cv::aruco::getPredefinedDictionary(cv::aruco::DICT_6X6_250));
+  photo.board = board;
+  photo.marker_length = 0.02;
+  photo.ours = [&](int id, const Camera& camera) {
+    return MarkerDetector(MarkerSpec{"DICT_6X6_250", id, photo.marker_length}, camera);
+  };
+  const PlainMarkers unrefined = detectPlain(photo, cv::aruco::CORNER_REFINE_NONE);
+  photo.reference_points = [&](const OpenCvCalibration& calibration) {
+    return chessboardCorners(photo, unrefined, board, calibration);
+  };
+  const OpenCvCalibration tutorial = readOpenCvCalibration(calibration_file, photo.grey.size());
+  ASSERT_TRUE(tutorial.camera);
+  const BoardPoseComparison c = compareBoardPoses(photo, tutorial);
+  printBoardPoses(photo, "tutorial_camera_charuco.yml", c, 20);
+  expectBoardMarkersFound(photo, c);
+  EXPECT_LT(c.reference_rms_px, 0.5) << "the calibration does not fit the photo";
+  // Measured: rotation median 1.27 deg, max 4.27 deg, translation median
+  // 4.1 mm; plain OpenCV's SUBPIX medians 6.60 deg, 32.4 mm.
+  expectWithin(c, {2.0, 7.0, 7.0});
 }
 
 }  // namespace

@@ -23,6 +23,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <opencv2/core.hpp>
@@ -118,13 +119,27 @@ struct MarkerDetectorStats {
   std::int64_t accepted = 0;                             ///< Detections returned.
 };
 
-/// Detects the manifest's marker in one camera's frames. Not thread-safe:
+/// Detects the manifest's marker (or one of a custom dictionary: see
+/// withDictionaryFile) in one camera's frames. Not thread-safe:
 /// one detector per camera (it remembers where the marker was last seen).
 class MarkerDetector {
  public:
   /// Throws lookboth::Error when the marker spec or the options are invalid.
   MarkerDetector(const MarkerSpec& marker, const Camera& camera,
                  const MarkerDetectorOptions& options = {});
+  /// A marker of a custom ArUco dictionary, one MarkerSpec cannot name (it
+  /// names OpenCV's predefined dictionaries only), e.g. the one of OpenCV's
+  /// board tutorial. `dictionary_file`: OpenCV FileStorage YAML or XML as
+  /// cv::aruco::Dictionary::readDictionary reads it (`nmarkers`,
+  /// `markersize` in bits per side without the border, optional
+  /// `maxCorrectionBits`, `marker_0`... each a string of markersize^2 '0'/'1'
+  /// bits row by row); `id`: the marker's index in it; `size_m`: the side of
+  /// its black square [m]. Throws lookboth::Error naming the file when it
+  /// cannot be read as such a dictionary or holds no marker `id`, and when
+  /// the size or the options are invalid.
+  static MarkerDetector withDictionaryFile(const std::filesystem::path& dictionary_file, int id,
+                                           double size_m, const Camera& camera,
+                                           const MarkerDetectorOptions& options = {});
   ~MarkerDetector();
   MarkerDetector(MarkerDetector&&) noexcept;
 
@@ -162,8 +177,11 @@ class MarkerDetector {
   std::array<Eigen::Vector2d, 4> cornersOf(const cv::Mat& grey,
                                            const std::array<Eigen::Vector2d, 4>& candidate,
                                            double* corner_sigma_px);
-  MarkerDetectorStats stats_;
   struct Impl;
+  /// The construction common to both dictionary sources: `impl` holds the
+  /// camera, the dictionary and the marker's id.
+  MarkerDetector(std::unique_ptr<Impl> impl, double size_m, const MarkerDetectorOptions& options);
+  MarkerDetectorStats stats_;
   std::unique_ptr<Impl> impl_;
   MarkerDetectorOptions options_;
 };
