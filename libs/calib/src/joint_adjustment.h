@@ -218,7 +218,17 @@ class JointAdjustment {
   void computeCovariance();
   void computePassCovariance();
   Matrix6d informationOn(ceres::ResidualBlockId id, double* block) const;
-  Matrix6d passCovariance(std::size_t c) const;
+  // A camera's passes, each the residual blocks of one: its marker
+  // detections' (0) and its blobs' (1), split where a gap exceeds pass_gap_s.
+  using PassGroups = std::vector<std::vector<ceres::ResidualBlockId>>;
+  std::vector<std::array<PassGroups, 2>> passesByCamera() const;
+  // What the shared errors add to cameras a and b's poses' covariance: the
+  // whole problem's sandwich (computeSharedErrorSpread) when it was computed,
+  // else each camera's given the trajectory (computePassCovariance, a == b).
+  Matrix6d passCovariance(std::size_t a, std::size_t b) const;
+  bool computeSharedErrorSpread();
+  Eigen::MatrixXd passTimesColumns(const std::vector<ceres::ResidualBlockId>& pass,
+                                   const double* pose, const Eigen::MatrixXd& Y, Matrix6d* h) const;
   void computeAlignedPrediction();
   void writeFisheyeFromMarker();
   void writeScale();
@@ -348,6 +358,9 @@ class JointAdjustment {
   // What the pass-shared detection errors add to each camera's pose
   // covariance (pass_error_share), in its parameters' tangent; by camera index.
   std::map<std::size_t, Matrix6d> pass_covariance_;
+  // The sandwich over the whole problem: 6x6 blocks by camera column.
+  Eigen::MatrixXd spread_;
+  std::map<std::size_t, std::size_t> spread_column_;  // camera index -> block column
 };
 
 }  // namespace lookboth::joint_detail

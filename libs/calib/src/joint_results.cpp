@@ -110,6 +110,11 @@ void JointAdjustment::computeCovariance() {
     progress_.report("joint", max_rounds_, max_rounds_, "covariance");
     prepareFramePoses();  // (Problem::Evaluate calls it too)
     lap();
+    std::vector<const double*> whole;
+    if (options_.shared_errors_through_trajectory && aligned_prediction_) {
+      for (const std::size_t c : aligned_cameras_) whole.push_back(cameras_[c].pose);
+    }
+    covariance_.requestWholeColumns(whole);
     have_covariance_ = covariance_.compute(blocks, ceres_problem_.get(), options_.threads);
     if (verbose_) {
       std::cerr << "joint covariance: CPU " << lap() << " s" << covariance_.describe() << "\n";
@@ -121,7 +126,7 @@ void JointAdjustment::computeCovariance() {
                                  "with few detections");
     }
   }
-  if (have_covariance_) computePassCovariance();
+  if (have_covariance_ && !computeSharedErrorSpread()) computePassCovariance();
   if (have_covariance_ && aligned_prediction_) computeAlignedPrediction();
 }
 
@@ -143,20 +148,10 @@ void JointAdjustment::computePassCovariance() {
   if (!(share[0] > 0) && !(share[1] > 0)) return;
   prepareFramePoses();  // the blob costs' frame poses, as the covariance's
   const ceres::Problem& Q = *ceres_problem_;
-  struct Member {
-    TimeNs t;
-    int kind;  // 0 marker, 1 blob
-    ceres::ResidualBlockId id;
-  };
-  std::vector<std::vector<Member>> by_camera(cameras_.size());
-  for (const auto& [id, i] : marker_blocks_) {
-    by_camera[detections_[i].camera].push_back({detections_[i].t_camera, 0, id});
-  }
-  for (const BlobBlock& b : blob_blocks_) by_camera[b.camera].push_back({b.t, 1, b.id});
-  const TimeNs gap = secondsToNsRounded(options_.pass_gap_s);
+  const std::vector<std::array<PassGroups, 2>> passes = passesByCamera();
   for (std::size_t c = 0; c < cameras_.size(); ++c) {
     double* pose = cameras_[c].pose;
-    if (by_camera[c].empty() || Q.IsParameterBlockConstant(pose)) continue;
+    if (Q.IsParameterBlockConstant(pose)) continue;
     std::vector<ceres::ResidualBlockId> blocks;
     Q.GetResidualBlocksForParameterBlock(pose, &blocks);
     Matrix6d all = Matrix6d::Zero();
@@ -166,23 +161,126 @@ void JointAdjustment::computePassCovariance() {
     Matrix6d middle = Matrix6d::Zero();
     for (int kind = 0; kind < 2; ++kind) {
       if (!(share[kind] > 0)) continue;
-      std::vector<Member> group;
-      for (const Member& m : by_camera[c]) {
-        if (m.kind == kind) group.push_back(m);
-      }
-      std::sort(group.begin(), group.end(),
-                [](const Member& a, const Member& b) { return a.t < b.t; });
-      std::vector<TimeNs> times;
-      for (const Member& m : group) times.push_back(m.t);
-      for (const auto& [begin, end] : runsWithinGap(times, gap)) {
+      for (const std::vector<ceres::ResidualBlockId>& pass : passes[c][kind]) {
         Matrix6d information = Matrix6d::Zero();
-        for (std::size_t k = begin; k < end; ++k) information += informationOn(group[k].id, pose);
-        middle += share[kind] * static_cast<double>(end - begin) * information;
+        for (const ceres::ResidualBlockId id : pass) information += informationOn(id, pose);
+        middle += share[kind] * static_cast<double>(pass.size()) * information;
       }
     }
     const Matrix6d spread = h.solve(h.solve(middle).transpose());  // H^-1 M H^-1
     if (spread.allFinite()) pass_covariance_[c] = 0.5 * (spread + spread.transpose());
   }
+}
+
+std::vector<std::array<JointAdjustment::PassGroups, 2>> JointAdjustment::passesByCamera() const {
+  struct Member {
+    TimeNs t;
+    ceres::ResidualBlockId id;
+  };
+  std::vector<std::array<std::vector<Member>, 2>> members(cameras_.size());
+  for (const auto& [id, i] : marker_blocks_) {
+    members[detections_[i].camera][0].push_back({detections_[i].t_camera, id});
+  }
+  for (const BlobBlock& b : blob_blocks_) members[b.camera][1].push_back({b.t, b.id});
+  const TimeNs gap = secondsToNsRounded(options_.pass_gap_s);
+  std::vector<std::array<PassGroups, 2>> passes(cameras_.size());
+  for (std::size_t c = 0; c < cameras_.size(); ++c) {
+    for (int kind = 0; kind < 2; ++kind) {
+      std::vector<Member>& group = members[c][kind];
+      std::sort(group.begin(), group.end(),
+                [](const Member& a, const Member& b) { return a.t < b.t; });
+      std::vector<TimeNs> times;
+      for (const Member& m : group) times.push_back(m.t);
+      for (const auto& [begin, end] : runsWithinGap(times, gap)) {
+        std::vector<ceres::ResidualBlockId>& pass = passes[c][kind].emplace_back();
+        for (std::size_t k = begin; k < end; ++k) pass.push_back(group[k].id);
+      }
+    }
+  }
+  return passes;
+}
+
+// The shared errors' effect on the cameras through the whole problem, not
+// given the trajectory: a pass's errors move the path under it too, and the
+// path carries them to the other cameras. The model is computePassCovariance's:
+// a pass g of n residuals shares an error that acts as a perturbation d of its
+// camera's pose, of covariance beta n H_g^-1 (H_g: the camera pose's
+// information from the pass), reaching residual i as J_i^c d (J_i^c: its
+// Jacobian with respect to that pose; whitened, robust weights applied). With
+// J_i its Jacobian with respect to every parameter and H = J^T J at the
+// solution, the estimate moves by H^-1 u_g d, u_g = sum_i J_i^T J_i^c, so the
+// covariance gains H^-1 (sum_g beta n u_g H_g^-1 u_g^T) H^-1. Only the cameras'
+// blocks are wanted: with Y = the cameras' columns of H^-1 (the covariance
+// computation keeps them) and Z_g = u_g^T Y, the sum of beta n Z_g^T H_g^-1
+// Z_g. Given the trajectory (u_g's camera rows alone) this is
+// computePassCovariance's H^-1 (beta n H_g) H^-1. False when Y was not kept
+// (then that one is used).
+bool JointAdjustment::computeSharedErrorSpread() {
+  spread_.resize(0, 0);
+  spread_column_.clear();
+  const Eigen::MatrixXd& Y = covariance_.wholeColumns();
+  if (Y.cols() != 6 * static_cast<Eigen::Index>(aligned_cameras_.size())) return false;
+  prepareFramePoses();  // the blob costs' frame poses, as the covariance's
+  const double share[2] = {options_.pass_error_share, options_.blob_pass_error_share};
+  spread_ = Eigen::MatrixXd::Zero(Y.cols(), Y.cols());
+  for (std::size_t k = 0; k < aligned_cameras_.size(); ++k) spread_column_[aligned_cameras_[k]] = k;
+  const std::vector<std::array<PassGroups, 2>> passes = passesByCamera();
+  for (std::size_t c = 0; c < cameras_.size(); ++c) {
+    for (int kind = 0; kind < 2; ++kind) {
+      if (!(share[kind] > 0)) continue;
+      for (const std::vector<ceres::ResidualBlockId>& pass : passes[c][kind]) {
+        Matrix6d h = Matrix6d::Zero();
+        const Eigen::MatrixXd z = passTimesColumns(pass, cameras_[c].pose, Y, &h);
+        const Eigen::LDLT<Matrix6d> factor(h);
+        if (factor.info() != Eigen::Success) continue;
+        spread_ += share[kind] * static_cast<double>(pass.size()) * z.transpose() * factor.solve(z);
+      }
+    }
+  }
+  spread_ = 0.5 * (spread_ + spread_.transpose());
+  return spread_.allFinite();
+}
+
+// Z_g = u_g^T Y = sum_i J_i^c^T (J_i Y) for one pass, and H_g = sum_i
+// J_i^c^T J_i^c, from its residual blocks' Jacobians (tangents, robust
+// weights applied); `pose` is the pass's camera.
+Eigen::MatrixXd JointAdjustment::passTimesColumns(const std::vector<ceres::ResidualBlockId>& pass,
+                                                  const double* pose, const Eigen::MatrixXd& Y,
+                                                  Matrix6d* h) const {
+  const ceres::Problem& Q = *ceres_problem_;
+  Eigen::MatrixXd z = Eigen::MatrixXd::Zero(6, Y.cols());
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  for (const ceres::ResidualBlockId id : pass) {
+    const int k = Q.GetCostFunctionForResidualBlock(id)->num_residuals();
+    std::vector<double*> parameters;
+    Q.GetParameterBlocksForResidualBlock(id, &parameters);
+    std::vector<RowMajor> jacobian(parameters.size());
+    std::vector<double*> pointers(parameters.size(), nullptr);
+    int camera_block = -1;
+    for (std::size_t b = 0; b < parameters.size(); ++b) {
+      if (parameters[b] == pose) camera_block = static_cast<int>(b);
+      if (covariance_.wholeRow(parameters[b]) < 0) continue;  // held constant
+      jacobian[b].resize(k, Q.ParameterBlockTangentSize(parameters[b]));
+      pointers[b] = jacobian[b].data();
+    }
+    std::vector<double> residuals(static_cast<std::size_t>(k));
+    double cost = 0;
+    if (camera_block < 0 || pointers[camera_block] == nullptr ||
+        !Q.EvaluateResidualBlockAssumingParametersUnchanged(id, true, &cost, residuals.data(),
+                                                            pointers.data())) {
+      continue;
+    }
+    Eigen::MatrixXd jy = Eigen::MatrixXd::Zero(k, Y.cols());
+    for (std::size_t b = 0; b < parameters.size(); ++b) {
+      if (pointers[b] == nullptr) continue;
+      jy.noalias() +=
+          jacobian[b] * Y.middleRows(covariance_.wholeRow(parameters[b]), jacobian[b].cols());
+    }
+    const RowMajor& jc = jacobian[camera_block];
+    z.noalias() += jc.transpose() * jy;
+    *h += jc.transpose() * jc;
+  }
+  return z;
 }
 
 // J^T J of a residual block's Jacobian with respect to one of its pose
@@ -210,8 +308,13 @@ Matrix6d JointAdjustment::informationOn(ceres::ResidualBlockId id, double* block
   return tangent.transpose() * tangent;
 }
 
-Matrix6d JointAdjustment::passCovariance(std::size_t c) const {
-  const auto found = pass_covariance_.find(c);
+Matrix6d JointAdjustment::passCovariance(std::size_t a, std::size_t b) const {
+  const auto ia = spread_column_.find(a), ib = spread_column_.find(b);
+  if (ia != spread_column_.end() && ib != spread_column_.end()) {
+    return spread_.block<6, 6>(6 * ia->second, 6 * ib->second);
+  }
+  if (a != b) return Matrix6d::Zero();
+  const auto found = pass_covariance_.find(a);
   return found == pass_covariance_.end() ? Matrix6d::Zero() : found->second;
 }
 
@@ -232,7 +335,7 @@ void JointAdjustment::computeAlignedPrediction() {
     for (std::size_t b = a; b < n; ++b) {
       Eigen::Matrix3d block =
           covariance_.block(pa, cameras_[aligned_cameras_[b]].pose).topLeftCorner<3, 3>();
-      if (a == b) block += passCovariance(aligned_cameras_[a]).topLeftCorner<3, 3>();
+      block += passCovariance(aligned_cameras_[a], aligned_cameras_[b]).topLeftCorner<3, 3>();
       C.block<3, 3>(3 * a, 3 * b) = block;
       C.block<3, 3>(3 * b, 3 * a) = block.transpose();
     }
@@ -378,7 +481,7 @@ void JointAdjustment::writeCamera(std::size_t c) {
   camera.stage_poses["joint"] = pose;
   camera.covariance.reset();
   if (have_covariance_) {
-    camera.covariance = Matrix6d(covariance_.block(jc.pose, jc.pose)) + passCovariance(c);
+    camera.covariance = Matrix6d(covariance_.block(jc.pose, jc.pose)) + passCovariance(c, c);
   }
   camera.aligned_position_covariance.reset();
   if (const auto found = aligned_position_covariance_.find(c);

@@ -139,6 +139,7 @@ static void fields(JointOptions& o, OptionFields& s) {
   s.number("pass_error_share", o.pass_error_share);
   s.number("blob_pass_error_share", o.blob_pass_error_share);
   s.number("pass_gap_s", o.pass_gap_s);
+  s.flag("shared_errors_through_trajectory", o.shared_errors_through_trajectory);
   s.number("default_translation_sigma_m", o.default_translation_sigma_m);
   s.number("default_rotation_sigma_deg", o.default_rotation_sigma_deg);
   s.integer("min_detections", o.min_detections);

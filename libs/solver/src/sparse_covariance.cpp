@@ -131,6 +131,15 @@ class CovarianceComputation {
                         std::string& message)
       : problem_(problem), stats_(stats), message_(message) {}
 
+  /// H^-1's whole columns of these blocks too (SparseCovariance::requestWholeColumns).
+  void requestWholeColumns(const std::vector<const double*>& blocks) { whole_request_ = blocks; }
+  /// The whole columns, and where each free block's rows start in them.
+  Eigen::MatrixXd wholeColumns(std::map<const double*, int>* row_of_block) const {
+    if (whole_columns_.size() == 0) return {};
+    for (const auto& [block, b] : index_) (*row_of_block)[block] = new_first_[b];
+    return whole_columns_;
+  }
+
   bool run(const BlockPairs& pairs, int threads, SparseCovariance::Method method,
            std::size_t max_dense_entries,
            std::map<std::pair<const double*, const double*>, Eigen::MatrixXd>& blocks) {
@@ -149,8 +158,10 @@ class CovarianceComputation {
     if (!factorSparsePart()) return false;
     keepRequestedRows();
     if (!denseSizeWithin(max_dense_entries)) return false;
+    max_dense_entries_ = max_dense_entries;
     if (!invertDenseGroup()) return false;
     if (!assemble(pairs, blocks)) return false;
+    keepWholeColumns();
     stats_.rest_cpu_s =
         static_cast<double>(std::clock() - start_) / CLOCKS_PER_SEC - stats_.evaluate_cpu_s;
     return true;
@@ -468,13 +479,37 @@ class CovarianceComputation {
       for (std::size_t k = 0; k < kept_.size(); ++k) {
         w_.row(static_cast<Eigen::Index>(k)).segment(f, width) = y_rows.row(kept_[k]);
       }
+      if (whole_kept_) w_all_.middleCols(f, width) = y_rows;
     }
+  }
+
+  /// H^-1's whole columns of the requested dense blocks: S^-1's rows for
+  /// the dense group, -A^-1 B S^-1's for the sparse part (all of W's rows).
+  void keepWholeColumns() {
+    if (whole_request_.empty() || !whole_kept_) return;
+    std::vector<int> columns;
+    for (const double* p : whole_request_) {
+      const auto found = index_.find(p);
+      if (found == index_.end() || !dense_[found->second]) return;  // not kept
+      for (int k = 0; k < size_[found->second]; ++k)
+        columns.push_back(new_first_[found->second] - na_ + k);
+    }
+    Eigen::MatrixXd g(ng_, static_cast<Eigen::Index>(columns.size()));
+    for (std::size_t k = 0; k < columns.size(); ++k)
+      g.col(static_cast<Eigen::Index>(k)) = cov_gg_.col(columns[k]);
+    whole_columns_.resize(n_, g.cols());
+    if (na_ > 0) whole_columns_.topRows(na_).noalias() = -w_all_ * g;
+    whole_columns_.bottomRows(ng_) = g;
+    w_all_.resize(0, 0);
   }
 
   /// cov_GG = S^-1 and W S^-1.
   bool invertDenseGroup() {
     if (ng_ == 0) return true;
     w_.setZero(static_cast<Eigen::Index>(kept_.size()), ng_);
+    whole_kept_ = !whole_request_.empty() &&
+                  static_cast<double>(na_) * ng_ <= static_cast<double>(max_dense_entries_);
+    if (whole_kept_) w_all_.resize(na_, ng_);
     if (na_ > 0) schurComplement();
     s_ = 0.5 * (s_ + s_.transpose());
     const Eigen::LDLT<Eigen::MatrixXd> s_ldlt(s_);
@@ -554,6 +589,11 @@ class CovarianceComputation {
   Eigen::SimplicialLDLT<Sparse, Eigen::Lower, Eigen::NaturalOrdering<int>> ldlt_;
   std::vector<int> kept_row_, kept_;
   Eigen::MatrixXd cov_gg_, w_, w_cov_;  // S^-1; W and W S^-1 (kept rows)
+  // H^-1's whole columns (requestWholeColumns): W's every row while they are built.
+  std::vector<const double*> whole_request_;
+  bool whole_kept_ = false;
+  std::size_t max_dense_entries_ = 0;
+  Eigen::MatrixXd w_all_, whole_columns_;
 };
 
 }  // namespace
@@ -563,8 +603,18 @@ bool SparseCovariance::compute(const BlockPairs& pairs, ceres::Problem* problem,
   blocks_.clear();
   message_.clear();
   stats_ = Stats();
-  return CovarianceComputation(problem, stats_, message_)
-      .run(pairs, threads, method, max_dense_entries_, blocks_);
+  whole_columns_.resize(0, 0);
+  whole_row_.clear();
+  CovarianceComputation computation(problem, stats_, message_);
+  computation.requestWholeColumns(whole_request_);
+  if (!computation.run(pairs, threads, method, max_dense_entries_, blocks_)) return false;
+  whole_columns_ = computation.wholeColumns(&whole_row_);
+  return true;
+}
+
+int SparseCovariance::wholeRow(const double* block) const {
+  const auto found = whole_row_.find(block);
+  return found == whole_row_.end() ? -1 : found->second;
 }
 
 std::string SparseCovariance::describe() const {

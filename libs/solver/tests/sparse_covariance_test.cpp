@@ -317,6 +317,53 @@ TEST(SparseCovariance, MatchesCeresCovarianceOnALargeStructure) {
   }
 }
 
+// The whole columns of H^-1 for dense blocks (requestWholeColumns): every
+// free block's rows in them are its covariance with those blocks, as
+// ceres::Covariance gives them; a block not in the dense group keeps none.
+TEST(SparseCovariance, KeepsWholeColumnsOfTheDenseBlocks) {
+  Facility f = makeFacility(600, 150, 6, 11);
+  Pairs pairs;  // as the joint stage asks for the aligned prediction: camera pairs, dense
+  for (std::size_t a = 0; a < f.cameras.size(); ++a) {
+    for (std::size_t b = a; b < f.cameras.size(); ++b) {
+      pairs.emplace_back(f.cameras[a].data(), f.cameras[b].data());
+    }
+  }
+  std::vector<const double*> whole;
+  for (const auto& camera : f.cameras) whole.push_back(camera.data());
+  SparseCovariance ours;
+  ours.requestWholeColumns(whole);
+  ASSERT_TRUE(ours.compute(pairs, f.problem.get())) << ours.message();
+  const Eigen::MatrixXd& y = ours.wholeColumns();
+  ASSERT_EQ(y.cols(), 6 * static_cast<Eigen::Index>(f.cameras.size()));
+  const std::vector<const double*> rows = {f.nodes[5].data(), f.nodes[100].data(),
+                                           f.global.data(),   &f.scales[0],
+                                           &f.clocks[2],      f.cameras[4].data()};
+  Pairs reference_pairs;
+  for (const double* r : rows) {
+    for (const double* c : whole) reference_pairs.emplace_back(r, c);
+  }
+  ceres::Covariance reference(referenceOptions());
+  ASSERT_TRUE(reference.Compute(reference_pairs, f.problem.get()));
+  for (const double* r : rows) {
+    const int size = f.problem->ParameterBlockTangentSize(r);
+    ASSERT_GE(ours.wholeRow(r), 0);
+    for (std::size_t c = 0; c < whole.size(); ++c) {
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> expected(size, 6);
+      ASSERT_TRUE(reference.GetCovarianceBlockInTangentSpace(r, whole[c], expected.data()));
+      const Eigen::MatrixXd got =
+          y.block(ours.wholeRow(r), 6 * static_cast<Eigen::Index>(c), size, 6);
+      const double scale = expected.cwiseAbs().maxCoeff();
+      EXPECT_LT((got - expected).cwiseAbs().maxCoeff(), 1e-8 * scale) << "camera " << c;
+    }
+  }
+  EXPECT_EQ(ours.wholeRow(f.nodes[0].data()), -1);  // the gauge: constant
+  // A requested block outside the dense group: no columns kept.
+  SparseCovariance sparse_only;
+  sparse_only.requestWholeColumns({f.nodes[100].data()});
+  ASSERT_TRUE(sparse_only.compute({{f.nodes[100].data(), f.nodes[100].data()}}, f.problem.get()));
+  EXPECT_EQ(sparse_only.wholeColumns().size(), 0);
+}
+
 // A request whose dense part (W over the requested sparse blocks and the
 // dense group) exceeds the limit fails with a message instead of allocating.
 TEST(SparseCovariance, RefusesADensePartOverItsLimit) {

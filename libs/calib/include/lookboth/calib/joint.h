@@ -129,6 +129,17 @@ struct JointOptions {
   /// where the housing's image sits (0.2-0.3 px), not its noise.
   double blob_pass_error_share = 0.06;
   double pass_gap_s = 1.0;  ///< A longer gap between a camera's detections starts a pass [s].
+  /// Carry the shared errors through the whole problem: a pass's error acts
+  /// as a perturbation of its camera's pose that also moves the trajectory
+  /// under the pass, which carries it to the other cameras (the sandwich
+  /// H^-1 M H^-1 over every parameter, computeSharedErrorSpread), when the
+  /// cameras' columns of H^-1 are kept (aligned_uncertainty_max_cameras, the
+  /// covariance's memory limit); else, or when false, each camera's
+  /// covariance gains the shares given the trajectory, which misses that
+  /// route: joint_test's shared marker biases gave NEES/dof 1.50 given the
+  /// trajectory, 1.18 through it; the rendered `small` (our VO) 2.55 and 1.27
+  /// (doc/benchmarks.md, "Real drift").
+  bool shared_errors_through_trajectory = true;
   /// Marker pose noise for detections without an information matrix [m], [deg].
   double default_translation_sigma_m = 0.01;
   double default_rotation_sigma_deg = 2.0;

@@ -57,6 +57,21 @@ class SparseCovariance {
   /// group, twice, and S (default 2^26 doubles, 512 MiB).
   void setMaxDenseEntries(std::size_t entries) { max_dense_entries_ = entries; }
 
+  /// Before compute(): also keep H^-1's whole columns of these blocks, for a
+  /// sandwich H^-1 M H^-1 whose M reaches every parameter. Each block must end
+  /// up in the dense group (both blocks of a requested pair H does not couple,
+  /// as the joint stage's camera pairs); the columns cost a dense matrix of
+  /// the sparse columns by the dense ones, within setMaxDenseEntries.
+  void requestWholeColumns(std::vector<const double*> blocks) {
+    whole_request_ = std::move(blocks);
+  }
+  /// After compute(): those columns side by side (the blocks' tangent sizes,
+  /// in the order requested), one row per free tangent coordinate; empty when
+  /// they could not be kept (see message()). wholeRow(): where a free block's
+  /// rows start in it (-1: constant or not in the problem).
+  const Eigen::MatrixXd& wholeColumns() const { return whole_columns_; }
+  int wholeRow(const double* block) const;
+
   /// What the last compute() did (for tests and benchmarks).
   struct Stats {
     Method method = Method::kSelectedInversion;  ///< the route taken
@@ -72,6 +87,9 @@ class SparseCovariance {
 
  private:
   std::map<std::pair<const double*, const double*>, Eigen::MatrixXd> blocks_;
+  std::vector<const double*> whole_request_;
+  Eigen::MatrixXd whole_columns_;
+  std::map<const double*, int> whole_row_;
   std::string message_;
   Stats stats_;
   std::size_t max_dense_entries_ = std::size_t(1) << 26;
