@@ -320,7 +320,14 @@ StepOutcome RegistrationPipeline::stage(const ProgressReporter& progress) {
 
 StepOutcome RegistrationPipeline::output(const ProgressReporter& progress) {
   progress.checkStop();
-  const RegistrationRun run = state_->session->current();
+  RegistrationRun run = state_->session->current();
+  RegistrationStatistics& statistics = run.registration.statistics;
+  for (const StepTime& step : times_) {
+    if (step.step == "detect" || step.step == "odometry") {
+      statistics.seconds_per_step[step.step] = step.seconds;
+    }
+  }
+  statistics.drive_seconds = driveSeconds();
   writeRegistrationOutput(run, options_.out, options_.overwrite);
   StepOutcome outcome;
   outcome.ran = true;
@@ -370,8 +377,12 @@ FullPipelineResult RegistrationPipeline::run(const ProgressReporter& progress) {
   result.steps = lines_;
   result.run = state_->session->current();
   result.times = times_;
-  result.drive_seconds = static_cast<double>(state_->contents.last - state_->contents.first) * 1e-9;
+  result.drive_seconds = driveSeconds();
   return result;
+}
+
+double RegistrationPipeline::driveSeconds() const {
+  return static_cast<double>(state_->contents.last - state_->contents.first) * 1e-9;
 }
 
 std::string describeTimes(const FullPipelineResult& result) {

@@ -509,6 +509,16 @@ std::string registrationToYaml(const Registration& reg) {
     out << YAML::Key << stage << YAML::Value << formatDouble(seconds);
   }
   out << YAML::EndMap;
+  if (!s.seconds_per_step.empty()) {
+    out << YAML::Key << "seconds_per_step" << YAML::Value << YAML::Flow << YAML::BeginMap;
+    for (const auto& [step, seconds] : s.seconds_per_step) {
+      out << YAML::Key << step << YAML::Value << formatDouble(seconds);
+    }
+    out << YAML::EndMap;
+  }
+  if (s.drive_seconds > 0) {
+    out << YAML::Key << "drive_seconds" << YAML::Value << formatDouble(s.drive_seconds);
+  }
   out << YAML::EndMap;
 
   out << YAML::Key << "config" << YAML::Value;
@@ -695,7 +705,7 @@ Registration loadRegistration(const std::filesystem::path& dir) {
   if (const YAML::Node s = root["statistics"]; s) {
     r.rejectUnknownKeys(s,
                         {"detections_total", "detections_associated", "dropped_outside_trajectory",
-                         "dropped_gap", "seconds_per_stage"},
+                         "dropped_gap", "seconds_per_stage", "seconds_per_step", "drive_seconds"},
                         "statistics");
     auto integer = [&](const char* key, std::int64_t& target) {
       if (s[key]) target = r.integer(s[key], std::string("statistics.") + key);
@@ -704,15 +714,20 @@ Registration loadRegistration(const std::filesystem::path& dir) {
     integer("detections_associated", reg.statistics.detections_associated);
     integer("dropped_outside_trajectory", reg.statistics.dropped_outside_trajectory);
     integer("dropped_gap", reg.statistics.dropped_gap);
-    if (const YAML::Node seconds = s["seconds_per_stage"]; seconds && !seconds.IsNull()) {
-      if (!seconds.IsMap()) {
-        throw Error(r.at(seconds, "statistics.seconds_per_stage"), "expected a mapping");
-      }
+    for (const char* field : {"seconds_per_stage", "seconds_per_step"}) {
+      const YAML::Node seconds = s[field];
+      if (!seconds || seconds.IsNull()) continue;
+      const std::string at = std::string("statistics.") + field;
+      if (!seconds.IsMap()) throw Error(r.at(seconds, at), "expected a mapping");
+      auto& target = std::string(field) == "seconds_per_stage" ? reg.statistics.seconds_per_stage
+                                                               : reg.statistics.seconds_per_step;
       for (const auto& entry : seconds) {
-        const std::string stage = r.key(entry.first, "statistics.seconds_per_stage");
-        reg.statistics.seconds_per_stage[stage] =
-            r.number(entry.second, "statistics.seconds_per_stage." + stage);
+        const std::string name = r.key(entry.first, at);
+        target[name] = r.number(entry.second, at + "." + name);
       }
+    }
+    if (s["drive_seconds"]) {
+      reg.statistics.drive_seconds = r.number(s["drive_seconds"], "statistics.drive_seconds");
     }
   }
   if (const YAML::Node config = root["config"]; config && !config.IsNull()) {

@@ -81,6 +81,8 @@ Registration sampleRegistration() {
   reg.statistics.dropped_outside_trajectory = 7;
   reg.statistics.dropped_gap = 3;
   reg.statistics.seconds_per_stage = {{"associate", 0.01}, {"look_down", 0.25}};
+  reg.statistics.seconds_per_step = {{"detect", 12.5}, {"odometry", 8.25}};
+  reg.statistics.drive_seconds = 36.25;
   reg.config_yaml = "register:\n  pipeline: [associate, look_down]\n  look_down: {huber_m: 0.05}\n";
   for (int i = 0; i < 5; ++i) {
     reg.trajectory.push_back({1'700'000'000'000'000'000LL + i * 33'333'333LL, randomPose(rng)});
@@ -207,6 +209,8 @@ TEST_F(RegistrationIoTest, RoundTripsEveryField) {
   EXPECT_EQ(back.statistics.dropped_outside_trajectory, 7);
   EXPECT_EQ(back.statistics.dropped_gap, 3);
   EXPECT_EQ(back.statistics.seconds_per_stage, reg.statistics.seconds_per_stage);
+  EXPECT_EQ(back.statistics.seconds_per_step, reg.statistics.seconds_per_step);
+  EXPECT_EQ(back.statistics.drive_seconds, reg.statistics.drive_seconds);
   EXPECT_NE(back.config_yaml.find("huber_m"), std::string::npos);
   ASSERT_EQ(back.trajectory.size(), reg.trajectory.size());
   for (size_t i = 0; i < reg.trajectory.size(); ++i) {

@@ -225,6 +225,7 @@ class ReportWriter {
     writeComparisons();
     writeRecheck();
     writeRobot();
+    writeRunTime();
     writePictures();
     const std::string html = out_.str();
     writeFileAtomically(options_.out, html);
@@ -640,6 +641,31 @@ class ReportWriter {
                   "Nothing to act on: what priors held because the data cannot determine it, "
                   "detections set aside, the solver's choices.",
                   registration.labelledNotes());
+  }
+
+  /// What the registration took against the drive it processed
+  /// (registration.yaml's statistics; the output's own writing not counted).
+  void writeRunTime() {
+    const RegistrationStatistics& s = registration_.statistics;
+    double stages = 0;
+    for (const auto& [stage, seconds] : s.seconds_per_stage) stages += seconds;
+    double total = stages;
+    std::string steps;
+    for (const char* step : {"detect", "odometry"}) {
+      const auto found = s.seconds_per_step.find(step);
+      if (found == s.seconds_per_step.end()) continue;
+      steps += std::string(step) + " " + fixed(found->second, 1) + " s, ";
+      total += found->second;
+    }
+    if (!(total > 0)) return;
+    std::ostringstream& out = out_;
+    out << "<h2>Run time</h2>\n<p>" << steps << "the stages " << fixed(stages, 1)
+        << " s: " << fixed(total, 1) << " s in all";
+    if (s.drive_seconds > 0) {
+      out << ", " << fixed(total / s.drive_seconds, 2) << "x the drive ("
+          << fixed(s.drive_seconds, 1) << " s)";
+    }
+    out << ".</p>\n";
   }
 
   void writePictures() {

@@ -145,6 +145,27 @@ TEST_F(ReportTest, HtmlIsSelfContainedAndRendersInChromium) {
   EXPECT_GT(verdict_green, 5000) << "the verdict banner is not on the page";
 }
 
+// The run time `register` recorded, against the drive it processed.
+TEST_F(ReportTest, ShowsTheRunTimeAgainstTheDrive) {
+  Registration timed = registration_;
+  timed.statistics.seconds_per_stage = {{"joint", 0.75}, {"look_down", 0.25}};
+  timed.statistics.seconds_per_step = {{"detect", 12.0}, {"odometry", 8.0}};
+  timed.statistics.drive_seconds = 42.0;
+  saveRegistration(timed, dir_ / "timed");
+  ReportOptions options;
+  options.out = dir_ / "timed.html";
+  options.overview = false;
+  options.max_env_views = 0;
+  options.auto_frames = 1;
+  writeReport(dataset_, dir_ / "timed", options, ProgressReporter());
+  std::ifstream in(options.out);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  EXPECT_NE(buffer.str().find("<h2>Run time</h2>\n<p>detect 12.0 s, odometry 8.0 s, the stages "
+                              "1.0 s: 21.0 s in all, 0.50x the drive (42.0 s).</p>"),
+            std::string::npos);
+}
+
 TEST_F(ReportTest, VerdictNamesWhatIsWrong) {
   Registration bad = registration_;
   bad.cameras[1].status = CameraStatus::kSuspect;

@@ -160,6 +160,7 @@ class RegistrationPipeline {
   StepOutcome odometry(const ProgressReporter& progress);
   StepOutcome stage(const ProgressReporter& progress);
   StepOutcome output(const ProgressReporter& progress);
+  double driveSeconds() const;  ///< The recording's span [s].
 
   FullPipelineOptions options_;
   std::unique_ptr<State> state_;

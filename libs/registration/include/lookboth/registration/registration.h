@@ -137,6 +137,11 @@ struct RegistrationStatistics {
   std::int64_t dropped_outside_trajectory = 0;  ///< Before the first / after the last sample.
   std::int64_t dropped_gap = 0;                 ///< Inside a gap longer than the allowed maximum.
   std::map<std::string, double> seconds_per_stage;  ///< Wall time [s] by stage name.
+  /// Wall time [s] of the steps `register` ran before the stages ("detect",
+  /// "odometry"; absent when it did not run them), and the recording's span
+  /// [s] (0: not known): what the run took against the drive it processed.
+  std::map<std::string, double> seconds_per_step;
+  double drive_seconds = 0;
 };
 
 /// Which frame a registration's poses are in (registration.yaml `world_frame`).
