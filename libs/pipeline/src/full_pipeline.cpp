@@ -323,7 +323,7 @@ StepOutcome RegistrationPipeline::output(const ProgressReporter& progress) {
   RegistrationRun run = state_->session->current();
   RegistrationStatistics& statistics = run.registration.statistics;
   for (const StepTime& step : times_) {
-    if (step.step == "detect" || step.step == "odometry") {
+    if (step.ran && (step.step == "detect" || step.step == "odometry")) {
       statistics.seconds_per_step[step.step] = step.seconds;
     }
   }
@@ -358,7 +358,8 @@ StepOutcome RegistrationPipeline::runNext(const ProgressReporter& progress) {
     lines_.push_back(outcome.summary);
   }
   times_.push_back(
-      {name, std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count()});
+      {name, std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(),
+       outcome.ran});
   ++next_;
   return outcome;
 }

@@ -110,6 +110,7 @@ StepOutcome runOdometryStep(const FullPipelineOptions& options,
 struct StepTime {
   std::string step;  ///< "detect", "odometry", a stage's name, "output".
   double seconds = 0;
+  bool ran = false;  ///< False when the step was skipped (e.g. detections already there).
 };
 
 struct FullPipelineResult {
