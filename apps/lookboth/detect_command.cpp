@@ -1,8 +1,10 @@
 // `lookboth detect`: the marker in the environment cameras' frames, the
 // housings (blobs) in the fisheye's frames, added to the dataset; optionally
 // scored against a simulated dataset's ground truth.
+#include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <limits>
 
 #include "commands.h"
 #include "lookboth/core/error.h"
@@ -72,13 +74,30 @@ void printEvaluation(const DetectOptions& options, const DetectSummary& summary,
     }
   }
   if (!blobs.empty()) {
-    const BlobEvaluation e = evaluateBlobs(truth, blobs);
+    // Housings by distance from the fisheye [m]: the ceiling right above, the
+    // ranges a housing's blob shrinks through, and the far ones near the
+    // fisheye's horizon that other ceiling elements hide most often.
+    constexpr double kFar = std::numeric_limits<double>::infinity();
+    const BlobEvaluation e = evaluateBlobs(truth, blobs, 6.0, {0.0, 3.0, 4.0, 6.0, kFar});
     std::printf(
         "blobs vs ground truth: %d frames, recall %d/%d (%.1f %%; hidden housings count "
-        "as missed), false positives %.2f per frame, centre error median %.2f px, "
-        "p90 %.2f px\n",
+        "as missed), false positives %.2f per frame, precision %.1f %%, centre error median "
+        "%.2f px, p90 %.2f px\n",
         e.frames, e.matched, e.expected, 100 * e.recall(), e.falsePositivesPerFrame(),
-        e.median_error_px, e.p90_error_px);
+        100 * e.precision(), e.median_error_px, e.p90_error_px);
+    std::printf("  %-12s %9s %9s %9s %15s\n", "distance m", "expected", "matched", "recall %",
+                "centre med px");
+    for (const BlobBand& band : e.bands) {
+      if (band.expected == 0) continue;
+      char range[32];
+      if (std::isinf(band.max_distance_m)) {
+        std::snprintf(range, sizeof range, ">=%.1f", band.min_distance_m);
+      } else {
+        std::snprintf(range, sizeof range, "%.1f-%.1f", band.min_distance_m, band.max_distance_m);
+      }
+      std::printf("  %-12s %9d %9d %9.1f %15.2f\n", range, band.expected, band.matched,
+                  100 * band.recall(), band.median_error_px);
+    }
     if (e.passes > 0) {
       std::printf(
           "  per pass (%d passes): mean NEES of the pass's mean error %.2f (2 expected when the "
@@ -87,6 +106,13 @@ void printEvaluation(const DetectOptions& options, const DetectSummary& summary,
           e.passes, e.mean_pass_nees, e.pass_error_share, e.shared_error_px);
     }
   }
+}
+
+/// --verbose: what became of the fisheye's blob candidates.
+void printBlobCandidates(const BlobDetectorStats& b) {
+  std::cout << "    " << b.candidates << " blob candidates: " << b.too_small << " smaller and "
+            << b.too_big << " larger than a housing there, " << b.low_contrast
+            << " below min_contrast, " << b.not_dark << " not dark enough (max_darkness_ratio)\n";
 }
 
 int runDetect(const DetectArgs& args) {
@@ -147,6 +173,7 @@ int runDetect(const DetectArgs& args) {
           std::cout << "    " << n << " with OpenCV's corners (cornerSubPix): " << why << "\n";
         for (const auto& [why, n] : m.rejected)
           std::cout << "    " << n << " candidates dropped: " << why << "\n";
+        if (c.fisheye) printBlobCandidates(c.blob_candidates);
       }
     }
     std::cout << (args.dry_run ? "detected (not written): " : "wrote ")

@@ -59,6 +59,11 @@ static void fields(BlobDetectorOptions& o, OptionFields& f) {
   f.number("min_convexity", o.min_convexity);
   f.number("min_inertia_ratio", o.min_inertia_ratio);
   f.number("min_contrast", o.min_contrast);
+  f.number("max_darkness_ratio", o.max_darkness_ratio);
+  f.number("housing_radius_m", o.housing_radius_m);
+  f.number("min_housing_height_m", o.min_housing_height_m);
+  f.number("max_housing_height_m", o.max_housing_height_m);
+  f.number("housing_size_tolerance", o.housing_size_tolerance);
 }
 
 namespace {
@@ -153,6 +158,7 @@ struct JobResult {
   std::vector<Record> records;
   std::int64_t skipped = 0, blobs = 0, ambiguous = 0, unresolved = 0, rejected = 0;
   MarkerDetectorStats candidates;
+  BlobDetectorStats blob_candidates;
   std::vector<DatasetIssue> issues;
 };
 
@@ -182,7 +188,7 @@ JobResult runJob(const CameraWork& work, const Job& job, const DetectConfig& con
   std::optional<MarkerDetector> marker_detector;
   std::optional<BlobDetector> blob_detector;
   if (work.fisheye) {
-    blob_detector.emplace(config.blobs);
+    blob_detector.emplace(config.blobs, work.sensor->camera ? &*work.sensor->camera : nullptr);
   } else {
     marker_detector.emplace(marker, *work.sensor->camera, config.markers);
   }
@@ -223,7 +229,7 @@ JobResult runJob(const CameraWork& work, const Job& job, const DetectConfig& con
       obs.camera = label;
       obs.image_width = grey.cols;
       obs.image_height = grey.rows;
-      obs.blobs = blob_detector->detect(grey);
+      obs.blobs = blob_detector->detect(grey, &result.blob_candidates);
       result.blobs += static_cast<std::int64_t>(obs.blobs.size());
       result.records.push_back(std::move(obs));
       continue;
@@ -394,6 +400,7 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
     s.unresolved += r.unresolved;
     s.rejected += r.rejected;
     addStats(s.marker_candidates, r.candidates);
+    s.blob_candidates.add(r.blob_candidates);
     s.detections += static_cast<std::int64_t>(r.records.size());
     for (DatasetIssue& issue : r.issues) {
       if (options.on_issue) options.on_issue(issue);

@@ -250,8 +250,13 @@ GroundTruthView loadGroundTruth(const std::filesystem::path& dataset) {
 }
 
 BlobEvaluation evaluateBlobs(const GroundTruthView& truth,
-                             const std::vector<BlobObservation>& observations, double match_px) {
+                             const std::vector<BlobObservation>& observations, double match_px,
+                             const std::vector<double>& band_edges) {
   BlobEvaluation out;
+  for (size_t b = 0; b + 1 < band_edges.size(); ++b) {
+    out.bands.push_back({band_edges[b], band_edges[b + 1]});
+  }
+  std::vector<std::vector<double>> band_errors(out.bands.size());
   std::vector<double> errors;
   std::map<std::string, std::vector<std::pair<TimeNs, Eigen::Vector2d>>> by_camera;
   for (const BlobObservation& obs : observations) {
@@ -268,9 +273,16 @@ BlobEvaluation evaluateBlobs(const GroundTruthView& truth,
     const Rigid3d fisheye_from_world = at.world_from_body.inverse();
     std::vector<bool> used(obs.blobs.size(), false);
     for (const auto& [label, world_from_camera] : truth.manifest.ground_truth.world_from_camera) {
-      const auto p = sensor->camera->project(fisheye_from_world * world_from_camera.translation);
+      const Eigen::Vector3d centre = fisheye_from_world * world_from_camera.translation;
+      const auto p = sensor->camera->project(centre);
       if (!p || !sensor->camera->isInImage(*p, 2.0)) continue;
       ++out.expected;
+      const double distance = centre.norm();
+      BlobBand* band = nullptr;
+      for (BlobBand& b : out.bands) {
+        if (distance >= b.min_distance_m && distance < b.max_distance_m) band = &b;
+      }
+      if (band) ++band->expected;
       int best = -1;
       double best_distance = match_px;
       for (size_t i = 0; i < obs.blobs.size(); ++i) {
@@ -284,6 +296,10 @@ BlobEvaluation evaluateBlobs(const GroundTruthView& truth,
         used[static_cast<size_t>(best)] = true;
         ++out.matched;
         errors.push_back(best_distance);
+        if (band) {
+          ++band->matched;
+          band_errors[static_cast<size_t>(band - out.bands.data())].push_back(best_distance);
+        }
         const Blob& blob = obs.blobs[static_cast<size_t>(best)];
         by_camera[label].push_back({obs.t, Eigen::Vector2d(blob.u, blob.v) - *p});
       }
@@ -292,6 +308,9 @@ BlobEvaluation evaluateBlobs(const GroundTruthView& truth,
   }
   out.median_error_px = medianOf(errors);
   out.p90_error_px = quantileOf(errors, 0.9);
+  for (size_t b = 0; b < out.bands.size(); ++b) {
+    out.bands[b].median_error_px = medianOf(band_errors[b]);
+  }
   scoreBlobPasses(by_camera, errors, out);
   return out;
 }

@@ -80,6 +80,8 @@ struct CameraDetectSummary {
   /// The marker's candidates in its frames: edge fits, fallbacks to OpenCV's
   /// corners and rejections, each with its reason.
   MarkerDetectorStats marker_candidates;
+  /// The fisheye's blob candidates: kept, or dropped with their reason.
+  BlobDetectorStats blob_candidates;
 };
 
 struct DetectSummary {

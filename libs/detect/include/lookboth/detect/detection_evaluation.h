@@ -80,7 +80,18 @@ MarkerEvaluation evaluateMarkers(const GroundTruthView& truth,
                                  const std::vector<std::pair<std::string, TimeNs>>& frames,
                                  const std::vector<double>& band_edges, double min_side_px = 12);
 
+/// Housings by their distance from the fisheye (the camera's optical centre, true pose).
+struct BlobBand {
+  double min_distance_m = 0, max_distance_m = 0;
+  int expected = 0, matched = 0;
+  double median_error_px = 0;  ///< Of the matched ones.
+  double recall() const { return expected ? double(matched) / expected : 0.0; }
+};
+
 struct BlobEvaluation {
+  /// Per distance band (`band_edges`); false positives have no true
+  /// distance and are counted only in all.
+  std::vector<BlobBand> bands;
   int frames = 0;
   int expected = 0;         ///< Housing centres projected inside the image (2 px margin), in front.
   int matched = 0;          ///< Expected ones with a blob within `match_px`.
@@ -98,13 +109,18 @@ struct BlobEvaluation {
   double shared_error_px = 0;
   double recall() const { return expected ? double(matched) / expected : 0.0; }
   double falsePositivesPerFrame() const { return frames ? double(false_positives) / frames : 0.0; }
+  /// Matched / all blobs (1 when there are none).
+  double precision() const {
+    return matched + false_positives ? double(matched) / (matched + false_positives) : 1.0;
+  }
 };
 
 /// Scores blob observations of the fisheye (housings hidden behind other
-/// objects are counted as expected: recall is a lower bound).
+/// objects are counted as expected: recall is a lower bound). Bands are by
+/// true distance from the fisheye [m], `band_edges` ascending.
 BlobEvaluation evaluateBlobs(const GroundTruthView& truth,
                              const std::vector<BlobObservation>& observations,
-                             double match_px = 6.0);
+                             double match_px = 6.0, const std::vector<double>& band_edges = {});
 
 /// Reads the manifest and the "ground_truth" trajectory of a dataset;
 /// throws lookboth::Error naming the dataset when it has no ground truth.
