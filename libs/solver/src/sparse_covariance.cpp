@@ -507,8 +507,13 @@ class CovarianceComputation {
   bool invertDenseGroup() {
     if (ng_ == 0) return true;
     w_.setZero(static_cast<Eigen::Index>(kept_.size()), ng_);
-    whole_kept_ = !whole_request_.empty() &&
-                  static_cast<double>(na_) * ng_ <= static_cast<double>(max_dense_entries_);
+    // W's every row, then the whole columns themselves: both within the limit.
+    double columns = 0;
+    for (const double* p : whole_request_) {
+      if (const auto found = index_.find(p); found != index_.end()) columns += size_[found->second];
+    }
+    whole_kept_ = !whole_request_.empty() && static_cast<double>(na_) * ng_ + n_ * columns <=
+                                                 static_cast<double>(max_dense_entries_);
     if (whole_kept_) w_all_.resize(na_, ng_);
     if (na_ > 0) schurComplement();
     s_ = 0.5 * (s_ + s_.transpose());
