@@ -8,6 +8,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
 #include "lookboth/geometry/lie.h"
 #include "lookboth/report/pose_comparison.h"
@@ -38,6 +39,16 @@ class ReportTest : public ::testing::Test {
   }
   static void TearDownTestSuite() {
     if (!std::getenv("LOOKBOTH_KEEP_TEST_OUTPUT")) fs::remove_all(dir_);
+  }
+  // A report without pictures but one fisheye frame, to `name`.html: the
+  // tests that read its text, not its pictures.
+  static ReportOptions textOnly(const std::string& name) {
+    ReportOptions options;
+    options.out = dir_ / (name + ".html");
+    options.overview = false;
+    options.max_env_views = 0;
+    options.auto_frames = 1;
+    return options;
   }
   static fs::path dir_, dataset_;
   static Registration registration_;
@@ -152,17 +163,11 @@ TEST_F(ReportTest, ShowsTheRunTimeAgainstTheDrive) {
   timed.statistics.seconds_per_step = {{"detect", 12.0}, {"odometry", 8.0}};
   timed.statistics.drive_seconds = 42.0;
   saveRegistration(timed, dir_ / "timed");
-  ReportOptions options;
-  options.out = dir_ / "timed.html";
-  options.overview = false;
-  options.max_env_views = 0;
-  options.auto_frames = 1;
+  const ReportOptions options = textOnly("timed");
   writeReport(dataset_, dir_ / "timed", options, ProgressReporter());
-  std::ifstream in(options.out);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  EXPECT_NE(buffer.str().find("<h2>Run time</h2>\n<p>detect 12.0 s, odometry 8.0 s, the stages "
-                              "1.0 s: 21.0 s in all, 0.50x the drive (42.0 s).</p>"),
+  EXPECT_NE(readFile(options.out)
+                .find("<h2>Run time</h2>\n<p>detect 12.0 s, odometry 8.0 s, the stages "
+                      "1.0 s: 21.0 s in all, 0.50x the drive (42.0 s).</p>"),
             std::string::npos);
 }
 
@@ -173,11 +178,7 @@ TEST_F(ReportTest, VerdictNamesWhatIsWrong) {
   bad.cameras[2].status = CameraStatus::kUnregistered;
   bad.cameras[2].reason = "never detected";
   saveRegistration(bad, dir_ / "bad");
-  ReportOptions options;
-  options.out = dir_ / "bad.html";
-  options.overview = false;
-  options.max_env_views = 0;
-  options.auto_frames = 1;
+  const ReportOptions options = textOnly("bad");
   const ReportSummary summary = writeReport(dataset_, dir_ / "bad", options, ProgressReporter());
   EXPECT_EQ(summary.verdict, Verdict::kNeedsChecking);
   std::string all;
@@ -197,12 +198,8 @@ TEST_F(ReportTest, VerdictDistrustsAnUncertaintyTooSmallForTheErrors) {
           Eigen::Matrix3d::Identity() * predicted_sigma_m * predicted_sigma_m;
     }
     saveRegistration(reg, dir_ / name);
-    ReportOptions options;
-    options.out = dir_ / (name + ".html");
+    ReportOptions options = textOnly(name);
     options.ground_truth = dataset_;
-    options.overview = false;
-    options.max_env_views = 0;
-    options.auto_frames = 1;
     std::string all;
     for (const auto& r : writeReport(dataset_, dir_ / name, options, ProgressReporter()).reasons)
       all += r + "\n";
