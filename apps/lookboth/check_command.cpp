@@ -44,13 +44,7 @@ int runCheck(const CheckArgs& args) {
   const Registration record = loadRegistration(args.against);
   const FacilityCheck check = checkFacility(fresh, record, args.options);
   std::cout << args.registration << " against " << args.against << "\n";
-  std::cout << "  camera      verdict     moved [mm]  sigmas  turned [deg]  sigmas\n";
-  for (const CameraCheck& c : check.cameras) printCamera(c);
-  std::cout << check.moved << " moved, " << check.unchanged << " unchanged, " << check.not_seen
-            << " not seen, " << check.added << " new (moved: more than "
-            << formatFixed(args.options.min_position_m * 1000, 1) << " mm or "
-            << formatFixed(args.options.min_rotation_deg, 2)
-            << " deg, and beyond both registrations' uncertainty)\n";
+  printFacilityCheck(check, args.options);
   if (!args.update_out.empty()) {
     const Registration updated = updateRegistration(record, fresh, check);
     writeDirectoryAtomically(
@@ -63,6 +57,16 @@ int runCheck(const CheckArgs& args) {
 }
 
 }  // namespace
+
+void printFacilityCheck(const FacilityCheck& check, const FacilityCheckOptions& options) {
+  std::cout << "  camera      verdict     moved [mm]  sigmas  turned [deg]  sigmas\n";
+  for (const CameraCheck& c : check.cameras) printCamera(c);
+  std::cout << check.moved << " moved, " << check.unchanged << " unchanged, " << check.not_seen
+            << " not seen, " << check.added << " new (moved: more than "
+            << formatFixed(options.min_position_m * 1000, 1) << " mm or "
+            << formatFixed(options.min_rotation_deg, 2)
+            << " deg, and beyond both registrations' uncertainty)\n";
+}
 
 void addMoveTolerances(CLI::App* cmd, FacilityCheckOptions& options, const std::string& when) {
   cmd->add_option("--min-move-m", options.min_position_m,
@@ -86,7 +90,9 @@ void registerCheckCommand(CLI::App& app, const std::function<void(CommandBody)>&
   addMoveTolerances(cmd, args->options, "");
   cmd->add_option("--update-out", args->update_out,
                   "Write the record updated by this drive here: the moved and new cameras "
-                  "re-registered, the others kept, in the record's frame");
+                  "take this drive's poses, the others the record's, in the record's frame "
+                  "(`register <drive> --update <record>` registers them against the unchanged "
+                  "ones instead)");
   cmd->add_flag("--overwrite", args->overwrite, "Replace an existing --update-out");
   cmd->callback([args, set_body] { set_body([args] { return runCheck(*args); }); });
 }

@@ -40,6 +40,9 @@ void printDatasetIssue(const DatasetIssue& issue);
 /// The tolerances of a facility check (`check`, `report --record`):
 /// --min-move-m and --min-turn-deg, their help starting with `when`.
 void addMoveTolerances(CLI::App* cmd, FacilityCheckOptions& options, const std::string& when);
+/// `check`'s table: one row per camera (verdict, moved mm and sigmas, turned
+/// deg and sigmas) and the counts, on stdout.
+void printFacilityCheck(const FacilityCheck& check, const FacilityCheckOptions& options);
 
 /// "cannot write 'path': No space left on device" for a failed file operation.
 std::string describeFilesystemError(const std::filesystem::filesystem_error& e);

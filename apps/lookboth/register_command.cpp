@@ -27,6 +27,8 @@ struct RegisterArgs {
   bool no_write_back = false;
   bool verbose = false;
   int threads = 0;
+  std::string update;  ///< A registration on record to update.
+  FacilityCheckOptions update_check;
 };
 
 /// The files register reads: it must not write over any of them.
@@ -34,6 +36,7 @@ std::vector<std::filesystem::path> registerInputs(const RegisterArgs& args) {
   std::vector<std::filesystem::path> inputs = datasetPaths(args.dataset);
   if (!args.trajectory_file.empty()) inputs.emplace_back(args.trajectory_file);
   if (!args.config.empty()) inputs.emplace_back(args.config);
+  if (!args.update.empty()) inputs.emplace_back(args.update);
   return inputs;
 }
 
@@ -66,8 +69,14 @@ int runRegister(const RegisterArgs& args) {
     full.threads = args.threads;
     full.write_back = !args.no_write_back;
     full.on_issue = printDatasetIssue;
+    full.update_record = args.update;
+    full.update_check = args.update_check;
     const FullPipelineResult result = runFullPipeline(full, progress);
     for (const auto& step : result.steps) std::cout << step << "\n";
+    if (result.check) {
+      std::cout << "this drive against " << args.update << ":\n";
+      printFacilityCheck(*result.check, args.update_check);
+    }
     const RegistrationRun& run = result.run;
     std::cout << registrationSummary(run.registration, args.verbose);
     std::cout << describeTimes(result) << "\n";
@@ -119,6 +128,15 @@ void registerRegisterCommand(CLI::App& app, const std::function<void(CommandBody
                 "Do not run the visual odometry when the dataset has no 'vo' trajectory");
   cmd->add_option("--threads", args->threads, "Detection threads (0 = one per core)")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--update", args->update,
+                  "A registration on record (a directory) to bring up to date with this drive: "
+                  "the drive is registered, compared with the record as `lookboth check` does, "
+                  "and registered again in the record's frame with the unchanged cameras held "
+                  "at the record (their recorded covariance as the weight); the moved and new "
+                  "cameras take the poses found against them, the cameras the drive did not "
+                  "see keep the record's. --out is the record updated")
+      ->check(CLI::ExistingDirectory);
+  addMoveTolerances(cmd, args->update_check, "With --update: ");
   cmd->add_flag("--no-write-back", args->no_write_back,
                 "Leave the dataset untouched: the detections and odometry that register runs "
                 "go to a temporary copy beside --out, removed at the end (by default they are "

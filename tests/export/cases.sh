@@ -199,6 +199,33 @@ print(f"cam03 against the later drive's truth: record {stale * 1000:.1f} mm, upd
 if not (stale > 0.04 and updated < 0.015):
     sys.exit("FAIL: the update did not bring cam03 back")
 PY
+  # register --update: cam03 registered again against the others held at the
+  # record, in the record's frame: as near the later truth as this drive's own
+  # registration puts it (the replacement above), far from the stale record;
+  # the record is left untouched and registration.yaml says what was done.
+  cp -r reg1 reg1.before
+  "$L" register drive2.rawlog --trajectory metric --update reg1 --out reg3 | tee update.log
+  grep -q "^update: against reg1: 1 moved and 0 new registered again, 5 unchanged held" update.log ||
+    fail "the update's line: $(grep '^update' update.log)"
+  grep -Eq "^  cam03 +moved" update.log || fail "the update did not name cam03"
+  diff -r reg1 reg1.before >/dev/null || fail "register --update wrote into the record"
+  "$L" evaluate reg3 --ground-truth drive2.rawlog --json reg3.json >/dev/null
+  python3 - updated.json reg3.json reg3/registration.yaml <<'PY'
+import json, sys, yaml
+def cam03(path):
+    return next(c for c in json.load(open(path))['ground_truth']['cameras'] if c['label'] == 'cam03')
+replaced, updated = cam03(sys.argv[1])['position_error_m'], cam03(sys.argv[2])['position_error_m']
+print(f"update: cam03 {updated * 1000:.1f} mm from the later truth (the drive alone: {replaced * 1000:.1f} mm)")
+if not (updated < 0.01 and updated < replaced + 0.001):
+    sys.exit("FAIL: the update did not bring cam03 back")
+reg = yaml.safe_load(open(sys.argv[3]))
+notes = [n for c in reg['cameras'] if c['label'] == 'cam03' for n in c.get('notes', [])]
+held = [c['label'] for c in reg['cameras'] if any(n.startswith('update: unchanged') for n in c.get('notes', []))]
+if not any(n.startswith('update: moved') for n in notes) or reg['pipeline'][-1] != 'update':
+    sys.exit(f"FAIL: registration.yaml does not say what the update did: {notes}")
+if len(held) != 5:
+    sys.exit(f"FAIL: expected the 5 unchanged cameras held at the record: {held}")
+PY
   # The simulator moved cam03 by exactly that and nothing else.
   python3 - drive1.yaml drive2.yaml <<'PY'
 import sys, yaml

@@ -33,6 +33,7 @@ void JointAdjustment::run() {
   initCameras();
   collectDetections();
   collectBlobFrames();
+  startFromEarlierRun();
   configureSolver();
   solveRounds();
   noteModelEstimates();

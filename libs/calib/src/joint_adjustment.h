@@ -27,7 +27,13 @@
 //
 // Gauge: the first node is held at the input's first pose (scaled): the
 // registration's world is the trajectory's first pose, as for the paper's
-// stages (doc/conventions.md).
+// stages (doc/conventions.md). With camera priors (a registration on record,
+// RegistrationProblem::camera_priors) the priors fix it instead: the world is
+// the record's, and nothing is held.
+//
+// A joint run again on the same problem (`register --update`) starts where
+// the earlier one ended: its corrected trajectory and clock offsets, and the
+// drift model it estimated from the same data, kept as it is.
 //
 // The steps, in the order run() takes them (and the file that holds each):
 //   setup (joint_setup.cpp): the inputs checked, the reference trajectory
@@ -97,6 +103,9 @@ struct JointCamera {
   double offset0_s = 0;  // configured (associate) [s]
   std::vector<std::size_t> detections;
   int blobs = 0;
+  /// Held near a registration on record (RegistrationProblem::camera_priors).
+  std::optional<Rigid3d> prior;
+  Matrix6d prior_sqrt_info = Matrix6d::Zero();
 };
 
 /// A fisheye frame with blobs, and where its time falls between the nodes.
@@ -157,6 +166,8 @@ class JointAdjustment {
   void collectDetections();
   void collectBlobFrames();
   void configureSolver();
+  // An earlier joint's estimates on this problem as the start (warm start).
+  void startFromEarlierRun();
   // The reference (input, scaled) world_from_fisheye at t; none in a gap.
   std::optional<Rigid3d> referenceAt(TimeNs t) const;
   // The bracket of time t (robot clock); none outside the nodes or in a gap.
@@ -247,7 +258,9 @@ class JointAdjustment {
   bool verbose_ = false;              // LOOKBOTH_JOINT_VERBOSE: diagnostics on stderr
   bool verbose_every_round_ = false;  // =2: Ceres' full report of every round
   bool visual_ = false;
-  double scale0_ = 1;  // motion_calibration's scale
+  double scale0_ = 1;               // motion_calibration's scale
+  bool held_by_priors_ = false;     // camera priors fix the gauge (no node held)
+  bool drift_model_given_ = false;  // an earlier run's estimate, kept (startFromEarlierRun)
 
   // The reference trajectory (the input, or its smoothed positions).
   std::optional<Trajectory> reference_;

@@ -130,6 +130,26 @@ struct ComponentPriorCost {
   }
 };
 
+// A camera's pose held near a registration on record: the pose error
+// [dt; dtheta] whitened by the record's covariance. Blocks: the pose (7).
+struct PosePriorCost {
+  Rigid3d prior;
+  Matrix6d sqrt_info;
+  static ceres::CostFunction* Create(const Rigid3d& prior, const Matrix6d& sqrt_info) {
+    auto* cost = new PosePriorCost;
+    cost->prior = prior;
+    cost->sqrt_info = sqrt_info;
+    return new ceres::AutoDiffCostFunction<PosePriorCost, 6, 7>(cost);
+  }
+  template <typename T>
+  bool operator()(const T* x, T* residual) const {
+    const Eigen::Matrix<T, 6, 1> e = poseError(poseFromParams(x), prior);
+    Eigen::Map<Eigen::Matrix<T, 6, 1>> r(residual);
+    r = sqrt_info.cast<T>() * e;
+    return true;
+  }
+};
+
 struct MarkerPoseCost {
   Bracket bracket;
   double tau_camera_s = 0;  // t_camera - t_k [s]

@@ -57,7 +57,7 @@ bool JointAdjustment::roundNeeded(int round) const {
 // after drift_round_max_iterations steps (previous_short_).
 bool JointAdjustment::driftUpdateFollows(int round) const {
   return options_.estimate_drift_model && !options_.fix_trajectory && !drift_.failed &&
-         drift_.updates < options_.drift_model_updates &&
+         !drift_model_given_ && drift_.updates < options_.drift_model_updates &&
          (drift_.updates == 0 || drift_.still_changing) && round + 1 < max_rounds_;
 }
 
@@ -242,7 +242,7 @@ void JointAdjustment::buildProblem(bool drift_update_follows) {
   // Gauge and fixed parts.
   ceres::Problem& Q = *ceres_problem_;
   addNode(0);
-  Q.SetParameterBlockConstant(nodes_[0].data());
+  if (!held_by_priors_) Q.SetParameterBlockConstant(nodes_[0].data());
   if (options_.fix_trajectory) {
     for (std::size_t k = 0; k < nodes_.size(); ++k) {
       if (node_used_[k]) Q.SetParameterBlockConstant(nodes_[k].data());
@@ -320,6 +320,9 @@ void JointAdjustment::addCamerasAndDetections() {
     Q.AddResidualBlock(ScalarPriorCost::Create(c.offset0_s, options_.clock_prior_sigma_s), nullptr,
                        &c.offset_s);
     if (!options_.estimate_clock_offsets) Q.SetParameterBlockConstant(&c.offset_s);
+    if (c.prior) {
+      Q.AddResidualBlock(PosePriorCost::Create(*c.prior, c.prior_sqrt_info), nullptr, c.pose);
+    }
   }
   for (std::size_t i = 0; i < detections_.size(); ++i) {
     const Detection& d = detections_[i];

@@ -199,6 +199,12 @@ void JointAdjustment::initCameras() {
     jc.offset0_s = offset == configured_offsets.end() ? 0.0 : nsToSeconds(offset->second);
     jc.offset_s = jc.offset0_s;
     if (const auto r = restarted_.find(c.label); r != restarted_.end()) jc.offset_s += r->second;
+    if (const auto prior = problem_.camera_priors.find(c.label);
+        prior != problem_.camera_priors.end()) {
+      jc.prior = prior->second.world_from_camera;
+      jc.prior_sqrt_info = sqrtInformation(prior->second.covariance.inverse());
+      held_by_priors_ = true;
+    }
     cameras_.push_back(jc);
   }
   const double half_side = 0.5 * input_.manifest.marker.size_m;
@@ -253,6 +259,39 @@ void JointAdjustment::collectBlobFrames() {
     }
   }
   matches_.assign(cameras_.size(), {});
+}
+
+// A joint run before on this problem corrected the trajectory, estimated the
+// drift model and the clock offsets: start from them, so that a second run
+// (with camera priors, `register --update`) converges in a round or two. The
+// drift model, estimated from the same data, is kept (priors on a few cameras
+// hardly change it, and each update costs a covariance and a round). The
+// input trajectory stays the reference the relative motions measure.
+void JointAdjustment::startFromEarlierRun() {
+  if (!problem_.metric_trajectory || options_.fix_trajectory) return;
+  const std::vector<StampedPose>& corrected = *problem_.metric_trajectory;
+  auto byTime = [](const StampedPose& p, TimeNs t) { return p.t < t; };
+  for (std::size_t k = 0; k < nodes_.size(); ++k) {
+    const auto found = std::lower_bound(corrected.begin(), corrected.end(), node_t_[k], byTime);
+    if (found != corrected.end() && found->t == node_t_[k]) {
+      poseToParams(found->world_from_body, nodes_[k].data());
+    }
+  }
+  if (options_.estimate_drift_model && result_.observability.drift_model) {
+    const DriftModelEstimate& e = *result_.observability.drift_model;
+    drift_.factor[0] = e.horizontal;
+    drift_.factor[1] = e.vertical;
+    drift_.factor[2] = e.tilt;
+    drift_.factor[3] = e.yaw;
+    drift_.updates = e.updates;
+    drift_model_given_ = true;
+  }
+  for (JointCamera& c : cameras_) {
+    const auto& offset = c.registration->clock_offset;
+    if (offset && offset->estimated && !restarted_.count(c.registration->label)) {
+      c.offset_s = nsToSeconds(offset->offset_ns);
+    }
+  }
 }
 
 void JointAdjustment::configureSolver() {

@@ -19,6 +19,7 @@ std::string FullPipelineOptions::check() const {
   if (mode == TrajectoryMode::kMetric && trajectory_file.empty() && trajectory_label == "vo")
     return "'trajectory': the metric mode needs a metric trajectory, not 'vo'";
   if (threads < 0) return "'threads': must be >= 0";
+  if (!update_record.empty()) return update_check.check();
   return "";
 }
 
@@ -250,6 +251,8 @@ struct RegistrationPipeline::State {
   FullPipelineOptions working;  ///< The options with the trajectory chosen, the dataset read.
   std::optional<ScratchDataset> scratch;
   std::optional<RegistrationSession> session;
+  std::optional<Registration> record;  ///< FullPipelineOptions::update_record, read.
+  std::optional<FacilityCheck> check;  ///< The update's comparison with the record.
 };
 
 RegistrationPipeline::RegistrationPipeline(FullPipelineOptions options)
@@ -258,7 +261,17 @@ RegistrationPipeline::RegistrationPipeline(FullPipelineOptions options)
   // The configuration first: a typo fails in a second, not after detection.
   state_ = std::make_unique<State>(options_);
   steps_ = {"detect", "odometry"};
-  for (const std::string& stage : state_->controller.config().pipeline) steps_.push_back(stage);
+  const std::vector<std::string>& stages = state_->controller.config().pipeline;
+  for (const std::string& stage : stages) steps_.push_back(stage);
+  if (!options_.update_record.empty()) {
+    if (std::find(stages.begin(), stages.end(), "joint") == stages.end()) {
+      throw Error(ErrorContext{"", 0, "register.pipeline", ""},
+                  "--update needs the stage 'joint' in register.pipeline (it holds the "
+                  "unchanged cameras at the record)");
+    }
+    state_->record = loadRegistration(options_.update_record);
+    steps_.push_back("update");
+  }
   steps_.push_back("output");
 }
 
@@ -318,6 +331,20 @@ StepOutcome RegistrationPipeline::stage(const ProgressReporter& progress) {
   return outcome;
 }
 
+StepOutcome RegistrationPipeline::update(const ProgressReporter& progress) {
+  State& st = *state_;
+  st.check = st.session->updateRecord(*st.record, options_.update_check, progress);
+  const FacilityCheck& c = *st.check;
+  StepOutcome outcome;
+  outcome.ran = true;
+  outcome.summary = "update: against " + options_.update_record.string() + ": " +
+                    std::to_string(c.moved) + " moved and " + std::to_string(c.added) +
+                    " new registered again, " + std::to_string(c.unchanged) +
+                    " unchanged held at the record, " + std::to_string(c.not_seen) +
+                    " not seen kept from it";
+  return outcome;
+}
+
 StepOutcome RegistrationPipeline::output(const ProgressReporter& progress) {
   progress.checkStop();
   RegistrationRun run = state_->session->current();
@@ -349,12 +376,15 @@ StepOutcome RegistrationPipeline::runNext(const ProgressReporter& progress) {
     outcome = odometry(progress);
   } else if (next_ + 1 == steps_.size()) {
     outcome = output(progress);
+  } else if (state_->record && next_ + 2 == steps_.size()) {
+    outcome = update(progress);
   } else {
     outcome = stage(progress);
   }
   // The stages' lines are the summary's business; detection, odometry and
   // the output say what they did or why they were skipped.
-  if (name == "detect" || name == "odometry" || next_ + 1 == steps_.size()) {
+  if (name == "detect" || name == "odometry" || next_ + 1 == steps_.size() ||
+      (state_->record && next_ + 2 == steps_.size())) {
     lines_.push_back(outcome.summary);
   }
   times_.push_back(
@@ -377,6 +407,7 @@ FullPipelineResult RegistrationPipeline::run(const ProgressReporter& progress) {
   FullPipelineResult result;
   result.steps = lines_;
   result.run = state_->session->current();
+  result.check = state_->check;
   result.times = times_;
   result.drive_seconds = driveSeconds();
   return result;

@@ -12,6 +12,7 @@
 #include <opencv2/core/version.hpp>
 #include <sstream>
 
+#include "lookboth/calib/record_update.h"
 #include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/output_path.h"
@@ -271,9 +272,33 @@ void RegistrationSession::runNext(const ProgressReporter& progress) {
   ++next_;
 }
 
+FacilityCheck RegistrationSession::updateRecord(const Registration& record,
+                                                const FacilityCheckOptions& options,
+                                                const ProgressReporter& progress) {
+  if (!finished()) throw Error("update: the configured stages have not all run");
+  const auto& names = controller_->config_.pipeline;
+  const auto joint = std::find(names.begin(), names.end(), "joint");
+  if (joint == names.end()) {
+    throw Error(ErrorContext{"", 0, "register.pipeline", ""},
+                "--update needs the stage 'joint' in register.pipeline (it holds the unchanged "
+                "cameras at the record)");
+  }
+  progress.checkStop();
+  check_ = checkFacility(current().registration, record, options);
+  holdAtRecord(problem_, record, check_);
+  RegistrationStage& stage = *controller_->stages_[joint - names.begin()];
+  const auto start = std::chrono::steady_clock::now();
+  stage.run(problem_, progress);
+  problem_.result.statistics.seconds_per_stage["update"] =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  problem_.result.pipeline.push_back("update");
+  record_ = record;
+  return check_;
+}
+
 RegistrationRun RegistrationSession::current() const {
   RegistrationRun run;
-  run.registration = problem_.result;
+  run.registration = record_ ? mergeIntoRecord(*record_, problem_.result, check_) : problem_.result;
   Registration& r = run.registration;
   r.scale = problem_.scale;
   if (problem_.input.mode == TrajectoryMode::kMetric) r.scale_sigma = 0;

@@ -42,8 +42,21 @@ struct Association {
   Rigid3d world_from_fisheye;    ///< Interpolated, UNSCALED (trajectory units).
 };
 
+/// A camera held near a registration on record (`register --update`,
+/// lookboth/calib/record_update.h): its pose there, in the record's frame, and
+/// that pose's covariance ([dt; dtheta], doc/conventions.md) as the prior's weight.
+struct CameraPrior {
+  Rigid3d world_from_camera;
+  Matrix6d covariance = Matrix6d::Identity();
+};
+
 struct RegistrationProblem {
   RegistrationInput input;
+
+  /// Priors on cameras' poses (by label), for `joint`: when any is set the
+  /// world is the frame they are in (the record's), not the first fisheye
+  /// pose, and the trajectory and the other cameras must start in it.
+  std::map<std::string, CameraPrior> camera_priors;
 
   // --- associate ---
   bool associated = false;

@@ -5,7 +5,9 @@
 //   2. odometry - in visual mode, when the dataset has no VO trajectory
 //                 (the result is added to the dataset as trajectory "vo");
 //   3. register - the configured stages (RegistrationController);
-//   4. output   - the registration directory, written atomically.
+//   4. update   - with FullPipelineOptions::update_record only: the record
+//                 updated by this drive (RegistrationSession::updateRecord);
+//   5. output   - the registration directory, written atomically.
 // Steps 1-2 add their results to the dataset through augmentDataset (a
 // complete new dataset swapped in, never a half-written one), so that the
 // next run, the report and the desktop app find them; each says so in its
@@ -46,6 +48,11 @@ struct FullPipelineOptions {
   bool auto_odometry = true;  ///< Run odometry when the visual trajectory is missing.
   int threads = 0;            ///< Detection threads (0 = one per core).
   bool write_back = true;     ///< Add detections and odometry to the dataset (see above).
+  /// A registration on record to update with this drive (`register --update`;
+  /// lookboth/calib/record_update.h): adds the step "update" before the
+  /// output, which is then the record updated, in the record's frame.
+  std::filesystem::path update_record;
+  FacilityCheckOptions update_check;  ///< What counts as moved, for update_record.
   /// Problems found in the input as it is read (rows dropped, frames skipped).
   std::function<void(const DatasetIssue&)> on_issue;
   std::string check() const;
@@ -116,6 +123,8 @@ struct StepTime {
 struct FullPipelineResult {
   std::vector<std::string> steps;  ///< One line per step run or skipped, and why.
   RegistrationRun run;
+  /// With update_record: this drive's own registration against the record.
+  std::optional<FacilityCheck> check;
   std::vector<StepTime> times;  ///< Every step, in order (a skipped one takes next to nothing).
   double drive_seconds = 0;     ///< The recording's span (DatasetContents first to last).
 };
@@ -126,10 +135,10 @@ std::string describeTimes(const FullPipelineResult& result);
 
 /// The steps above as one controller, for the command line (run) and the
 /// desktop app (runNext, one step per job): "detect", "odometry", each
-/// configured stage by name, "output". Throws lookboth::Error on bad input
-/// (naming the file or camera), StopRequested when stopped (the dataset
-/// stays complete: either as it was or with the finished steps' additions;
-/// a stopped stage counts as not run, and the run must start again).
+/// configured stage by name, "update" (with update_record), "output". Throws lookboth::Error on bad
+/// input (naming the file or camera), StopRequested when stopped (the dataset stays complete:
+/// either as it was or with the finished steps' additions; a stopped stage counts as not run, and
+/// the run must start again).
 class RegistrationPipeline {
  public:
   /// Checks the options and reads the registration configuration (a typo
@@ -160,6 +169,7 @@ class RegistrationPipeline {
   StepOutcome detect(const ProgressReporter& progress);
   StepOutcome odometry(const ProgressReporter& progress);
   StepOutcome stage(const ProgressReporter& progress);
+  StepOutcome update(const ProgressReporter& progress);
   StepOutcome output(const ProgressReporter& progress);
   double driveSeconds() const;  ///< The recording's span [s].
 

@@ -15,6 +15,7 @@
 #include "lookboth/core/config_layers.h"
 #include "lookboth/core/progress.h"
 #include "lookboth/dataset/dataset_io.h"
+#include "lookboth/registration/facility_check.h"
 #include "lookboth/registration/registration.h"
 
 namespace lookboth {
@@ -79,6 +80,14 @@ class RegistrationSession {
   /// the stage; StopRequested when stopped (the stage then counts as not run
   /// and the problem may hold part of its work: prepare again to redo it).
   void runNext(const ProgressReporter& progress);
+  /// `register --update` (lookboth/calib/record_update.h), once every stage
+  /// has run: the registration so far against `record` (checkFacility), then
+  /// the stage `joint` again in the record's frame with the unchanged cameras
+  /// held at the record; current() is then the record updated. Returns the
+  /// comparison. Throws lookboth::Error when the pipeline has no `joint` or
+  /// the comparison cannot align the two (fewer than 3 cameras in common).
+  FacilityCheck updateRecord(const Registration& record, const FacilityCheckOptions& options,
+                             const ProgressReporter& progress);
   /// The registration as it stands after the stages run so far (after the
   /// last one: what RegistrationController::run returns).
   RegistrationRun current() const;
@@ -90,6 +99,8 @@ class RegistrationSession {
   const RegistrationController* controller_;
   RegistrationProblem problem_;
   std::size_t next_ = 0;
+  std::optional<Registration> record_;  ///< updateRecord's record: current() merges with it.
+  FacilityCheck check_;
 };
 
 class RegistrationController {
