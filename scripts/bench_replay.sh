@@ -22,6 +22,7 @@
 # "_mono" but come from a metric estimator are listed in METRIC below.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
+source "$(dirname "${BASH_SOURCE[0]}")/replay_common.sh"
 
 data=${1:-${LOOKBOTH_REAL_TRAJECTORIES:-$LOOKBOTH_ROOT/../shared/data/real_trajectories}}
 work=${2:-$(mktemp -d "${TMPDIR:-/tmp}/lookboth-replay.XXXXXX")}
@@ -51,44 +52,6 @@ declare -A METRIC=([tum_fr2_desk_orbslam_mono]=false)
 # on rendered recordings (noise.marker_pass_share, doc/formats.md);
 # $LOOKBOTH_REPLAY_PASS_SHARE=0 gives independent detections.
 PASS_SHARE=${LOOKBOTH_REPLAY_PASS_SHARE:-0.15}
-
-# The extent of a TUM path's x and y after scaling [m] and its length [m].
-extent() {
-  python3 - "$1" "$2" <<'EOF'
-import math, sys
-path, scale = sys.argv[1], float(sys.argv[2])
-xs, ys, length, last = [], [], 0.0, None
-for line in open(path):
-    if line.startswith('#') or not line.strip():
-        continue
-    f = line.split()
-    p = (float(f[1]) * scale, float(f[2]) * scale)
-    xs.append(p[0]); ys.append(p[1])
-    if last: length += math.hypot(p[0] - last[0], p[1] - last[1])
-    last = p
-print(f"{max(xs) - min(xs):.2f} {max(ys) - min(ys):.2f} {length:.1f}")
-EOF
-}
-
-scenario() {
-  local name=$1 dir=$2 scale=$3 metric=$4
-  read -r ex ey length < <(extent "$dir/groundtruth.tum" "$scale")
-  local count
-  count=$(python3 -c "print(max(4, round($length / 5)))")
-  local world_x world_y
-  world_x=$(python3 -c "print(round($ex + 3, 1))")
-  world_y=$(python3 -c "print(round($ey + 3, 1))")
-  sed -e "/^name:/s/.*/name: replay_$name/" \
-    -e "/^description:/s|.*|description: replay of $name (scale $scale)|" \
-    -e "s/^  length_m: .*/  length_m: $world_x/" \
-    -e "s/^  width_m: .*/  width_m: $world_y/" \
-    -e "s|^  loop: .*|  replay: {path: $dir/groundtruth.tum, odometry: $dir/estimate.tum, scale: $scale, metric: $metric}|" \
-    -e "/^  corner_radius_m:/d" -e "/^  max_speed_mps:/d" -e "/^  max_acceleration_mps2:/d" \
-    -e "/^  max_lateral_acceleration_mps2:/d" -e "/^  laps:/d" -e "/^  wait_s:/d" \
-    -e "s/^  count: .*/  count: $count/" \
-    -e "s/^noise: {/noise: {marker_pass_share: $PASS_SHARE, /" \
-    "$LOOKBOTH_ROOT/share/lookboth/scenarios/small.yaml"
-}
 
 evaluate() {
   local label=$1 reg=$2 truth=$3

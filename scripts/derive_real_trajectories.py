@@ -142,6 +142,9 @@ SEQUENCES = [
                      "of a monocular visual-inertial SLAM, not named by the repository; trial 0 of its 10",
         "metric_scale": True,
         "est": ("rpg", f"{RPG_VISLAM}/vislam_rp/laptop_vislam_rp_MH_04/stamped_traj_estimate0.txt", "tum"),
+        # Trial 1 of the same estimator on the same recording: the odometry of a
+        # "later drive" of the same path with drift of its own (scripts/bench_update.sh).
+        "later_est": ("rpg", f"{RPG_VISLAM}/vislam_rp/laptop_vislam_rp_MH_04/stamped_traj_estimate1.txt", "tum"),
         "gt": ("rpg", f"{RPG_VISLAM}/vislam_rp/laptop_vislam_rp_MH_04/stamped_groundtruth.txt", "tum"),
         "notes": ["Estimate and ground truth come from the same folder of the same repository. "
                   "The estimate starts well after the ground truth (the SLAM's initialisation)."],
@@ -482,6 +485,16 @@ def derive(m, spec, out_dir):
     with open(os.path.join(d, "groundtruth.tum"), "w") as f:
         f.write(gt_text)
 
+    if "later_est" in spec:
+        lk, lpath, lfmt = spec["later_est"]
+        later = decimate_estimate(parse(m.show(lk, lpath), lfmt), t0, t1, period)
+        with open(os.path.join(d, "estimate_later.tum"), "w") as f:
+            f.write(render(header_line(lk, lpath, (
+                f"another trial of the same estimator on the same recording (a later drive's "
+                f"odometry); clipped to {span}; kept original samples spaced >= "
+                f"{period.normalize()} s: {len(later)}; no interpolation, no alignment, no "
+                f"rescaling; re-printed with 9/6/9 decimals")), later))
+
     # measured facts, on the written (derived) files
     pairs = associate(est_kept, gt_kept)
     pairs_full = associate(est_kept, gt_inside)
@@ -582,6 +595,10 @@ def readme(results, checks, m):
         w(f"- Dataset: {s['dataset']}.")
         w(f"- Estimator: {s['estimator']}.")
         w(f"- Estimate source: `{REPOS[ek]['name']}` @ `{REPOS[ek]['commit']}`, `{epath}` (blob `{r['blob_est']}`).")
+        if "later_est" in s:
+            w(f"- estimate_later.tum: another trial of the same estimator on the same recording, "
+              f"`{s['later_est'][1]}`, clipped and decimated as estimate.tum: the odometry of a later "
+              f"drive of the same path (`scripts/bench_update.sh`).")
         w(f"- Ground-truth source: `{REPOS[gk]['name']}` @ `{REPOS[gk]['commit']}`, `{gpath}` (blob `{r['blob_gt']}`)"
           f"{', EuRoC csv format' if gfmt == 'euroc_csv' else ''}.")
         es, gs = r["est_src_span"], r["gt_src_span"]

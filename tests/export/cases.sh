@@ -208,6 +208,10 @@ PY
   grep -q "^update: against reg1: 1 moved and 0 new registered again, 5 unchanged held" update.log ||
     fail "the update's line: $(grep '^update' update.log)"
   grep -Eq "^  cam03 +moved" update.log || fail "the update did not name cam03"
+  if "$L" register drive2.rawlog --trajectory metric --update reg1 --out reg1/updated 2>inside.log; then
+    fail "register --update wrote inside the record"
+  fi
+  grep -q "is inside the record" inside.log || fail "the refusal: $(cat inside.log)"
   diff -r reg1 reg1.before >/dev/null || fail "register --update wrote into the record"
   "$L" evaluate reg3 --ground-truth drive2.rawlog --json reg3.json >/dev/null
   python3 - updated.json reg3.json reg3/registration.yaml <<'PY'
