@@ -9,6 +9,7 @@
 #include "lookboth/core/text.h"
 #include "lookboth/dataset/dataset_io.h"
 #include "lookboth/detect/detect_dataset.h"
+#include "lookboth/registration/site_frame.h"
 #include "lookboth/vo/run.h"
 
 namespace lookboth {
@@ -236,6 +237,39 @@ StepOutcome runOdometryStep(const FullPipelineOptions& options,
   return outcome;
 }
 
+namespace {
+
+// The run in the frame the configuration asks for (RegistrationConfig::
+// world_frame); the step line that says which, and why when it is not the
+// floor that was asked for.
+std::string expressInConfiguredFrame(RegistrationRun& run, const RegistrationConfig& config) {
+  if (config.world_frame != "floor") return "frame: the registration's (the first fisheye pose)";
+  std::string why;
+  try {
+    const FloorFit fit = fitFloor(run.registration);
+    if (fit.flatness_rms_m <= config.floor_max_flatness_m) {
+      AlignedRegistration aligned = alignRegistrationToFloor(run.registration);
+      for (DetectionRay& ray : run.rays) {
+        ray.from = fit.floor_from_world * ray.from;
+        ray.to = fit.floor_from_world * ray.to;
+      }
+      run.registration = std::move(aligned.registration);
+      return "frame: " + aligned.summary.front();
+    }
+    why = "the trajectory is " + formatFixed(fit.flatness_rms_m * 1000, 1) +
+          " mm RMS from its plane, more than floor_max_flatness_m (" +
+          formatFixed(config.floor_max_flatness_m * 1000, 1) + " mm): no floor";
+  } catch (const Error& e) {
+    why = e.what();
+  }
+  const std::string line =
+      "frame: the registration's (the first fisheye pose), not the floor's: " + why;
+  run.registration.notes.push_back(line);
+  return line;
+}
+
+}  // namespace
+
 struct RegistrationPipeline::State {
   // The configuration's files are read once; every section is read from
   // them here, so that a typo in any fails before any work.
@@ -251,8 +285,9 @@ struct RegistrationPipeline::State {
   FullPipelineOptions working;  ///< The options with the trajectory chosen, the dataset read.
   std::optional<ScratchDataset> scratch;
   std::optional<RegistrationSession> session;
-  std::optional<Registration> record;  ///< FullPipelineOptions::update_record, read.
-  std::optional<FacilityCheck> check;  ///< The update's comparison with the record.
+  std::optional<Registration> record;      ///< FullPipelineOptions::update_record, read.
+  std::optional<FacilityCheck> check;      ///< The update's comparison with the record.
+  std::optional<RegistrationRun> written;  ///< What the output step wrote.
 };
 
 RegistrationPipeline::RegistrationPipeline(FullPipelineOptions options)
@@ -355,7 +390,10 @@ StepOutcome RegistrationPipeline::output(const ProgressReporter& progress) {
     }
   }
   statistics.drive_seconds = driveSeconds();
+  // An updated record stays in the record's frame.
+  if (!state_->record) lines_.push_back(expressInConfiguredFrame(run, state_->controller.config()));
   writeRegistrationOutput(run, options_.out, options_.overwrite);
+  state_->written = run;
   StepOutcome outcome;
   outcome.ran = true;
   outcome.summary = "register: " + std::to_string(run.registration.registeredCount()) + " of " +
@@ -398,6 +436,10 @@ const RegistrationSession* RegistrationPipeline::session() const {
   return state_->session ? &*state_->session : nullptr;
 }
 
+const RegistrationRun* RegistrationPipeline::written() const {
+  return state_->written ? &*state_->written : nullptr;
+}
+
 const std::filesystem::path& RegistrationPipeline::dataset() const {
   return state_->working.dataset.empty() ? options_.dataset : state_->working.dataset;
 }
@@ -406,7 +448,7 @@ FullPipelineResult RegistrationPipeline::run(const ProgressReporter& progress) {
   while (!finished()) runNext(progress);
   FullPipelineResult result;
   result.steps = lines_;
-  result.run = state_->session->current();
+  result.run = *state_->written;
   result.check = state_->check;
   result.times = times_;
   result.drive_seconds = driveSeconds();

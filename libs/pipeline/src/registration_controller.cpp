@@ -60,6 +60,24 @@ YAML::Node mergeNodes(const YAML::Node& base, const YAML::Node& over) {
   return merged;
 }
 
+// register.world_frame and register.floor_max_flatness_m of one layer.
+void readFrameKeys(const YamlReader& reader, const YAML::Node& section,
+                   RegistrationConfig& config) {
+  if (const YAML::Node frame = section["world_frame"]; frame) {
+    config.world_frame = reader.text(frame, "register.world_frame");
+    if (config.world_frame != "floor" && config.world_frame != "registration") {
+      throw Error(reader.at(frame, "register.world_frame"),
+                  "expected 'floor' or 'registration', not '" + config.world_frame + "'");
+    }
+  }
+  if (const YAML::Node flatness = section["floor_max_flatness_m"]; flatness) {
+    config.floor_max_flatness_m = reader.number(flatness, "register.floor_max_flatness_m");
+    if (config.floor_max_flatness_m <= 0) {
+      throw Error(reader.at(flatness, "register.floor_max_flatness_m"), "must be > 0");
+    }
+  }
+}
+
 }  // namespace
 
 std::string RegistrationConfig::mergedYaml() const {
@@ -67,6 +85,8 @@ std::string RegistrationConfig::mergedYaml() const {
   for (const StageConfig::Layer& layer : layers) merged = mergeNodes(merged, layer.node);
   if (!merged.IsDefined() || merged.IsNull()) return "";
   merged["pipeline"] = pipeline;
+  merged["world_frame"] = world_frame;
+  merged["floor_max_flatness_m"] = formatDouble(floor_max_flatness_m);
   YAML::Emitter out;
   out << merged;
   return out.c_str();
@@ -75,7 +95,7 @@ std::string RegistrationConfig::mergedYaml() const {
 RegistrationConfig registrationConfigFromYaml(
     const std::vector<std::pair<std::string, std::string>>& text_and_source) {
   RegistrationConfig config;
-  std::set<std::string> known = {"pipeline"};
+  std::set<std::string> known = {"pipeline", "world_frame", "floor_max_flatness_m"};
   for (const auto& [name, description] : StageRegistry::global().list()) known.insert(name);
   for (const auto& [text, source] : text_and_source) {
     auto reader = std::make_shared<YamlReader>(source);
@@ -91,6 +111,7 @@ RegistrationConfig registrationConfigFromYaml(
       if (section && !section.IsNull()) {
         reader->rejectUnknownKeys(section, known, "register");
         layer.node = section;
+        readFrameKeys(*reader, section, config);
         if (const YAML::Node pipeline = section["pipeline"]; pipeline) {
           if (!pipeline.IsSequence() || pipeline.size() == 0) {
             throw Error(reader->at(pipeline, "register.pipeline"),

@@ -44,7 +44,8 @@ StepResult StepRunner::afterStage(const std::string& name, const ProgressReporte
     result.written = true;
   }
   const RegistrationSession& session = *pipeline.session();
-  RegistrationRun run = session.current();
+  // After the output: the registration as written (in its configured frame).
+  RegistrationRun run = result.written ? *pipeline.written() : session.current();
   result.outcome.ran = true;
   result.outcome.summary = name + ": " + stageSummary(name, session.problem(), run.registration) +
                            (result.written ? "; written to " + options_.out.string() : "");

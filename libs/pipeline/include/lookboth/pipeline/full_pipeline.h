@@ -7,7 +7,9 @@
 //   3. register - the configured stages (RegistrationController);
 //   4. update   - with FullPipelineOptions::update_record only: the record
 //                 updated by this drive (RegistrationSession::updateRecord);
-//   5. output   - the registration directory, written atomically.
+//   5. output   - the registration directory, written atomically, in the
+//                 configured frame (RegistrationConfig::world_frame: the
+//                 floor's by default).
 // Steps 1-2 add their results to the dataset through augmentDataset (a
 // complete new dataset swapped in, never a half-written one), so that the
 // next run, the report and the desktop app find them; each says so in its
@@ -122,7 +124,7 @@ struct StepTime {
 
 struct FullPipelineResult {
   std::vector<std::string> steps;  ///< One line per step run or skipped, and why.
-  RegistrationRun run;
+  RegistrationRun run;             ///< As written (RegistrationPipeline::written).
   /// With update_record: this drive's own registration against the record.
   std::optional<FacilityCheck> check;
   std::vector<StepTime> times;  ///< Every step, in order (a skipped one takes next to nothing).
@@ -160,6 +162,9 @@ class RegistrationPipeline {
   /// The stages' session once the first stage has run (its current()
   /// registration), else null.
   const RegistrationSession* session() const;
+  /// The registration the output step wrote (in the configured frame,
+  /// RegistrationConfig::world_frame), once it has run, else null.
+  const RegistrationRun* written() const;
   /// The dataset the steps read: the user's, or the scratch copy without write_back.
   const std::filesystem::path& dataset() const;
 

@@ -22,7 +22,17 @@ namespace lookboth {
 
 /// The `register:` section of the configuration files, defaults first.
 struct RegistrationConfig {
-  std::vector<std::string> pipeline;                 ///< Stage names, in order.
+  std::vector<std::string> pipeline;  ///< Stage names, in order.
+  /// The frame `register` writes the result in (`register.world_frame`):
+  /// "floor" (z normal to the plane the robot drove on, fitted to the
+  /// trajectory; origin and heading at the first pose on it;
+  /// registration/site_frame.h) or "registration" (the first fisheye pose).
+  /// The floor frame falls back to the registration's when the trajectory is
+  /// no floor: fewer than 3 poses, a straight line, or positions farther than
+  /// `floor_max_flatness_m` RMS from their plane (a hand-held or flying
+  /// recording) [m].
+  std::string world_frame = "floor";
+  double floor_max_flatness_m = 0.05;
   std::vector<std::string> files;                    ///< The files read, defaults first.
   std::vector<StageConfig::Layer> layers;            ///< The `register` node of each file.
   std::vector<std::shared_ptr<YamlReader>> readers;  ///< Owns the layers' readers.
