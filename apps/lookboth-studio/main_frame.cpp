@@ -69,6 +69,7 @@ enum MenuId {
   kIdAlignFloor,
   kIdAlignControlPoints,
   kIdCheckAgainst,
+  kIdUpdateRecord,
   kIdViewShotFirst,  // one per view: scene, fisheye, camera, table
   kIdViewShotLast = kIdViewShotFirst + 3,
   kIdCycleOverlay,
@@ -244,6 +245,9 @@ wxMenu* MainFrame::buildFileMenu() {
   file->AppendSubMenu(site, "Site &frame");
   file->Append(kIdCheckAgainst, "&Check against the record...",
                "Which cameras moved since the registration on record (lookboth check)");
+  file->Append(kIdUpdateRecord, "&Update the record with this drive...",
+               "Register the moved and new cameras against the record, the others held at it "
+               "(lookboth register --update)");
   file->AppendSeparator();
   file->Append(kIdScreenshot, "Save &screenshot of the window...\tCtrl+Shift+S",
                "Save a PNG of the window");
@@ -353,6 +357,7 @@ void MainFrame::bindMenus() {
   }
   on(kIdAlignFloor, [this] { chooseAndAlign(true); });
   on(kIdCheckAgainst, [this] { chooseAndCheck(); });
+  on(kIdUpdateRecord, [this] { chooseAndUpdate(); });
   on(kIdAlignControlPoints, [this] { chooseAndAlign(false); });
   on(kIdCycleOverlay, [this] { views_->cycleOverlay(); });
   on(kIdLoadCalibration, [this] { chooseAndLoadCalibration(); });
@@ -621,6 +626,7 @@ void MainFrame::refreshSteps() {
   GetMenuBar()->Enable(kIdAlignFloor, idle && registration_ != nullptr);
   GetMenuBar()->Enable(kIdAlignControlPoints, idle && registration_ != nullptr);
   GetMenuBar()->Enable(kIdCheckAgainst, idle && registration_ != nullptr);
+  GetMenuBar()->Enable(kIdUpdateRecord, idle && !registration_dir_.empty() && step_runner_);
 }
 
 void MainFrame::validateSettings() {
@@ -887,6 +893,48 @@ void MainFrame::chooseAndCheck() {
                      wxDD_DEFAULT_STYLE | wxDD_DIR_MUST_EXIST);
   if (dialog.ShowModal() != wxID_OK) return;
   checkAgainst(dialog.GetPath().ToStdString());
+}
+
+void MainFrame::startUpdate(const std::string& record, const std::string& out, Then then) {
+  if (registration_dir_.empty() || !step_runner_) {
+    fail("run every step of the pipeline first", "Not updated");
+    if (unattended_ && then) CallAfter(then);
+    return;
+  }
+  // By default beside the registration, named after it.
+  const std::string target = out.empty() ? registration_dir_.string() + "_updated" : out;
+  auto result = std::make_shared<studio::StepResult>();
+  studio::JobRunner::Job job = [runner = step_runner_, record, target,
+                                result](const ProgressReporter& progress) {
+    *result = runner->updateRecord(record, target, progress);
+  };
+  startJob("Update the record", std::move(job), [this, result, target, then] {
+    registration_dir_ = target;
+    registrationReady(result->registration, std::move(result->rays));
+    log("  " + wxString::FromUTF8(result->outcome.summary));
+    for (const CameraCheck& c : result->check->cameras) {
+      if (c.verdict != CameraVerdict::kMoved) continue;
+      log(wxString::FromUTF8("  " + c.label + " moved " + formatFixed(c.moved_m.norm() * 1000, 1) +
+                             " mm, " + formatFixed(c.rotated_deg, 3) +
+                             " deg: registered again against the record"));
+    }
+    SetStatusText(wxString::Format("record updated: %d camera(s) moved", result->check->moved), 1);
+    table_->showCheck(result->check);
+    refreshSteps();
+    if (then) then();
+  });
+}
+
+void MainFrame::updateRecord(const std::string& record, const std::string& out) {
+  startUpdate(record, out, [this] { startup_.next(); });
+}
+
+void MainFrame::chooseAndUpdate() {
+  if (registration_dir_.empty()) return;
+  wxDirDialog dialog(this, "The registration on record to update (a registration folder)", "",
+                     wxDD_DEFAULT_STYLE | wxDD_DIR_MUST_EXIST);
+  if (dialog.ShowModal() != wxID_OK) return;
+  startUpdate(dialog.GetPath().ToStdString(), "", nullptr);
 }
 
 void MainFrame::chooseAndAlign(bool floor) {

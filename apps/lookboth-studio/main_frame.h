@@ -126,6 +126,9 @@ class MainFrame : public wxFrame, private studio::ScriptedStartup::Target {
   void alignToFloor(const std::string& dir) override;
   void checkAgainst(const std::string& record) override;
   void chooseAndCheck();
+  void updateRecord(const std::string& record, const std::string& out) override;
+  void startUpdate(const std::string& record, const std::string& out, Then then);
+  void chooseAndUpdate();
   void exportFormats(const std::string& formats, const std::string& dir) override;
   void writeAligned(const AlignedRegistration& aligned, const std::string& dir);
   void exportReport(const std::string& path) override;

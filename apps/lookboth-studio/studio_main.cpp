@@ -73,6 +73,10 @@ class StudioApp : public wxApp {
     parser.AddOption("", "check-against",
                      "check the registration against the one on record in this folder (which "
                      "cameras moved)");
+    parser.AddOption("", "update-record",
+                     "RECORD[=OUT]: once the pipeline has run, update the registration on record "
+                     "in RECORD with this drive, written to OUT (default: beside the "
+                     "registration, '_updated')");
     parser.AddOption("", "export-formats",
                      "FORMATS=DIR: export for other systems (colmap, json, opencv, ros, mrpt, "
                      "all) into this folder");
@@ -115,6 +119,12 @@ class StudioApp : public wxApp {
       actions_.export_registration = text.ToStdString();
     if (parser.Found("align-floor", &text)) actions_.align_floor = text.ToStdString();
     if (parser.Found("check-against", &text)) actions_.check_against = text.ToStdString();
+    if (parser.Found("update-record", &text)) {
+      const std::string value = text.ToStdString();
+      const auto equals = value.find('=');
+      actions_.update_record = value.substr(0, equals);
+      actions_.update_out = equals == std::string::npos ? "" : value.substr(equals + 1);
+    }
     if (parser.Found("export-formats", &text)) {
       const std::string value = text.ToStdString();
       const auto equals = value.find('=');

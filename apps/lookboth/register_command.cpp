@@ -5,7 +5,6 @@
 
 #include "commands.h"
 #include "lookboth/core/error.h"
-#include "lookboth/core/output_path.h"
 #include "lookboth/core/progress.h"
 #include "lookboth/dataset/dataset_io.h"
 #include "lookboth/pipeline/full_pipeline.h"
@@ -50,12 +49,6 @@ int runRegister(const RegisterArgs& args) {
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
   // Before the work, not after it (the output is written once all is done).
   checkRegistrationOutput(args.out, args.overwrite, registerInputs(args));
-  if (!args.update.empty() && contains(args.update, args.out)) {
-    throw Error(ErrorContext{args.out, 0, "--out", ""},
-                "is inside the record '" + args.update +
-                    "' (--update); the record is an input and is never written to: choose "
-                    "another path");
-  }
 
   const ProgressReporter progress(makeConsoleProgress());
   const StopOnSignal stop_on_signal(progress);

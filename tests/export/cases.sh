@@ -257,12 +257,28 @@ studio)
   # $L is lookboth-studio here: a detections-only run through every stage,
   # then the floor frame and two export formats, as the File menu writes them.
   xvfb-run -a -s "-screen 0 1600x1000x24" "$L" --simulate small --detections-only --run-all \
-    --align-floor floor --export-formats json,colmap=exported --exit 2>studio.log ||
+    --simulate-out drive.rawlog --align-floor floor --export-formats json,colmap=exported \
+    --exit 2>studio.log ||
     { tail -20 studio.log; fail "the app failed"; }
   grep -q "Registration in the floor frame written" studio.log || fail "no floor frame: $(tail -5 studio.log)"
   grep -q "name: floor" floor/registration.yaml || fail "floor/registration.yaml is not in the floor frame"
   [[ -s exported/json/registration.json && -s exported/colmap/images.txt ]] ||
     fail "the exports are missing: $(ls -R exported 2>&1)"
+  # File > Update the record: the same drive against that registration as the
+  # record (nothing moved), written beside it; the record left as it was.
+  # (The app writes each run's registration to drive_registration: the record is a copy.)
+  [[ -f drive_registration/registration.yaml ]] || fail "no registration written: $(ls)"
+  cp -r drive_registration record
+  record=record
+  dataset=drive.rawlog
+  cp -r "$record" record.before
+  xvfb-run -a -s "-screen 0 1600x1000x24" "$L" "$dataset" --trajectory metric --run-all \
+    --update-record "$record=updated" --exit 2>update.log || { tail -20 update.log; fail "the update failed"; }
+  grep -q "0 moved and 0 new registered again, 6 unchanged held at the record" update.log ||
+    fail "the update's summary: $(grep -i update update.log | tail -3)"
+  grep -q "update of the record" updated/registration.yaml ||
+    fail "updated/registration.yaml has no update note"
+  diff -r "$record" record.before >/dev/null || fail "the app wrote into the record"
   ;;
 
 *)

@@ -6,6 +6,7 @@
 #include <chrono>
 
 #include "lookboth/core/error.h"
+#include "lookboth/core/output_path.h"
 #include "lookboth/core/text.h"
 #include "lookboth/dataset/dataset_io.h"
 #include "lookboth/detect/detect_dataset.h"
@@ -239,6 +240,15 @@ StepOutcome runOdometryStep(const FullPipelineOptions& options,
 
 namespace {
 
+// The record is an input: an output inside it would change it.
+void checkOutsideRecord(const std::filesystem::path& out, const std::filesystem::path& record) {
+  if (contains(record, out)) {
+    throw Error(ErrorContext{out.string(), 0, "", ""},
+                "is inside the record '" + record.string() +
+                    "'; the record is an input and is never written to: choose another path");
+  }
+}
+
 // The run in the frame the configuration asks for (RegistrationConfig::
 // world_frame); the step line that says which, and why when it is not the
 // floor that was asked for.
@@ -304,6 +314,7 @@ RegistrationPipeline::RegistrationPipeline(FullPipelineOptions options)
                   "--update needs the stage 'joint' in register.pipeline (it holds the "
                   "unchanged cameras at the record)");
     }
+    checkOutsideRecord(options_.out, options_.update_record);
     state_->record = loadRegistration(options_.update_record);
     steps_.push_back("update");
   }
@@ -434,6 +445,23 @@ StepOutcome RegistrationPipeline::runNext(const ProgressReporter& progress) {
 
 const RegistrationSession* RegistrationPipeline::session() const {
   return state_->session ? &*state_->session : nullptr;
+}
+
+FacilityCheck RegistrationPipeline::updateRecord(const std::filesystem::path& record,
+                                                 const FacilityCheckOptions& options,
+                                                 const std::filesystem::path& out,
+                                                 const ProgressReporter& progress) {
+  if (!finished()) throw Error("update: the pipeline has not run every step");
+  if (const std::string why = options.check(); !why.empty()) throw Error(why);
+  checkOutsideRecord(out, record);
+  checkRegistrationOutput(out, false, {record, dataset()});
+  const FacilityCheck check =
+      state_->session->updateRecord(loadRegistration(record), options, progress);
+  RegistrationRun run = state_->session->current();
+  writeRegistrationOutput(run, out, false);
+  state_->written = std::move(run);
+  state_->check = check;
+  return check;
 }
 
 const RegistrationRun* RegistrationPipeline::written() const {

@@ -297,6 +297,8 @@ FacilityCheck RegistrationSession::updateRecord(const Registration& record,
                                                 const FacilityCheckOptions& options,
                                                 const ProgressReporter& progress) {
   if (!finished()) throw Error("update: the configured stages have not all run");
+  if (record_)
+    throw Error("update: this registration is a record updated already: run the stages again");
   const auto& names = controller_->config_.pipeline;
   const auto joint = std::find(names.begin(), names.end(), "joint");
   if (joint == names.end()) {

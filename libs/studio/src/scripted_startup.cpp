@@ -25,8 +25,12 @@ void ScriptedStartup::next() {
         phase_ = Phase::kRun;
         break;
       case Phase::kRun:
-        phase_ = Phase::kShow;
+        phase_ = Phase::kUpdate;
         if (runStep()) return;
+        break;
+      case Phase::kUpdate:
+        phase_ = Phase::kShow;
+        if (updateStep()) return;
         break;
       case Phase::kShow:
         phase_ = Phase::kFinish;
@@ -73,6 +77,12 @@ bool ScriptedStartup::runStep() {
     return false;
   }
   target_.runThrough(last);
+  return true;
+}
+
+bool ScriptedStartup::updateStep() {
+  if (actions_.update_record.empty() || !target_.hasDataset()) return false;
+  target_.updateRecord(actions_.update_record, actions_.update_out);
   return true;
 }
 

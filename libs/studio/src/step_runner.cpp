@@ -54,6 +54,27 @@ StepResult StepRunner::afterStage(const std::string& name, const ProgressReporte
   return result;
 }
 
+StepResult StepRunner::updateRecord(const std::string& record, const std::string& out,
+                                    const ProgressReporter& progress) {
+  if (!pipeline_ || !pipeline_->finished()) {
+    throw Error("update: run every step of the pipeline first");
+  }
+  StepResult result;
+  result.check = std::make_shared<const FacilityCheck>(
+      pipeline_->updateRecord(record, FacilityCheckOptions(), out, progress));
+  RegistrationRun run = *pipeline_->written();
+  const FacilityCheck& c = *result.check;
+  result.outcome.ran = true;
+  result.outcome.summary = "update of " + record + ": " + std::to_string(c.moved) + " moved and " +
+                           std::to_string(c.added) + " new registered again, " +
+                           std::to_string(c.unchanged) + " unchanged held at the record, " +
+                           std::to_string(c.not_seen) + " not seen kept; written to " + out;
+  result.written = true;
+  result.rays = std::move(run.rays);
+  result.registration = std::make_shared<const Registration>(std::move(run.registration));
+  return result;
+}
+
 std::string stepTitle(const std::string& name) {
   static const std::map<std::string, std::string> titles = {
       {"detect", "Detect markers and blobs"},

@@ -47,6 +47,9 @@ class RecordingTarget : public ScriptedStartup::Target {
   void exportRegistration(const std::string& d) override { calls.push_back("registration " + d); }
   void alignToFloor(const std::string& d) override { calls.push_back("floor " + d); }
   void checkAgainst(const std::string& d) override { calls.push_back("check " + d); }
+  void updateRecord(const std::string& d, const std::string& out) override {
+    start("update " + d + " " + out);
+  }
   void exportFormats(const std::string& f, const std::string& d) override {
     calls.push_back("export " + f + " " + d);
   }
@@ -87,6 +90,8 @@ TEST(ScriptedStartup, EveryActionInOrderEachAfterTheOneBefore) {
   a.export_registration = "reg";
   a.align_floor = "reg_floor";
   a.check_against = "record";
+  a.update_record = "record";
+  a.update_out = "updated";
   a.export_formats = "colmap,ros";
   a.export_formats_dir = "exports";
   a.export_report = "r.html";
@@ -97,6 +102,7 @@ TEST(ScriptedStartup, EveryActionInOrderEachAfterTheOneBefore) {
                                              "calibration cam00=a.yaml",
                                              "calibration cam01=b.yaml",
                                              "run through 2",
+                                             "update record updated",
                                              "show 1 'cam03' 12",
                                              "registration reg",
                                              "floor reg_floor",

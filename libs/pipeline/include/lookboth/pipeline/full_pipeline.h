@@ -162,6 +162,13 @@ class RegistrationPipeline {
   /// The stages' session once the first stage has run (its current()
   /// registration), else null.
   const RegistrationSession* session() const;
+  /// Once every step has run (the desktop app's *Update the record*): the
+  /// update against `record` (RegistrationSession::updateRecord), written to
+  /// `out` (never inside the record, never over an existing folder); written()
+  /// is then the record updated. Returns the comparison with the record.
+  FacilityCheck updateRecord(const std::filesystem::path& record,
+                             const FacilityCheckOptions& options, const std::filesystem::path& out,
+                             const ProgressReporter& progress);
   /// The registration the output step wrote (in the configured frame,
   /// RegistrationConfig::world_frame), once it has run, else null.
   const RegistrationRun* written() const;

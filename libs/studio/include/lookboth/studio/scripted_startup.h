@@ -35,6 +35,10 @@ struct StartupActions {
   std::string align_floor;
   /// Check the registration against the one on record in this folder (which cameras moved).
   std::string check_against;
+  /// Update the record in this folder with the drive (File > Update the record), once the
+  /// pipeline has run; written to update_out (default: beside the registration, "_updated").
+  std::string update_record;
+  std::string update_out;
   /// Export for other systems: formats ("colmap,ros", "all") and the folder.
   std::string export_formats;
   std::string export_formats_dir;
@@ -72,6 +76,7 @@ class ScriptedStartup {
     virtual void exportRegistration(const std::string& dir) = 0;
     virtual void alignToFloor(const std::string& dir) = 0;
     virtual void checkAgainst(const std::string& record) = 0;
+    virtual void updateRecord(const std::string& record, const std::string& out) = 0;  ///< Async.
     virtual void exportFormats(const std::string& formats, const std::string& dir) = 0;
     virtual void exportReport(const std::string& path) = 0;  ///< Async.
     /// The last action: a screenshot ("" none), then quit when `exit`.
@@ -86,11 +91,12 @@ class ScriptedStartup {
   bool done() const { return phase_ == Phase::kDone; }
 
  private:
-  enum class Phase { kOpen, kCalibrations, kRun, kShow, kFinish, kDone };
+  enum class Phase { kOpen, kCalibrations, kRun, kUpdate, kShow, kFinish, kDone };
   /// Each returns whether it started an asynchronous action (next() then waits for it).
   bool openStep();
   bool calibrationStep();
   bool runStep();
+  bool updateStep();
   bool showStep();
 
   StartupActions actions_;

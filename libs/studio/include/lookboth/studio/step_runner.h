@@ -25,6 +25,8 @@ struct StepResult {
   std::shared_ptr<const Registration> registration;
   std::vector<DetectionRay> rays;
   bool written = false;  ///< The registration directory was written (after the last stage).
+  /// With updateRecord: this drive's registration against the record.
+  std::shared_ptr<const FacilityCheck> check;
 };
 
 /// Runs the steps of one RegistrationPipeline (made on the first call, with
@@ -41,6 +43,11 @@ class StepRunner {
   /// last stage). Throws lookboth::Error when `name` is not that step of the
   /// configured pipeline, StopRequested when stopped.
   StepResult run(int step, const std::string& name, const ProgressReporter& progress);
+  /// Once every step has run: the record in `record` updated by this drive
+  /// (RegistrationPipeline::updateRecord, the default tolerances), written
+  /// to `out`; the result is the record updated, with the comparison.
+  StepResult updateRecord(const std::string& record, const std::string& out,
+                          const ProgressReporter& progress);
 
  private:
   StepResult afterStage(const std::string& name, const ProgressReporter& progress);
