@@ -18,6 +18,7 @@ struct AlignArgs {
   bool floor = false;
   std::string out;
   bool overwrite = false;
+  SiteAlignmentOptions site;
 };
 
 int runAlign(const AlignArgs& args) {
@@ -30,7 +31,7 @@ int runAlign(const AlignArgs& args) {
   const Registration reg = loadRegistration(args.registration);
   const AlignedRegistration aligned =
       args.floor ? alignRegistrationToFloor(reg)
-                 : alignRegistrationToControlPoints(reg, args.control_points);
+                 : alignRegistrationToControlPoints(reg, args.control_points, args.site);
   for (const std::string& line : aligned.summary) std::cout << line << "\n";
   writeDirectoryAtomically(args.out, [&](const std::filesystem::path& dir) {
     saveRegistration(aligned.registration, dir);
@@ -52,8 +53,13 @@ void registerAlignCommand(CLI::App& app, const std::function<void(CommandBody)>&
   cmd->add_flag("--floor", args->floor,
                 "z normal to the floor the robot drove on, origin at its first pose");
   cmd->add_option("--control-points", args->control_points,
-                  "CSV name,x,y,z,sigma_m: registered cameras' positions in the site's frame [m]")
+                  "CSV name,x,y,z,sigma_m: registered cameras' positions in the site's frame [m]; "
+                  "a name @start, @end or @<unix seconds> is the fisheye's position on the "
+                  "trajectory then (the robot's dock)")
       ->check(CLI::ExistingFile);
+  cmd->add_flag("--with-scale", args->site.with_scale,
+                "With --control-points: a similarity (Sim(3)), the scale from the points too "
+                "(at least 4)");
   cmd->add_option("--out", args->out, "The registration directory to write")->required();
   cmd->add_flag("--overwrite", args->overwrite, "Replace an existing --out");
   cmd->callback([args, set_body] { set_body([args] { return runAlign(*args); }); });

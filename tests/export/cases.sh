@@ -166,6 +166,26 @@ PY
   grep -q "<svg " site.html || fail "the report has no plan view of the residuals"
   if "$L" align reg --control-points bad.csv --out bad 2>bad.log; then fail "a point 10 cm off accepted"; fi
   grep -q "bad.csv:4: .*control point 'cam02' is" bad.log || fail "the bad point is not named: $(cat bad.log)"
+  # The robot's dock (its position at the start of the drive) as a fifth
+  # point, and a similarity: the scale comes out within its sigma of 1.
+  python3 - folder/ground_truth/trajectory.tum <<'PY'
+import random
+random.seed(5)
+first = next(l.split() for l in open(__import__('sys').argv[1]) if l.strip() and not l.startswith('#'))
+p = [float(x) + random.gauss(0, 0.005) for x in first[1:4]]
+lines = open('site.csv').read()
+open('dock.csv', 'w').write(lines + f"@start,{p[0]:.4f},{p[1]:.4f},{p[2]:.4f},0.005\n")
+PY
+  "$L" align reg --control-points dock.csv --with-scale --out dock | tee dock.log
+  grep -q "^  @start " dock.log || fail "the dock's residual is not printed"
+  python3 - dock/registration.yaml <<'PY'
+import re, sys, yaml
+frame = yaml.safe_load(open(sys.argv[1]))['world_frame']
+scale, sigma = map(float, re.search(r"scale ([0-9.]+) \+- ([0-9.]+)", frame['description']).groups())
+print(f"dock + 4 cameras, Sim(3): scale {scale:.6f} +- {sigma:.6f}")
+if not (abs(scale - 1) < 4 * sigma and sigma < 0.01 and abs(frame['scale_from_registration'] - scale) < 1e-6):
+    sys.exit("FAIL: the scale is off or not recorded")
+PY
   ;;
 
 recheck)

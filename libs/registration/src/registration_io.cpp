@@ -367,6 +367,10 @@ std::string registrationToYaml(const Registration& reg) {
   if (reg.world_frame.from_registration) {
     out << YAML::Key << "from_registration" << YAML::Value;
     emitPose(out, *reg.world_frame.from_registration);
+    if (reg.world_frame.scale_from_registration != 1) {
+      out << YAML::Key << "scale_from_registration" << YAML::Value
+          << formatDouble(reg.world_frame.scale_from_registration);
+    }
   }
   if (!reg.world_frame.control_points.empty()) {
     out << YAML::Key << "control_points" << YAML::Value << YAML::BeginSeq;
@@ -609,8 +613,18 @@ Registration loadRegistration(const std::filesystem::path& dir) {
   }
 
   if (const YAML::Node w = root["world_frame"]; w) {
-    r.rejectUnknownKeys(w, {"name", "description", "from_registration", "control_points"},
-                        "world_frame");
+    r.rejectUnknownKeys(
+        w,
+        {"name", "description", "from_registration", "scale_from_registration", "control_points"},
+        "world_frame");
+    if (w["scale_from_registration"]) {
+      reg.world_frame.scale_from_registration =
+          r.number(w["scale_from_registration"], "world_frame.scale_from_registration");
+      if (!(reg.world_frame.scale_from_registration > 0)) {
+        throw Error(r.at(w["scale_from_registration"], "world_frame.scale_from_registration"),
+                    "must be positive");
+      }
+    }
     reg.world_frame.name = r.text(r.require(w, "name", "world_frame.name"), "world_frame.name");
     if (w["description"]) {
       reg.world_frame.description = r.text(w["description"], "world_frame.description");

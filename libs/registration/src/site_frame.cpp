@@ -12,6 +12,8 @@
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
 #include "lookboth/geometry/lie.h"
+#include "lookboth/geometry/time.h"
+#include "lookboth/geometry/trajectory.h"
 #include "lookboth/geometry/umeyama.h"
 
 namespace lookboth {
@@ -184,17 +186,48 @@ std::string SiteAlignmentOptions::check() const {
 
 namespace {
 
-/// A control point with the registered camera it names.
+/// A control point with the registration's point it names.
 struct Pair {
   const ControlPoint* point;
   Eigen::Vector3d p_in_world;
   double variance;  ///< Per coordinate: the point's and the camera's position's.
 };
 
+/// The fisheye's position when the trajectory passed a control point named
+/// "@start", "@end" or "@<seconds>".
+Eigen::Vector3d trajectoryPoint(const Registration& reg, const ControlPoint& point,
+                                const std::string& source) {
+  if (reg.trajectory.empty()) {
+    throw Error({source, point.line, "name", ""},
+                "'" + point.name + "': the registration has no trajectory");
+  }
+  const std::string when = point.name.substr(1);
+  if (when == "start") return reg.trajectory.front().world_from_body.translation;
+  if (when == "end") return reg.trajectory.back().world_from_body.translation;
+  const std::optional<TimeNs> t = parseSeconds(when);
+  if (!t) {
+    throw Error({source, point.line, "name", ""},
+                "'" + point.name + "': expected @start, @end or @<unix seconds>");
+  }
+  const InterpolationResult pose = Trajectory(reg.trajectory).interpolate(*t, 500'000'000);
+  if (!pose.ok()) {
+    throw Error({source, point.line, "name", ""},
+                "'" + point.name + "': the trajectory has no pose then (it runs from " +
+                    formatSeconds(reg.trajectory.front().t) + " to " +
+                    formatSeconds(reg.trajectory.back().t) + " s)");
+  }
+  return pose.world_from_body.translation;
+}
+
 std::vector<Pair> pairUp(const Registration& reg, const std::vector<ControlPoint>& points,
-                         const std::string& source) {
+                         const std::string& source, std::size_t minimum) {
   std::vector<Pair> pairs;
   for (const ControlPoint& point : points) {
+    const double sigma2 = point.sigma_m * point.sigma_m;
+    if (!point.name.empty() && point.name[0] == '@') {
+      pairs.push_back({&point, trajectoryPoint(reg, point, source), sigma2});
+      continue;
+    }
     const CameraRegistration* camera = reg.findCamera(point.name);
     if (camera == nullptr || camera->status == CameraStatus::kUnregistered) {
       throw Error({source, point.line, "name", ""},
@@ -202,17 +235,17 @@ std::vector<Pair> pairUp(const Registration& reg, const std::vector<ControlPoint
     }
     double camera_variance = 0;
     if (camera->covariance) camera_variance = camera->covariance->topLeftCorner<3, 3>().trace() / 3;
-    pairs.push_back({&point, camera->world_from_camera.translation,
-                     point.sigma_m * point.sigma_m + camera_variance});
+    pairs.push_back({&point, camera->world_from_camera.translation, sigma2 + camera_variance});
   }
-  if (pairs.size() < 3) {
-    throw Error({source, 0, "", ""}, "the site frame needs at least 3 control points, got " +
-                                         std::to_string(pairs.size()));
+  if (pairs.size() < minimum) {
+    throw Error({source, 0, "", ""}, "the site frame needs at least " + std::to_string(minimum) +
+                                         " control points, got " + std::to_string(pairs.size()));
   }
   return pairs;
 }
 
-Rigid3d alignPairs(const std::vector<Pair>& pairs, std::size_t skip, const std::string& source) {
+Sim3d alignPairs(const std::vector<Pair>& pairs, std::size_t skip, bool with_scale,
+                 const std::string& source) {
   std::vector<Eigen::Vector3d> src, dst;
   std::vector<double> weights;
   for (std::size_t i = 0; i < pairs.size(); ++i) {
@@ -222,29 +255,38 @@ Rigid3d alignPairs(const std::vector<Pair>& pairs, std::size_t skip, const std::
     weights.push_back(1.0 / pairs[i].variance);
   }
   std::string why;
-  const auto aligned = alignRigid3(src, dst, weights, &why);
+  const auto aligned =
+      with_scale ? alignSim3(src, dst, weights, &why) : alignRigid3(src, dst, weights, &why);
   if (!aligned) throw Error({source, 0, "", ""}, "the control points give no frame: " + why);
-  return Rigid3d(aligned->dst_from_src.rotation, aligned->dst_from_src.translation);
+  return aligned->dst_from_src;
 }
 
-/// How a point's aligned position moves with the perturbation [dt; dtheta]
-/// of site_from_world: [I, -[q]x] at its aligned position q.
-Eigen::Matrix<double, 3, 6> alignmentJacobian(const Eigen::Vector3d& q) {
-  Eigen::Matrix<double, 3, 6> j;
-  j << Eigen::Matrix3d::Identity(), -skew(q);
+/// How a point's aligned position q moves with the perturbation [dt;
+/// dtheta; ds] of site_from_world: [I, -[q]x, q].
+Eigen::Matrix<double, 3, 7> alignmentJacobian(const Eigen::Vector3d& q) {
+  Eigen::Matrix<double, 3, 7> j;
+  j << Eigen::Matrix3d::Identity(), -skew(q), q;
   return j;
 }
 
-/// The information of site_from_world from the points (all but `skip`).
-Matrix6d alignmentInformation(const std::vector<Pair>& pairs, const Rigid3d& site_from_world,
-                              std::size_t skip) {
-  Matrix6d information = Matrix6d::Zero();
+/// The covariance of site_from_world from the points (all but `skip`):
+/// the inverse of their information, over [dt; dtheta] or, with the scale,
+/// [dt; dtheta; ds].
+Matrix7d alignmentCovariance(const std::vector<Pair>& pairs, const Sim3d& site_from_world,
+                             std::size_t skip, bool with_scale) {
+  Matrix7d information = Matrix7d::Zero();
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     if (i == skip) continue;
-    const Eigen::Matrix<double, 3, 6> j = alignmentJacobian(site_from_world * pairs[i].p_in_world);
+    const Eigen::Matrix<double, 3, 7> j = alignmentJacobian(site_from_world * pairs[i].p_in_world);
     information += j.transpose() * j / pairs[i].variance;
   }
-  return information;
+  Matrix7d covariance = Matrix7d::Zero();
+  if (with_scale) {
+    covariance = information.inverse();
+  } else {
+    covariance.topLeftCorner<6, 6>() = information.topLeftCorner<6, 6>().inverse();
+  }
+  return covariance;
 }
 
 /// The point farthest from where the others put it, in sigmas of that
@@ -252,17 +294,17 @@ Matrix6d alignmentInformation(const std::vector<Pair>& pairs, const Rigid3d& sit
 /// with 3 dof.
 void checkConsistency(const std::vector<Pair>& pairs, const std::string& source,
                       const SiteAlignmentOptions& options) {
-  if (pairs.size() < 4) return;
+  if (pairs.size() < (options.with_scale ? 5u : 4u)) return;
   double worst = 0, worst_distance = 0;
   std::size_t worst_index = 0;
   for (std::size_t i = 0; i < pairs.size(); ++i) {
-    const Rigid3d others = alignPairs(pairs, i, source);
+    const Sim3d others = alignPairs(pairs, i, options.with_scale, source);
     const Eigen::Vector3d q = others * pairs[i].p_in_world;
     const Eigen::Vector3d residual = pairs[i].point->p_in_site - q;
-    const Eigen::Matrix<double, 3, 6> j = alignmentJacobian(q);
+    const Eigen::Matrix<double, 3, 7> j = alignmentJacobian(q);
     const Eigen::Matrix3d predicted =
         Eigen::Matrix3d::Identity() * pairs[i].variance +
-        j * alignmentInformation(pairs, others, i).inverse() * j.transpose();
+        j * alignmentCovariance(pairs, others, i, options.with_scale) * j.transpose();
     const double normalized = std::sqrt(residual.dot(predicted.inverse() * residual));
     if (normalized > worst) {
       worst = normalized;
@@ -285,13 +327,15 @@ void checkConsistency(const std::vector<Pair>& pairs, const std::string& source,
 SiteAlignment alignToControlPoints(const Registration& reg, const std::vector<ControlPoint>& points,
                                    const std::string& source, const SiteAlignmentOptions& options) {
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
-  const std::vector<Pair> pairs = pairUp(reg, points, source);
+  const std::vector<Pair> pairs = pairUp(reg, points, source, options.with_scale ? 4 : 3);
   checkConsistency(pairs, source, options);
   SiteAlignment result;
-  result.site_from_world = alignPairs(pairs, pairs.size(), source);
+  const Sim3d site_from_world = alignPairs(pairs, pairs.size(), options.with_scale, source);
+  result.site_from_world = Rigid3d(site_from_world.rotation, site_from_world.translation);
+  result.scale = site_from_world.scale;
   double squares = 0;
   for (const Pair& pair : pairs) {
-    const Eigen::Vector3d q = result.site_from_world * pair.p_in_world;
+    const Eigen::Vector3d q = site_from_world * pair.p_in_world;
     ControlPointResidual residual;
     residual.name = pair.point->name;
     residual.residual_m = pair.point->p_in_site - q;
@@ -299,25 +343,26 @@ SiteAlignment alignToControlPoints(const Registration& reg, const std::vector<Co
     squares += residual.residual_m.squaredNorm();
     result.residuals.push_back(residual);
   }
-  result.covariance = alignmentInformation(pairs, result.site_from_world, pairs.size()).inverse();
+  result.covariance = alignmentCovariance(pairs, site_from_world, pairs.size(), options.with_scale);
   result.rms_m = std::sqrt(squares / static_cast<double>(pairs.size()));
   return result;
 }
 
 namespace {
 
-Matrix6d reexpressCovariance(const Matrix6d& covariance, const Rigid3d& new_from_world,
+Matrix6d reexpressCovariance(const Matrix6d& covariance, const Sim3d& new_from_world,
                              const Rigid3d& new_pose,
-                             const std::optional<Matrix6d>& transform_covariance) {
-  // dt' = R_T dt (+ dt_T - [t']x dtheta_T); dtheta' = dtheta (+ R'^T dtheta_T).
+                             const std::optional<Matrix7d>& transform_covariance) {
+  // dt' = s R_T dt (+ dt_T - [t']x dtheta_T + t' ds_T); dtheta' = dtheta (+ R'^T dtheta_T).
   Matrix6d a = Matrix6d::Identity();
-  a.topLeftCorner<3, 3>() = new_from_world.rotation.toRotationMatrix();
+  a.topLeftCorner<3, 3>() = new_from_world.scale * new_from_world.rotation.toRotationMatrix();
   Matrix6d result = a * covariance * a.transpose();
   if (transform_covariance) {
-    Matrix6d b = Matrix6d::Zero();
+    Eigen::Matrix<double, 6, 7> b = Eigen::Matrix<double, 6, 7>::Zero();
     b.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity();
-    b.topRightCorner<3, 3>() = -skew(new_pose.translation);
-    b.bottomRightCorner<3, 3>() = new_pose.rotation.toRotationMatrix().transpose();
+    b.block<3, 3>(0, 3) = -skew(new_pose.translation);
+    b.block<3, 1>(0, 6) = new_pose.translation;
+    b.block<3, 3>(3, 3) = new_pose.rotation.toRotationMatrix().transpose();
     result += b * *transform_covariance * b.transpose();
   }
   return result;
@@ -325,32 +370,51 @@ Matrix6d reexpressCovariance(const Matrix6d& covariance, const Rigid3d& new_from
 
 }  // namespace
 
-Registration reexpressRegistration(const Registration& registration, const Rigid3d& new_from_world,
-                                   const std::optional<Matrix6d>& transform_covariance,
+Registration reexpressRegistration(const Registration& registration, const Sim3d& new_from_world,
+                                   const std::optional<Matrix7d>& transform_covariance,
                                    WorldFrame frame) {
   Registration out = registration;
-  const Rigid3d from_registration =
-      registration.world_frame.from_registration
-          ? new_from_world * *registration.world_frame.from_registration
-          : new_from_world;
-  frame.from_registration = from_registration;
+  const Sim3d own(registration.world_frame.scale_from_registration,
+                  registration.world_frame.from_registration
+                      ? registration.world_frame.from_registration->rotation
+                      : Eigen::Quaterniond::Identity(),
+                  registration.world_frame.from_registration
+                      ? registration.world_frame.from_registration->translation
+                      : Eigen::Vector3d::Zero());
+  const Sim3d from_registration = new_from_world * own;
+  frame.from_registration = Rigid3d(from_registration.rotation, from_registration.translation);
+  frame.scale_from_registration = from_registration.scale;
   out.world_frame = std::move(frame);
+  const double s = new_from_world.scale;
   const Eigen::Matrix3d rotation = new_from_world.rotation.toRotationMatrix();
   for (CameraRegistration& c : out.cameras) {
-    c.world_from_camera = new_from_world * c.world_from_camera;
-    for (auto& [stage, pose] : c.stage_poses) pose = new_from_world * pose;
+    c.world_from_camera = new_from_world.transformPose(c.world_from_camera);
+    for (auto& [stage, pose] : c.stage_poses) pose = new_from_world.transformPose(pose);
     if (c.covariance) {
       c.covariance = reexpressCovariance(*c.covariance, new_from_world, c.world_from_camera,
                                          transform_covariance);
     }
     if (c.aligned_position_covariance) {
       c.aligned_position_covariance =
-          Eigen::Matrix3d(rotation * *c.aligned_position_covariance * rotation.transpose());
+          Eigen::Matrix3d(s * s * rotation * *c.aligned_position_covariance * rotation.transpose());
     }
   }
-  for (StampedPose& pose : out.trajectory)
-    pose.world_from_body = new_from_world * pose.world_from_body;
+  for (StampedPose& pose : out.trajectory) {
+    pose.world_from_body = new_from_world.transformPose(pose.world_from_body);
+  }
+  if (s != 1) {
+    out.scale *= s;
+    out.scale_sigma *= s;
+    if (out.observability.aligned_position_rmse_m) *out.observability.aligned_position_rmse_m *= s;
+  }
   return out;
+}
+
+Registration reexpressRegistration(const Registration& registration, const Rigid3d& new_from_world,
+                                   const std::optional<Matrix7d>& transform_covariance,
+                                   WorldFrame frame) {
+  return reexpressRegistration(registration, Sim3d(new_from_world), transform_covariance,
+                               std::move(frame));
 }
 
 AlignedRegistration alignRegistrationToFloor(const Registration& reg) {
@@ -384,14 +448,19 @@ std::string padded(const std::string& text, std::size_t width, bool left) {
 }  // namespace
 
 AlignedRegistration alignRegistrationToControlPoints(const Registration& reg,
-                                                     const std::filesystem::path& path) {
+                                                     const std::filesystem::path& path,
+                                                     const SiteAlignmentOptions& options) {
   const std::vector<ControlPoint> points = readControlPoints(path);
-  const SiteAlignment site = alignToControlPoints(reg, points, path.string());
+  const SiteAlignment site = alignToControlPoints(reg, points, path.string(), options);
+  const std::string scale_text =
+      options.with_scale ? ", scale " + formatFixed(site.scale, 6) + " +- " +
+                               formatFixed(std::sqrt(site.covariance(6, 6)) * site.scale, 6)
+                         : "";
   WorldFrame frame;
   frame.name = "site";
   frame.description = "the frame of the control points in " + path.string() + " (" +
                       std::to_string(points.size()) + " points, RMS residual " +
-                      formatFixed(site.rms_m * 1000, 1) + " mm)";
+                      formatFixed(site.rms_m * 1000, 1) + " mm" + scale_text + ")";
   for (std::size_t i = 0; i < site.residuals.size(); ++i) {
     const ControlPointResidual& r = site.residuals[i];
     const auto point = std::find_if(points.begin(), points.end(),
@@ -400,11 +469,13 @@ AlignedRegistration alignRegistrationToControlPoints(const Registration& reg,
         {r.name, point != points.end() ? point->p_in_site : Eigen::Vector3d::Zero().eval(),
          r.residual_m, r.normalized});
   }
-  AlignedRegistration aligned{
-      reexpressRegistration(reg, site.site_from_world, site.covariance, frame), {}};
+  const Sim3d site_from_world(site.scale, site.site_from_world.rotation,
+                              site.site_from_world.translation);
+  AlignedRegistration aligned{reexpressRegistration(reg, site_from_world, site.covariance, frame),
+                              {}};
   std::vector<std::string>& lines = aligned.summary;
   lines.push_back("site: " + std::to_string(points.size()) + " control points, RMS residual " +
-                  formatFixed(site.rms_m * 1000, 1) + " mm");
+                  formatFixed(site.rms_m * 1000, 1) + " mm" + scale_text);
   lines.push_back("  point            dx [mm]   dy [mm]   dz [mm]   sigmas");
   for (const ControlPointResidual& r : site.residuals) {
     std::string line = "  " + padded(r.name, 14, true);

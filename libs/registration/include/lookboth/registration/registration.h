@@ -161,6 +161,9 @@ struct WorldFrame {
   std::string description = "the first fisheye pose of the trajectory";
   /// This frame from the registration's own, when re-expressed.
   std::optional<Rigid3d> from_registration;
+  /// With from_registration: its scale (a Sim(3) site frame, `align
+  /// --with-scale`: p = scale * (R p_registration) + t); 1 for a rigid one.
+  double scale_from_registration = 1;
   /// "site" frames: the control points and their residuals, for the report.
   std::vector<ControlPointFit> control_points;
 };

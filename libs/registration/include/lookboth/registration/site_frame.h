@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "lookboth/geometry/sim3.h"
 #include "lookboth/registration/registration.h"
 
 namespace lookboth {
@@ -34,9 +35,12 @@ struct FloorFit {
 /// line: the floor's tilt about that line is then not determined.
 FloorFit fitFloor(const Registration& registration);
 
-/// A surveyed point: a camera's position in the site's frame.
+/// A surveyed point in the site's frame: a camera's position, or a point the
+/// robot's trajectory passed (its dock): the fisheye's optical centre at the
+/// start of the drive ("@start"), at its end ("@end") or at a time ("@<unix
+/// seconds>", the robot's clock).
 struct ControlPoint {
-  std::string name;           ///< The camera's label.
+  std::string name;           ///< The camera's label, or "@start", "@end", "@<seconds>".
   Eigen::Vector3d p_in_site;  ///< [m]
   double sigma_m = 0;         ///< Standard deviation of each coordinate [m].
   int line = 0;               ///< In its file, for messages.
@@ -52,11 +56,15 @@ struct ControlPointResidual {
   double normalized = 0;  ///< |residual| over its predicted sigma (point's and camera's).
 };
 
+using Matrix7d = Eigen::Matrix<double, 7, 7>;
+
 struct SiteAlignment {
-  Rigid3d site_from_world;
-  /// Of site_from_world over [dt (m); dtheta (rad)], a perturbation in the
-  /// site frame: p_true = Exp(dtheta) (site_from_world p) + dt.
-  Matrix6d covariance = Matrix6d::Zero();
+  Rigid3d site_from_world;  ///< Its rotation and translation (with the scale below: a Sim(3)).
+  double scale = 1;  ///< site_from_world's scale (1 unless SiteAlignmentOptions::with_scale).
+  /// Of site_from_world over [dt (m); dtheta (rad); ds], a perturbation in
+  /// the site frame: p_true = (1 + ds) Exp(dtheta) q + dt, q the aligned
+  /// point; ds's row and column are zero for a rigid alignment.
+  Matrix7d covariance = Matrix7d::Zero();
   std::vector<ControlPointResidual> residuals;
   double rms_m = 0;
 };
@@ -67,25 +75,36 @@ struct SiteAlignmentOptions {
   /// this many of its predicted sigmas is an error naming it (3-D: 4.03 is
   /// chi-square 3 dof at 99.9 %). Needs 4 points or more to tell.
   double max_normalized_residual = 4.03;
+  /// A similarity (Sim(3)): the scale too, for a registration whose scale the
+  /// control points should set (visual mode). Needs 4 points or more.
+  bool with_scale = false;
   std::string check() const;
 };
 
-/// The weighted rigid alignment of the registered cameras' positions to the
-/// control points (weights 1 / (sigma^2 + the camera's own position
-/// variance)). `source` names the points' file in messages. Throws
-/// lookboth::Error for fewer than 3 usable points, a point naming no
-/// registered camera, or an inconsistent point (which one, and by how much).
+/// The weighted rigid (or, with_scale, similarity) alignment of the
+/// registration's points to the control points: the registered cameras'
+/// positions and the trajectory's (weights 1 / (sigma^2 + the camera's own
+/// position variance; a trajectory point's is not recorded: its sigma
+/// alone)). `source` names the points' file in messages. Throws
+/// lookboth::Error for fewer than 3 usable points (4 with the scale), a
+/// point naming no registered camera or no time of the trajectory, or an
+/// inconsistent point (which one, and by how much).
 SiteAlignment alignToControlPoints(const Registration& registration,
                                    const std::vector<ControlPoint>& points,
                                    const std::string& source,
                                    const SiteAlignmentOptions& options = {});
 
 /// `registration` with every pose (cameras, their stage poses, the
-/// trajectory) mapped by `new_from_world`, the covariances rotated with it
-/// and, when `transform_covariance` is given (over [dt; dtheta], as
+/// trajectory) mapped by `new_from_world` (a similarity: positions scaled,
+/// poses' rotations turned), the covariances rotated (and scaled) with it
+/// and, when `transform_covariance` is given (over [dt; dtheta; ds], as
 /// SiteAlignment::covariance), that uncertainty added to each camera's.
+Registration reexpressRegistration(const Registration& registration, const Sim3d& new_from_world,
+                                   const std::optional<Matrix7d>& transform_covariance,
+                                   WorldFrame frame);
+/// The same for a rigid transform.
 Registration reexpressRegistration(const Registration& registration, const Rigid3d& new_from_world,
-                                   const std::optional<Matrix6d>& transform_covariance,
+                                   const std::optional<Matrix7d>& transform_covariance,
                                    WorldFrame frame);
 
 /// A registration re-expressed, with what a person should read about it
@@ -103,6 +122,7 @@ AlignedRegistration alignRegistrationToFloor(const Registration& registration);
 /// (readControlPoints, alignToControlPoints), the alignment's covariance
 /// added to every camera's.
 AlignedRegistration alignRegistrationToControlPoints(const Registration& registration,
-                                                     const std::filesystem::path& path);
+                                                     const std::filesystem::path& path,
+                                                     const SiteAlignmentOptions& options = {});
 
 }  // namespace lookboth
