@@ -76,6 +76,9 @@ PY
   # MRPT's graph-slam reads the graph; optimised from its own nodes
   # (--no-span: not re-initialised from the root), they stay where they are,
   # every edge being its nodes' relative pose (graph-slam writes 6 digits).
+  # MRPT's rawlog-edit reads each camera's pose PDF (CObservationRobotPose).
+  rawlog-edit --info -i exported/mrpt/cameras.rawlog | tee rawlog.log
+  grep -Eq "All sensor labels *: *cam00, cam01" rawlog.log || fail "rawlog-edit: $(tail -3 rawlog.log)"
   graph-slam --3d --info -i exported/mrpt/registration.graph | tee graph.log
   grep -Eq "Nodes count \(in VERTEX2/3 entries\) *: *[1-9]" graph.log ||
     fail "graph-slam did not read the graph"

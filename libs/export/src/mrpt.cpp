@@ -4,11 +4,16 @@
 // trajectory poses (their relative pose, the covariance of the joint
 // adjustment's motion prior), and one from the trajectory pose nearest each
 // camera to the camera (the camera's covariance); plus each camera as a
-// CPose3DPDFGaussian in cameras_pdf.txt (its mean and covariance).
+// CPose3DPDFGaussian in cameras_pdf.txt (its mean and covariance) and in
+// cameras.rawlog (a CObservationRobotPose per camera, its sensorLabel the
+// camera's label: RawLogViewer and rawlog-edit read it).
 #include <yaml-cpp/yaml.h>
 
 #include <mrpt/graphs/CNetworkOfPoses.h>
+#include <mrpt/io/CMemoryStream.h>
+#include <mrpt/obs/CObservationRobotPose.h>
 #include <mrpt/poses/CPose3DPDFGaussian.h>
+#include <mrpt/serialization/CArchive.h>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -18,47 +23,13 @@
 #include "lookboth/core/text.h"
 #include "lookboth/geometry/lie.h"
 #include "lookboth/geometry/pose_conversions.h"
+#include "lookboth/geometry/time.h"
 
 namespace lookboth::export_detail {
 namespace {
 
 using mrpt::poses::CPose3D;
 using mrpt::poses::CPose3DPDFGaussian;
-
-/// d(yaw, pitch, roll)/d(dtheta) of R Exp(dtheta) at `pose`, by central differences.
-Eigen::Matrix3d yawPitchRollJacobian(const Rigid3d& pose) {
-  Eigen::Matrix3d j;
-  const double h = 1e-7;
-  for (int k = 0; k < 3; ++k) {
-    Eigen::Vector3d d = Eigen::Vector3d::Zero();
-    d[k] = h;
-    double ypr_plus[3], ypr_minus[3];
-    const Rigid3d plus(pose.rotation * so3Exp(d), pose.translation);
-    const Rigid3d minus(pose.rotation * so3Exp(Eigen::Vector3d(-d)), pose.translation);
-    toMrptPose(plus).getYawPitchRoll(ypr_plus[0], ypr_plus[1], ypr_plus[2]);
-    toMrptPose(minus).getYawPitchRoll(ypr_minus[0], ypr_minus[1], ypr_minus[2]);
-    for (int i = 0; i < 3; ++i) {
-      double difference = ypr_plus[i] - ypr_minus[i];
-      difference = std::remainder(difference, 2 * M_PI);  // across +-pi
-      j(i, k) = difference / (2 * h);
-    }
-  }
-  return j;
-}
-
-/// A pose with its covariance over [dt; dtheta] (doc/conventions.md) as
-/// MRPT's PDF, whose covariance is over [x y z yaw pitch roll].
-CPose3DPDFGaussian mrptPdf(const Rigid3d& pose, const Matrix6d& covariance) {
-  Matrix6d j = Matrix6d::Zero();
-  j.topLeftCorner<3, 3>().setIdentity();
-  j.bottomRightCorner<3, 3>() = yawPitchRollJacobian(pose);
-  const Matrix6d mrpt_covariance = j * covariance * j.transpose();
-  mrpt::math::CMatrixDouble66 cov;
-  for (int r = 0; r < 6; ++r) {
-    for (int c = 0; c < 6; ++c) cov(r, c) = mrpt_covariance(r, c);
-  }
-  return CPose3DPDFGaussian(toMrptPose(pose), cov);
-}
 
 struct MotionSigmas {
   double m_per_sqrt_m = 0.01, deg_per_sqrt_m = 0.2, min_m = 0.0005, min_deg = 0.005;
@@ -118,9 +89,29 @@ void addTrajectory(const Registration& reg, mrpt::graphs::CNetworkOfPoses3DCov* 
     const Rigid3d& a = reg.trajectory[k - 1].world_from_body;
     const Rigid3d& b = reg.trajectory[k].world_from_body;
     const Rigid3d relative = a.inverse() * b;
-    graph->insertEdge(k - 1, k,
-                      mrptPdf(relative, motionCovariance(sigmas, relative.translation.norm())));
+    graph->insertEdge(
+        k - 1, k, toMrptPosePdf(relative, motionCovariance(sigmas, relative.translation.norm())));
   }
+}
+
+/// Each camera's pose PDF as an MRPT rawlog of CObservationRobotPose
+/// (uncompressed; MRPT reads plain and gzip rawlogs alike), stamped with the
+/// drive's end (writeMrpt needs the trajectory).
+std::string camerasRawlog(const ExportContext& context) {
+  mrpt::io::CMemoryStream buffer;
+  auto archive = mrpt::serialization::archiveFrom(buffer);
+  for (const ExportedCamera& c : context.cameras) {
+    const CameraRegistration& camera = *c.registration;
+    mrpt::obs::CObservationRobotPose observation;
+    observation.sensorLabel = camera.label;
+    // The drive's end: the registration's time, not the export's.
+    observation.timestamp = toMrptTime(context.registration.trajectory.back().t);
+    observation.pose = toMrptPosePdf(camera.world_from_camera,
+                                     camera.covariance.value_or(Matrix6d::Identity() * 1e-4));
+    archive << observation;
+  }
+  const auto* bytes = static_cast<const char*>(buffer.getRawBufferData());
+  return std::string(bytes, bytes + buffer.getTotalBytesCount());
 }
 
 }  // namespace
@@ -148,10 +139,10 @@ void writeMrpt(const ExportContext& context) {
     // the rotation's right perturbation unchanged.
     Matrix6d turn = Matrix6d::Identity();
     turn.topLeftCorner<3, 3>() = node.rotation.toRotationMatrix().transpose();
-    graph.insertEdge(
-        k, id,
-        mrptPdf(node.inverse() * camera.world_from_camera, turn * covariance * turn.transpose()));
-    const CPose3DPDFGaussian pdf = mrptPdf(camera.world_from_camera, covariance);
+    graph.insertEdge(k, id,
+                     toMrptPosePdf(node.inverse() * camera.world_from_camera,
+                                   turn * covariance * turn.transpose()));
+    const CPose3DPDFGaussian pdf = toMrptPosePdf(camera.world_from_camera, covariance);
     pdfs << camera.label;
     for (double v : {pdf.mean.x(), pdf.mean.y(), pdf.mean.z(), pdf.mean.yaw(), pdf.mean.pitch(),
                      pdf.mean.roll()}) {
@@ -168,6 +159,7 @@ void writeMrpt(const ExportContext& context) {
   graph.writeAsText(text);
   context.write("registration.graph", text.str());
   context.write("cameras_pdf.txt", pdfs.str());
+  context.write("cameras.rawlog", camerasRawlog(context));
 }
 
 }  // namespace lookboth::export_detail

@@ -5,6 +5,9 @@
 #include <unistd.h>
 
 #include <mrpt/graphs/CNetworkOfPoses.h>
+#include <mrpt/io/CFileInputStream.h>
+#include <mrpt/obs/CObservationRobotPose.h>
+#include <mrpt/serialization/CArchive.h>
 #include <Eigen/Core>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -289,6 +292,15 @@ TEST(Export, MrptGraphReadsBackAndIsConsistent) {
   EXPECT_NEAR(v[6 + 4 * 6 + 4], 5e-4, 1e-12);  // pitch <- dtheta_y
   EXPECT_NEAR(v[6 + 5 * 6 + 5], 4e-4, 1e-12);  // roll <- dtheta_x
   EXPECT_NEAR(v[6 + 2 * 6 + 2], 3.0, 1e-12);
+  // The same PDF in cameras.rawlog, read back by MRPT.
+  mrpt::io::CFileInputStream in((dir2 / "cameras.rawlog").string());
+  auto archive = mrpt::serialization::archiveFrom(in);
+  const auto first = archive.ReadObject<mrpt::obs::CObservationRobotPose>();
+  ASSERT_TRUE(first);
+  EXPECT_EQ(first->sensorLabel, "cam_a");
+  EXPECT_NEAR(first->pose.mean.x(), 1.0, 1e-12);
+  EXPECT_NEAR(first->pose.cov(3, 3), 6e-4, 1e-12);
+  EXPECT_NEAR(first->pose.cov(2, 2), 3.0, 1e-12);
 }
 
 TEST(Export, NothingToExportIsAnError) {

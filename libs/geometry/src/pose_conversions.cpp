@@ -2,6 +2,10 @@
 
 #include <mrpt/math/CMatrixFixed.h>
 
+#include <cmath>
+
+#include "lookboth/geometry/lie.h"
+
 namespace lookboth {
 
 Rigid3d fromMrptPose(const mrpt::poses::CPose3D& a_from_b) {
@@ -73,6 +77,44 @@ Rigid3d fromTumVector(const Eigen::Matrix<double, 7, 1>& tum) {
   Eigen::Quaterniond q(tum[6], tum[3], tum[4], tum[5]);
   q.normalize();
   return Rigid3d(q, tum.head<3>());
+}
+
+namespace {
+
+/// d(yaw, pitch, roll)/d(dtheta) of R Exp(dtheta) at `pose`, by central differences.
+Eigen::Matrix3d yawPitchRollJacobian(const Rigid3d& pose) {
+  Eigen::Matrix3d j;
+  const double h = 1e-7;
+  for (int k = 0; k < 3; ++k) {
+    Eigen::Vector3d d = Eigen::Vector3d::Zero();
+    d[k] = h;
+    double ypr_plus[3], ypr_minus[3];
+    const Rigid3d plus(pose.rotation * so3Exp(d), pose.translation);
+    const Rigid3d minus(pose.rotation * so3Exp(Eigen::Vector3d(-d)), pose.translation);
+    toMrptPose(plus).getYawPitchRoll(ypr_plus[0], ypr_plus[1], ypr_plus[2]);
+    toMrptPose(minus).getYawPitchRoll(ypr_minus[0], ypr_minus[1], ypr_minus[2]);
+    for (int i = 0; i < 3; ++i) {
+      double difference = ypr_plus[i] - ypr_minus[i];
+      difference = std::remainder(difference, 2 * M_PI);  // across +-pi
+      j(i, k) = difference / (2 * h);
+    }
+  }
+  return j;
+}
+
+}  // namespace
+
+mrpt::poses::CPose3DPDFGaussian toMrptPosePdf(const Rigid3d& pose,
+                                              const Eigen::Matrix<double, 6, 6>& covariance) {
+  Eigen::Matrix<double, 6, 6> j = Eigen::Matrix<double, 6, 6>::Zero();
+  j.topLeftCorner<3, 3>().setIdentity();
+  j.bottomRightCorner<3, 3>() = yawPitchRollJacobian(pose);
+  const Eigen::Matrix<double, 6, 6> mrpt_covariance = j * covariance * j.transpose();
+  mrpt::math::CMatrixDouble66 cov;
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c) cov(r, c) = mrpt_covariance(r, c);
+  }
+  return mrpt::poses::CPose3DPDFGaussian(toMrptPose(pose), cov);
 }
 
 }  // namespace lookboth

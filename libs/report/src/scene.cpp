@@ -1,6 +1,8 @@
 // The registration as an MRPT scene (SceneViewer3D opens it): each camera as
-// a frustum and axes with its label (suspect cameras in orange), the metric
-// trajectory, and the detection rays (camera -> marker), as in the paper's figure 1.
+// a frustum and axes with its label (suspect cameras in orange) and, with its
+// covariance, as MRPT's pose PDF (CPose3DPDFGaussian, drawn by MRPT as its
+// 3-sigma position ellipsoid, named "<label> pdf"), the metric trajectory, and
+// the detection rays (camera -> marker), as in the paper's figure 1.
 #include <mrpt/opengl/CFrustum.h>
 #include <mrpt/opengl/COpenGLScene.h>
 #include <mrpt/opengl/CSetOfLines.h>
@@ -57,6 +59,11 @@ void writeRegistrationScene(const RegistrationRun& run, const std::filesystem::p
     label->setLocation(0, 0, -0.15);
     group->insert(label);
     scene.insert(group);
+    if (c.covariance) {
+      auto pdf = CSetOfObjects::posePDF2opengl(toMrptPosePdf(c.world_from_camera, *c.covariance));
+      pdf->setName(c.label + " pdf");
+      scene.insert(pdf);
+    }
   }
   if (!scene.saveToFile(file.string())) {
     throw Error(ErrorContext{file.string(), 0, "", ""}, "cannot write the scene");

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <mrpt/opengl/COpenGLScene.h>
+
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
@@ -13,6 +15,7 @@
 #include "lookboth/geometry/lie.h"
 #include "lookboth/report/pose_comparison.h"
 #include "lookboth/report/report.h"
+#include "lookboth/report/scene.h"
 #include "lookboth/sim/simulate.h"
 #include "truth_registration.h"
 
@@ -219,6 +222,29 @@ TEST(Base64, KnownVectors) {
   EXPECT_EQ(b("fo"), "Zm8=");
   EXPECT_EQ(b("foo"), "Zm9v");
   EXPECT_EQ(b("foobar"), "Zm9vYmFy");
+}
+
+// scene.3Dscene: each camera with a covariance as MRPT's pose PDF beside its frustum.
+TEST(Scene, CamerasWithACovarianceHaveTheirPosePdf) {
+  RegistrationRun run;
+  for (int i = 0; i < 2; ++i) {
+    CameraRegistration c;
+    c.label = "cam0" + std::to_string(i);
+    c.status = CameraStatus::kRegistered;
+    c.world_from_camera = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(i, 0, 3));
+    if (i == 0) c.covariance = Matrix6d::Identity() * 1e-4;
+    run.registration.cameras.push_back(c);
+  }
+  const fs::path file =
+      fs::temp_directory_path() / ("scene_" + std::to_string(getpid()) + ".3Dscene");
+  writeRegistrationScene(run, file);
+  mrpt::opengl::COpenGLScene scene;
+  ASSERT_TRUE(scene.loadFromFile(file.string()));
+  EXPECT_TRUE(scene.getByName("cam00"));
+  EXPECT_TRUE(scene.getByName("cam00 pdf"));
+  EXPECT_TRUE(scene.getByName("cam01"));
+  EXPECT_FALSE(scene.getByName("cam01 pdf"));
+  fs::remove(file);
 }
 
 }  // namespace

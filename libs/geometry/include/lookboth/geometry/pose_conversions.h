@@ -11,6 +11,7 @@
 #pragma once
 
 #include <mrpt/poses/CPose3D.h>
+#include <mrpt/poses/CPose3DPDFGaussian.h>
 #include <mrpt/poses/CPose3DQuat.h>
 #include <Eigen/Geometry>
 
@@ -23,6 +24,13 @@ mrpt::poses::CPose3D toMrptPose(const Rigid3d& a_from_b);
 
 Rigid3d fromMrptPose(const mrpt::poses::CPose3DQuat& a_from_b);
 mrpt::poses::CPose3DQuat toMrptPoseQuat(const Rigid3d& a_from_b);
+
+/// A pose with its covariance over lookboth's [dt; dtheta] (doc/conventions.md:
+/// t + dt, R Exp(dtheta)) as MRPT's PDF, whose covariance is over
+/// [x y z yaw pitch roll] (the rotation block mapped through the derivative
+/// of yaw, pitch and roll at the pose).
+mrpt::poses::CPose3DPDFGaussian toMrptPosePdf(const Rigid3d& a_from_b,
+                                              const Eigen::Matrix<double, 6, 6>& covariance);
 
 Rigid3d fromIsometry(const Eigen::Isometry3d& a_from_b);
 Eigen::Isometry3d toIsometry(const Rigid3d& a_from_b);

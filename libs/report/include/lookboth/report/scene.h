@@ -8,7 +8,8 @@
 namespace lookboth {
 
 /// The MRPT scene: cameras as frustums and axes with labels (suspect ones in
-/// orange), the metric trajectory, detection rays (the paper's figure 1).
+/// orange) and, with their covariance, as CPose3DPDFGaussian ("<label> pdf"),
+/// the metric trajectory, detection rays (the paper's figure 1).
 void writeRegistrationScene(const RegistrationRun& run, const std::filesystem::path& file);
 
 }  // namespace lookboth
