@@ -861,6 +861,14 @@ void MainFrame::alignToFloor(const std::string& dir) {
   }
 }
 
+void MainFrame::logMoved(const FacilityCheck& check, const std::string& then) {
+  for (const CameraCheck& c : check.cameras) {
+    if (c.verdict != CameraVerdict::kMoved) continue;
+    log(wxString::FromUTF8("  " + c.label + " moved " + formatFixed(c.moved_m.norm() * 1000, 1) +
+                           " mm, " + formatFixed(c.rotated_deg, 3) + " deg" + then));
+  }
+}
+
 void MainFrame::checkAgainst(const std::string& record) {
   if (!registration_) {
     fail("no registration yet: run the stages first", "Not checked");
@@ -872,11 +880,7 @@ void MainFrame::checkAgainst(const std::string& record) {
     log(wxString::Format("check against %s: %d moved, %d unchanged, %d not seen, %d new",
                          wxString::FromUTF8(record), check->moved, check->unchanged,
                          check->not_seen, check->added));
-    for (const CameraCheck& c : check->cameras) {
-      if (c.verdict != CameraVerdict::kMoved) continue;
-      log(wxString::FromUTF8("  " + c.label + " moved " + formatFixed(c.moved_m.norm() * 1000, 1) +
-                             " mm, " + formatFixed(c.rotated_deg, 3) + " deg"));
-    }
+    logMoved(*check, "");
     SetStatusText(wxString::Format("%d camera(s) moved since the record", check->moved), 1);
     table_->showCheck(std::move(check));
   } catch (const std::exception& e) {
@@ -912,12 +916,7 @@ void MainFrame::startUpdate(const std::string& record, const std::string& out, T
     registration_dir_ = target;
     registrationReady(result->registration, std::move(result->rays));
     log("  " + wxString::FromUTF8(result->outcome.summary));
-    for (const CameraCheck& c : result->check->cameras) {
-      if (c.verdict != CameraVerdict::kMoved) continue;
-      log(wxString::FromUTF8("  " + c.label + " moved " + formatFixed(c.moved_m.norm() * 1000, 1) +
-                             " mm, " + formatFixed(c.rotated_deg, 3) +
-                             " deg: registered again against the record"));
-    }
+    logMoved(*result->check, ": registered again against the record");
     SetStatusText(wxString::Format("record updated: %d camera(s) moved", result->check->moved), 1);
     table_->showCheck(result->check);
     refreshSteps();

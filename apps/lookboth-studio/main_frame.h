@@ -125,6 +125,8 @@ class MainFrame : public wxFrame, private studio::ScriptedStartup::Target {
   void exportRegistration(const std::string& dir) override;
   void alignToFloor(const std::string& dir) override;
   void checkAgainst(const std::string& record) override;
+  /// One log line per camera a check found moved, ending with `then`.
+  void logMoved(const FacilityCheck& check, const std::string& then);
   void chooseAndCheck();
   void updateRecord(const std::string& record, const std::string& out) override;
   void startUpdate(const std::string& record, const std::string& out, Then then);

@@ -40,8 +40,10 @@ void JointAdjustment::run() {
   countDetections();
   computeCovariance();
   writeFisheyeFromMarker();
-  writeScale();
+  // Before writeScale changes the problem's scale: the reference between
+  // the nodes is scaled as the nodes' own references were (scale0_).
   writeTrajectory();
+  writeScale();
   for (std::size_t c = 0; c < cameras_.size(); ++c) writeCamera(c);
   if (use_blobs_) writeReprojection();
   progress_.report("joint", max_rounds_, max_rounds_);

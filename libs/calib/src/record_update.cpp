@@ -62,6 +62,9 @@ std::string updateNote(const CameraCheck& c, bool held) {
              " since the record; registered again, against the cameras held at the record";
     case CameraVerdict::kNew:
       return "update: a new camera, registered against the cameras held at the record";
+    case CameraVerdict::kNotSeen:
+      return "update: registered only by the update's adjustment (this drive's own "
+             "registration had not): not compared with the record; check it";
     default:
       return held ? "update: unchanged (" + describeChange(c) +
                         " from the record, within both registrations' uncertainty); held at "
@@ -77,7 +80,8 @@ std::string updateNote(const CameraCheck& c, bool held) {
 // frame together, so each should carry the camera's uncertainty against the
 // others; the marginal one is mostly the record's gauge (its first pose),
 // shared by every camera, and held as independent it lets this drive's
-// errors pull the record's shape.
+// errors pull the record's shape. The record has no such covariance for the
+// rotation: its block stays the marginal one, which holds rotations looser.
 Matrix6d priorCovariance(const CameraRegistration& recorded) {
   Matrix6d covariance = *recorded.covariance;
   if (recorded.aligned_position_covariance) {

@@ -57,13 +57,7 @@ void addCorners(SyntheticScene& scene, double sigma_px, std::uint32_t seed) {
 // Runs associate, motion_calibration, look_down, joint.
 RegistrationProblem solve(const SyntheticScene& scene, const JointOptions& joint,
                           const AssociateOptions& associate = {}) {
-  RegistrationProblem problem;
-  problem.input = scene.input;
-  runAssociate(problem, associate, ProgressReporter());
-  MotionCalibrationOptions motion;
-  motion.prior_translation_m = scene.fisheye_from_marker.translation;
-  runMotionCalibration(problem, motion, ProgressReporter());
-  runLookDown(problem, {}, ProgressReporter());
+  RegistrationProblem problem = testing::stagesBeforeJoint(scene, associate);
   runJoint(problem, joint, ProgressReporter());
   return problem;
 }
@@ -470,13 +464,7 @@ TEST(Joint, RestartFindsALargeClockOffsetOnASinglePass) {
   for (MarkerObservation& m : scene.input.markers) {
     if (m.camera == "cam03") m.t += offset;
   }
-  RegistrationProblem problem;
-  problem.input = scene.input;
-  runAssociate(problem, {}, ProgressReporter());
-  MotionCalibrationOptions motion;
-  motion.prior_translation_m = scene.fisheye_from_marker.translation;
-  runMotionCalibration(problem, motion, ProgressReporter());
-  runLookDown(problem, {}, ProgressReporter());
+  RegistrationProblem problem = testing::stagesBeforeJoint(scene);
   bool found = false;
   for (CameraRegistration& c : problem.result.cameras) {
     if (c.label != "cam03") continue;

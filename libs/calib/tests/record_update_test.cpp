@@ -25,13 +25,7 @@ const Rigid3d kRecordFromWorld(Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::
                                Eigen::Vector3d(12.0, -3.5, 0.4));
 
 RegistrationProblem registerDrive(const SyntheticScene& scene, const JointOptions& joint = {}) {
-  RegistrationProblem problem;
-  problem.input = scene.input;
-  runAssociate(problem, {}, ProgressReporter());
-  MotionCalibrationOptions motion;
-  motion.prior_translation_m = scene.fisheye_from_marker.translation;
-  runMotionCalibration(problem, motion, ProgressReporter());
-  runLookDown(problem, {}, ProgressReporter());
+  RegistrationProblem problem = testing::stagesBeforeJoint(scene);
   runJoint(problem, joint, ProgressReporter());
   return problem;
 }

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "lookboth/calib/builtin_stages.h"
 #include "lookboth/cameras/camera_io.h"
 #include "lookboth/geometry/lie.h"
 #include "lookboth/geometry/random.h"
@@ -249,6 +250,18 @@ Accuracy alignedAccuracy(const Registration& registration,
   if (!alignment) return accuracyAgainst(registration, world_from_camera);
   const Sim3d& s = alignment->dst_from_src;
   return accuracyAgainst(registration, world_from_camera, Rigid3d(s.rotation, s.translation));
+}
+
+RegistrationProblem stagesBeforeJoint(const SyntheticScene& scene,
+                                      const AssociateOptions& associate) {
+  RegistrationProblem problem;
+  problem.input = scene.input;
+  runAssociate(problem, associate, ProgressReporter());
+  MotionCalibrationOptions motion;
+  motion.prior_translation_m = scene.fisheye_from_marker.translation;
+  runMotionCalibration(problem, motion, ProgressReporter());
+  runLookDown(problem, {}, ProgressReporter());
+  return problem;
 }
 
 }  // namespace lookboth::testing

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "lookboth/calib/associate.h"
 #include "lookboth/calib/problem.h"
 #include "lookboth/registration/registration.h"
 
@@ -50,6 +51,12 @@ SyntheticScene makeSyntheticScene(const SyntheticOptions& options);
 Rigid3d makeVisualOdometry(std::vector<StampedPose>& trajectory, double scale,
                            double drift_m_per_sqrt_m, double drift_deg_per_sqrt_m,
                            std::uint32_t seed);
+
+/// The stages before `joint` on the scene's input: associate, motion
+/// calibration (its mount prior at the scene's true fisheye_from_marker
+/// translation), look_down.
+RegistrationProblem stagesBeforeJoint(const SyntheticScene& scene,
+                                      const AssociateOptions& associate = {});
 
 struct Accuracy {
   double position_rmse_m = 0, position_max_m = 0;

@@ -94,26 +94,6 @@ void addTrajectory(const Registration& reg, mrpt::graphs::CNetworkOfPoses3DCov* 
   }
 }
 
-/// Each camera's pose PDF as an MRPT rawlog of CObservationRobotPose
-/// (uncompressed; MRPT reads plain and gzip rawlogs alike), stamped with the
-/// drive's end (writeMrpt needs the trajectory).
-std::string camerasRawlog(const ExportContext& context) {
-  mrpt::io::CMemoryStream buffer;
-  auto archive = mrpt::serialization::archiveFrom(buffer);
-  for (const ExportedCamera& c : context.cameras) {
-    const CameraRegistration& camera = *c.registration;
-    mrpt::obs::CObservationRobotPose observation;
-    observation.sensorLabel = camera.label;
-    // The drive's end: the registration's time, not the export's.
-    observation.timestamp = toMrptTime(context.registration.trajectory.back().t);
-    observation.pose = toMrptPosePdf(camera.world_from_camera,
-                                     camera.covariance.value_or(Matrix6d::Identity() * 1e-4));
-    archive << observation;
-  }
-  const auto* bytes = static_cast<const char*>(buffer.getRawBufferData());
-  return std::string(bytes, bytes + buffer.getTotalBytesCount());
-}
-
 }  // namespace
 
 void writeMrpt(const ExportContext& context) {
@@ -128,6 +108,11 @@ void writeMrpt(const ExportContext& context) {
   addTrajectory(reg, &graph);
   std::ostringstream pdfs;
   pdfs << "# label x y z yaw pitch roll [m, rad], then the 6x6 covariance over them, rows first\n";
+  // Each camera's pose PDF also as MRPT observations (cameras.rawlog:
+  // uncompressed, which MRPT reads as it reads gzip), stamped with the
+  // drive's end, the registration's time.
+  mrpt::io::CMemoryStream rawlog;
+  auto archive = mrpt::serialization::archiveFrom(rawlog);
   std::size_t id = reg.trajectory.size();
   for (const ExportedCamera& c : context.cameras) {
     const CameraRegistration& camera = *c.registration;
@@ -143,6 +128,11 @@ void writeMrpt(const ExportContext& context) {
                      toMrptPosePdf(node.inverse() * camera.world_from_camera,
                                    turn * covariance * turn.transpose()));
     const CPose3DPDFGaussian pdf = toMrptPosePdf(camera.world_from_camera, covariance);
+    mrpt::obs::CObservationRobotPose observation;
+    observation.sensorLabel = camera.label;
+    observation.timestamp = toMrptTime(reg.trajectory.back().t);
+    observation.pose = pdf;
+    archive << observation;
     pdfs << camera.label;
     for (double v : {pdf.mean.x(), pdf.mean.y(), pdf.mean.z(), pdf.mean.yaw(), pdf.mean.pitch(),
                      pdf.mean.roll()}) {
@@ -159,7 +149,8 @@ void writeMrpt(const ExportContext& context) {
   graph.writeAsText(text);
   context.write("registration.graph", text.str());
   context.write("cameras_pdf.txt", pdfs.str());
-  context.write("cameras.rawlog", camerasRawlog(context));
+  const auto* bytes = static_cast<const char*>(rawlog.getRawBufferData());
+  context.write("cameras.rawlog", std::string(bytes, bytes + rawlog.getTotalBytesCount()));
 }
 
 }  // namespace lookboth::export_detail

@@ -393,14 +393,7 @@ StepOutcome RegistrationPipeline::update(const ProgressReporter& progress) {
 
 StepOutcome RegistrationPipeline::output(const ProgressReporter& progress) {
   progress.checkStop();
-  RegistrationRun run = state_->session->current();
-  RegistrationStatistics& statistics = run.registration.statistics;
-  for (const StepTime& step : times_) {
-    if (step.ran && (step.step == "detect" || step.step == "odometry")) {
-      statistics.seconds_per_step[step.step] = step.seconds;
-    }
-  }
-  statistics.drive_seconds = driveSeconds();
+  RegistrationRun run = currentRun();
   // An updated record stays in the record's frame.
   if (!state_->record) lines_.push_back(expressInConfiguredFrame(run, state_->controller.config()));
   writeRegistrationOutput(run, options_.out, options_.overwrite);
@@ -457,7 +450,7 @@ FacilityCheck RegistrationPipeline::updateRecord(const std::filesystem::path& re
   checkRegistrationOutput(out, false, {record, dataset()});
   const FacilityCheck check =
       state_->session->updateRecord(loadRegistration(record), options, progress);
-  RegistrationRun run = state_->session->current();
+  RegistrationRun run = currentRun();
   writeRegistrationOutput(run, out, false);
   state_->written = std::move(run);
   state_->check = check;
@@ -481,6 +474,18 @@ FullPipelineResult RegistrationPipeline::run(const ProgressReporter& progress) {
   result.times = times_;
   result.drive_seconds = driveSeconds();
   return result;
+}
+
+RegistrationRun RegistrationPipeline::currentRun() const {
+  RegistrationRun run = state_->session->current();
+  RegistrationStatistics& statistics = run.registration.statistics;
+  for (const StepTime& step : times_) {
+    if (step.ran && (step.step == "detect" || step.step == "odometry")) {
+      statistics.seconds_per_step[step.step] = step.seconds;
+    }
+  }
+  statistics.drive_seconds = driveSeconds();
+  return run;
 }
 
 double RegistrationPipeline::driveSeconds() const {

@@ -307,15 +307,19 @@ FacilityCheck RegistrationSession::updateRecord(const Registration& record,
                 "cameras at the record)");
   }
   progress.checkStop();
-  check_ = checkFacility(current().registration, record, options);
-  holdAtRecord(problem_, record, check_);
+  FacilityCheck check = checkFacility(current().registration, record, options);
+  // On a copy: a failed or stopped update leaves the registration as it was.
+  RegistrationProblem updated = problem_;
+  holdAtRecord(updated, record, check);
   RegistrationStage& stage = *controller_->stages_[joint - names.begin()];
   const auto start = std::chrono::steady_clock::now();
-  stage.run(problem_, progress);
-  problem_.result.statistics.seconds_per_stage["update"] =
+  stage.run(updated, progress);
+  updated.result.statistics.seconds_per_stage["update"] =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  problem_.result.pipeline.push_back("update");
+  updated.result.pipeline.push_back("update");
+  problem_ = std::move(updated);
   record_ = record;
+  check_ = std::move(check);
   return check_;
 }
 

@@ -398,6 +398,7 @@ Registration reexpressRegistration(const Registration& registration, const Sim3d
       c.aligned_position_covariance =
           Eigen::Matrix3d(s * s * rotation * *c.aligned_position_covariance * rotation.transpose());
     }
+    if (c.residuals) c.residuals->position_rms_m *= s;
   }
   for (StampedPose& pose : out.trajectory) {
     pose.world_from_body = new_from_world.transformPose(pose.world_from_body);

@@ -184,6 +184,8 @@ class RegistrationPipeline {
   StepOutcome update(const ProgressReporter& progress);
   StepOutcome output(const ProgressReporter& progress);
   double driveSeconds() const;  ///< The recording's span [s].
+  /// The session's registration with the run's times (detection, odometry, the drive's span).
+  RegistrationRun currentRun() const;
 
   FullPipelineOptions options_;
   std::unique_ptr<State> state_;
