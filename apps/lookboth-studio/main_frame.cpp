@@ -68,6 +68,7 @@ enum MenuId {
   kIdExportFormatLast = kIdExportFormatFirst + 8,
   kIdAlignFloor,
   kIdAlignControlPoints,
+  kIdAlignControlPointsScaled,
   kIdCheckAgainst,
   kIdUpdateRecord,
   kIdViewShotFirst,  // one per view: scene, fisheye, camera, table
@@ -242,6 +243,8 @@ wxMenu* MainFrame::buildFileMenu() {
                "Write the registration with z normal to the floor the robot drove on");
   site->Append(kIdAlignControlPoints, "In the &site frame (control points)...",
                "Write the registration in the frame of surveyed camera positions (CSV)");
+  site->Append(kIdAlignControlPointsScaled, "In the site frame, with its s&cale (Sim(3))...",
+               "The same with the scale from the control points too (4 or more)");
   file->AppendSubMenu(site, "Site &frame");
   file->Append(kIdCheckAgainst, "&Check against the record...",
                "Which cameras moved since the registration on record (lookboth check)");
@@ -359,6 +362,7 @@ void MainFrame::bindMenus() {
   on(kIdCheckAgainst, [this] { chooseAndCheck(); });
   on(kIdUpdateRecord, [this] { chooseAndUpdate(); });
   on(kIdAlignControlPoints, [this] { chooseAndAlign(false); });
+  on(kIdAlignControlPointsScaled, [this] { chooseAndAlign(false, true); });
   on(kIdCycleOverlay, [this] { views_->cycleOverlay(); });
   on(kIdLoadCalibration, [this] { chooseAndLoadCalibration(); });
   on(kIdCancel, [this] { cancelJob(); });
@@ -625,6 +629,7 @@ void MainFrame::refreshSteps() {
   }
   GetMenuBar()->Enable(kIdAlignFloor, idle && registration_ != nullptr);
   GetMenuBar()->Enable(kIdAlignControlPoints, idle && registration_ != nullptr);
+  GetMenuBar()->Enable(kIdAlignControlPointsScaled, idle && registration_ != nullptr);
   GetMenuBar()->Enable(kIdCheckAgainst, idle && registration_ != nullptr);
   GetMenuBar()->Enable(kIdUpdateRecord, idle && !registration_dir_.empty() && step_runner_);
 }
@@ -936,12 +941,15 @@ void MainFrame::chooseAndUpdate() {
   startUpdate(dialog.GetPath().ToStdString(), "", nullptr);
 }
 
-void MainFrame::chooseAndAlign(bool floor) {
+void MainFrame::chooseAndAlign(bool floor, bool with_scale) {
   if (!registration_) return;
   std::string points;
   if (!floor) {
-    wxFileDialog open(this, "Control points (CSV name,x,y,z,sigma_m)", "", "",
-                      "CSV files (*.csv)|*.csv|All files|*", wxFD_OPEN | wxFD_FILE_MUST_EXIST);
+    wxFileDialog open(this,
+                      "Control points (CSV name,x,y,z,sigma_m; name a camera, or @start, @end "
+                      "or @<unix seconds> for the robot's position then)",
+                      "", "", "CSV files (*.csv)|*.csv|All files|*",
+                      wxFD_OPEN | wxFD_FILE_MUST_EXIST);
     if (open.ShowModal() != wxID_OK) return;
     points = open.GetPath().ToStdString();
   }
@@ -953,7 +961,9 @@ void MainFrame::chooseAndAlign(bool floor) {
     return;
   }
   try {
-    writeAligned(alignRegistrationToControlPoints(*registration_, points), dir);
+    SiteAlignmentOptions options;
+    options.with_scale = with_scale;
+    writeAligned(alignRegistrationToControlPoints(*registration_, points, options), dir);
   } catch (const std::exception& e) {
     fail(wxString::FromUTF8(e.what()), "Not aligned");
   }

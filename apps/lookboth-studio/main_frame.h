@@ -105,7 +105,7 @@ class MainFrame : public wxFrame, private studio::ScriptedStartup::Target {
   void chooseAndExportReport();
   void chooseAndExportRegistration();
   void chooseAndExportFormats(const std::string& formats);
-  void chooseAndAlign(bool floor);
+  void chooseAndAlign(bool floor, bool with_scale = false);
   void saveScreenshot(const std::string& path);
   void chooseAndSaveScreenshot();
   void saveViewScreenshot(int view);
