@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <deque>
 #include <fstream>
 #include <mutex>
 #include <opencv2/imgcodecs.hpp>
@@ -17,6 +18,7 @@
 #include "lookboth/core/yaml_reader.h"
 #include "lookboth/dataset/frame_decoder.h"
 #include "lookboth/dataset/image_header.h"
+#include "lookboth/detect/pass_search.h"
 
 namespace lookboth {
 
@@ -44,6 +46,7 @@ static void fields(MarkerDetectorOptions& o, OptionFields& f) {
   f.number("ambiguity_ratio", o.ambiguity_ratio);
   f.number("max_speed_mps", o.max_speed_mps);
   f.number("track_window_s", o.track_window_s);
+  f.number("coarse_period_s", o.coarse_period_s);
 }
 
 static void fields(BlobDetectorOptions& o, OptionFields& f) {
@@ -157,6 +160,7 @@ struct Job {
 struct JobResult {
   std::vector<Record> records;
   std::int64_t skipped = 0, blobs = 0, ambiguous = 0, unresolved = 0, rejected = 0;
+  std::int64_t examined = 0;
   MarkerDetectorStats candidates;
   BlobDetectorStats blob_candidates;
   std::vector<DatasetIssue> issues;
@@ -180,78 +184,147 @@ std::string sizeMismatch(const ImageFrame& frame, const Camera* camera, int widt
          std::to_string(camera->height()) + "; frame skipped";
 }
 
+/// A job's frames as grey pixels, each checked on the way (its size against
+/// the calibration, a damaged file: the frame is then skipped with its
+/// reason). Image files are decoded when asked for; a video's frames are
+/// decoded in order and the last `keep` kept, so that a pass found late is
+/// examined backwards without seeking. `done` counts the frames of the
+/// job's range [begin, end) passed.
+class JobFrames {
+ public:
+  JobFrames(const CameraWork& work, const Job& job, JobResult& result,
+            std::atomic<std::int64_t>& done, size_t keep)
+      : work_(work), result_(result), done_(done), keep_(keep), end_(job.end), passed_(job.begin) {}
+  ~JobFrames() { done_ += static_cast<std::int64_t>(end_ - std::min(end_, passed_)); }
+  JobFrames(const JobFrames&) = delete;
+  JobFrames& operator=(const JobFrames&) = delete;
+
+  /// Frame i's pixels; empty when it is skipped.
+  cv::Mat grey(size_t i) {
+    if (i >= passed_) {
+      done_ += static_cast<std::int64_t>(i + 1 - passed_);
+      passed_ = i + 1;
+    }
+    for (const auto& [index, image] : kept_) {
+      if (index == i) return image;
+    }
+    if (!isVideoFrame(work_.frames[i]) || keep_ == 0 || i < next_) return decodeChecked(i);
+    for (size_t j = std::max(next_, i + 1 > keep_ ? i + 1 - keep_ : 0); j <= i; ++j) {
+      kept_.emplace_back(j, decodeChecked(j));
+      if (kept_.size() > keep_) kept_.pop_front();
+    }
+    next_ = i + 1;
+    return kept_.back().second;
+  }
+
+ private:
+  cv::Mat decodeChecked(size_t i) {
+    const ImageFrame& frame = work_.frames[i];
+    const Camera* camera = work_.sensor->camera ? &*work_.sensor->camera : nullptr;
+    // A frame of the wrong size would give detections at pixels the camera
+    // does not have; a huge one would be decoded into gigabytes first.
+    if (const std::optional<ImageSize> size = decoder_.size(frame)) {
+      if (std::string why = sizeMismatch(frame, camera, size->width, size->height); !why.empty())
+        return skip(std::move(why));
+    }
+    cv::Mat grey = decoder_.decode(frame, FrameColour::kGrey);
+    if (grey.empty())
+      return skip("cannot decode image " + frameName(frame) + " (corrupt?); frame skipped");
+    if (std::string why = sizeMismatch(frame, camera, grey.cols, grey.rows); !why.empty())
+      return skip(std::move(why));
+    return grey;
+  }
+
+  cv::Mat skip(std::string why) {
+    ++result_.skipped;
+    result_.issues.push_back({work_.sensor->label, std::move(why)});
+    return {};
+  }
+
+  const CameraWork& work_;
+  JobResult& result_;
+  std::atomic<std::int64_t>& done_;
+  size_t keep_;
+  size_t end_;
+  FrameDecoder decoder_;
+  std::deque<std::pair<size_t, cv::Mat>> kept_;
+  size_t next_ = 0;  ///< The video frame decoded next in order.
+  size_t passed_;    ///< Frames before this one are behind the job.
+};
+
+JobResult runFisheyeJob(const CameraWork& work, const Job& job, const DetectConfig& config,
+                        std::atomic<std::int64_t>& done, const std::atomic<bool>& stop) {
+  JobResult result;
+  BlobDetector detector(config.blobs, work.sensor->camera ? &*work.sensor->camera : nullptr);
+  JobFrames frames(work, job, result, done, 0);
+  for (size_t i = job.begin; i < job.end && !stop.load(); ++i) {
+    const cv::Mat grey = frames.grey(i);
+    if (grey.empty()) continue;
+    BlobObservation obs;
+    obs.t = work.frames[i].t;
+    obs.camera = work.sensor->label;
+    obs.image_width = grey.cols;
+    obs.image_height = grey.rows;
+    obs.blobs = detector.detect(grey, &result.blob_candidates);
+    result.blobs += static_cast<std::int64_t>(obs.blobs.size());
+    result.records.push_back(std::move(obs));
+  }
+  return result;
+}
+
+/// One environment camera's frames searched for the marker (PassSearch: one
+/// frame in `coarse_period_s`, every frame around the passes), then its
+/// track: outliers rejected, the pose ambiguity resolved.
+JobResult runMarkerJob(const CameraWork& work, const Job& job, const DetectConfig& config,
+                       const MarkerSpec& marker, std::atomic<std::int64_t>& done,
+                       const std::atomic<bool>& stop) {
+  JobResult result;
+  MarkerDetector detector(marker, *work.sensor->camera, config.markers);
+  std::vector<TimeNs> times;
+  for (const ImageFrame& frame : work.frames) times.push_back(frame.t);
+  const size_t step = coarseStep(times, config.markers.coarse_period_s);
+  JobFrames frames(work, job, result, done, step > 1 ? 2 * step + 1 : 1);
+  std::vector<std::vector<MarkerDetection>> found(work.frames.size());
+  std::optional<size_t> last;
+  PassSearch search(work.frames.size(), step);
+  search.run(
+      [&](size_t i) {
+        // The track (where to look first) holds from one frame to the next only.
+        if (!last || (i != *last + 1 && i + 1 != *last)) detector.resetTrack();
+        last = i;
+        const cv::Mat grey = frames.grey(i);
+        if (grey.empty()) {
+          detector.resetTrack();
+          return false;
+        }
+        found[i] = detector.detect(grey);
+        return !found[i].empty();
+      },
+      stop);
+  result.examined = static_cast<std::int64_t>(search.examined());
+  std::vector<std::pair<TimeNs, MarkerDetection>> detections;
+  for (size_t i = 0; i < found.size(); ++i) {
+    for (MarkerDetection& d : found[i]) detections.emplace_back(times[i], std::move(d));
+  }
+  result.rejected =
+      rejectTrackOutliers(detections, config.markers.max_speed_mps,
+                          static_cast<TimeNs>(std::llround(config.markers.track_window_s * 1e9)));
+  std::vector<MarkerDetection*> track;
+  for (auto& [t, d] : detections) track.push_back(&d);
+  result.unresolved = resolveAmbiguity(track);
+  result.candidates = detector.stats();
+  for (const auto& [t, d] : detections) {
+    result.ambiguous += d.ambiguous ? 1 : 0;
+    result.records.push_back(toMarkerObservation(d, t, work.sensor->label));
+  }
+  return result;
+}
+
 JobResult runJob(const CameraWork& work, const Job& job, const DetectConfig& config,
                  const MarkerSpec& marker, std::atomic<std::int64_t>& done,
                  const std::atomic<bool>& stop) {
-  JobResult result;
-  const std::string& label = work.sensor->label;
-  std::optional<MarkerDetector> marker_detector;
-  std::optional<BlobDetector> blob_detector;
-  if (work.fisheye) {
-    blob_detector.emplace(config.blobs, work.sensor->camera ? &*work.sensor->camera : nullptr);
-  } else {
-    marker_detector.emplace(marker, *work.sensor->camera, config.markers);
-  }
-  std::vector<std::pair<TimeNs, MarkerDetection>> detections;
-  FrameDecoder decoder;
-  for (size_t i = job.begin; i < job.end && !stop.load(); ++i) {
-    const ImageFrame& frame = work.frames[i];
-    const Camera* camera = work.sensor->camera ? &*work.sensor->camera : nullptr;
-    // A frame of the wrong size would give detections at pixels the camera
-    // does not have; a huge one would be decoded into gigabytes first.
-    if (const std::optional<ImageSize> size = decoder.size(frame)) {
-      if (std::string why = sizeMismatch(frame, camera, size->width, size->height); !why.empty()) {
-        ++done;
-        ++result.skipped;
-        result.issues.push_back({label, std::move(why)});
-        if (marker_detector) marker_detector->resetTrack();
-        continue;
-      }
-    }
-    const cv::Mat grey = decoder.decode(frame, FrameColour::kGrey);
-    ++done;
-    if (grey.empty()) {
-      ++result.skipped;
-      result.issues.push_back(
-          {label, "cannot decode image " + frameName(frame) + " (corrupt?); frame skipped"});
-      if (marker_detector) marker_detector->resetTrack();
-      continue;
-    }
-    if (std::string why = sizeMismatch(frame, camera, grey.cols, grey.rows); !why.empty()) {
-      ++result.skipped;
-      result.issues.push_back({label, std::move(why)});
-      if (marker_detector) marker_detector->resetTrack();
-      continue;
-    }
-    if (work.fisheye) {
-      BlobObservation obs;
-      obs.t = frame.t;
-      obs.camera = label;
-      obs.image_width = grey.cols;
-      obs.image_height = grey.rows;
-      obs.blobs = blob_detector->detect(grey, &result.blob_candidates);
-      result.blobs += static_cast<std::int64_t>(obs.blobs.size());
-      result.records.push_back(std::move(obs));
-      continue;
-    }
-    for (MarkerDetection& d : marker_detector->detect(grey)) {
-      detections.emplace_back(frame.t, std::move(d));
-    }
-  }
-  if (!work.fisheye) {
-    result.rejected =
-        rejectTrackOutliers(detections, config.markers.max_speed_mps,
-                            static_cast<TimeNs>(std::llround(config.markers.track_window_s * 1e9)));
-    std::vector<MarkerDetection*> track;
-    for (auto& [t, d] : detections) track.push_back(&d);
-    result.unresolved = resolveAmbiguity(track);
-    result.candidates = marker_detector->stats();
-    for (const auto& [t, d] : detections) {
-      result.ambiguous += d.ambiguous ? 1 : 0;
-      result.records.push_back(toMarkerObservation(d, t, label));
-    }
-  }
-  return result;
+  return work.fisheye ? runFisheyeJob(work, job, config, done, stop)
+                      : runMarkerJob(work, job, config, marker, done, stop);
 }
 
 }  // namespace
@@ -399,6 +472,7 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
     s.ambiguous += r.ambiguous;
     s.unresolved += r.unresolved;
     s.rejected += r.rejected;
+    s.examined += r.examined;
     addStats(s.marker_candidates, r.candidates);
     s.blob_candidates.add(r.blob_candidates);
     s.detections += static_cast<std::int64_t>(r.records.size());

@@ -162,6 +162,8 @@ std::string MarkerDetectorOptions::check() const {
   if (!(ambiguity_ratio >= 1)) return "'ambiguity_ratio': must be at least 1";
   if (!(max_speed_mps >= 0)) return "'max_speed_mps': must be >= 0";
   if (!(track_window_s > 0)) return "'track_window_s': must be positive";
+  if (!(coarse_period_s >= 0) || coarse_period_s > 60)
+    return "'coarse_period_s': must be between 0 (every frame) and 60 s";
   return "";
 }
 

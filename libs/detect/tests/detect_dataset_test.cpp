@@ -4,10 +4,12 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "lookboth/core/error.h"
 #include "lookboth/core/option_fields.h"
+#include "lookboth/core/paths.h"
 #include "lookboth/core/scoped_environment.h"
 #include "lookboth/detect/detection_evaluation.h"
 #include "lookboth/sim/scenario.h"
@@ -224,6 +226,63 @@ TEST_F(DetectDatasetTest, WritesInPlaceReplacesOnRerunAndSkipsCorruptImages) {
 // default.yaml says what the compiled defaults say, every key of markers
 // and blobs (a library user or a test that builds the options in code runs
 // what `lookboth detect` runs).
+/// Every marker that examining every frame finds, the coarse search finds
+/// too, on a full recording (every frame of the drive, most without the
+/// robot): `small`'s first 6 s, 6 cameras at 10 Hz, searched one frame in 5.
+TEST(CoarseSearch, FindsWhatEveryFrameFindsOnAFullRecording) {
+  const fs::path dir = fs::temp_directory_path() / "lookboth_coarse_search_test";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ifstream in(shareDirectory() / "scenarios" / "small.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  const std::string radius = "store_radius_m: 2.0";
+  ASSERT_NE(yaml.find(radius), std::string::npos);
+  yaml.replace(yaml.find(radius), radius.size(), "store_radius_m: all");
+  std::ofstream(dir / "full_recording.yaml") << yaml;
+  sim::SimulateOptions simulate;
+  simulate.scenario = (dir / "full_recording.yaml").string();
+  simulate.out = dir / "full.rawlog";
+  simulate.max_duration_s = 6.0;
+  simulate.threads = 2;
+  sim::simulate(simulate, ProgressReporter());
+
+  DetectOptions options;
+  options.dataset = simulate.out;
+  options.config = defaultDetectConfig();
+  options.blobs = false;
+  options.config.markers.coarse_period_s = 0;
+  DetectSummary every, coarse;
+  const std::vector<Record> all = runDetection(options, ProgressReporter(), &every);
+  options.config.markers.coarse_period_s = 0.5;
+  const std::vector<Record> some = runDetection(options, ProgressReporter(), &coarse);
+  std::map<std::pair<std::string, TimeNs>, Eigen::Vector3d> found;
+  for (const Record& r : some) {
+    const auto& m = std::get<MarkerObservation>(r);
+    found[{m.camera, m.t}] = m.camera_from_marker.translation;
+  }
+  std::int64_t frames = 0, examined = 0;
+  for (const CameraDetectSummary& c : coarse.cameras) {
+    frames += c.frames;
+    examined += c.examined;
+  }
+  std::printf(
+      "full recording, 6 s: %zu markers examining every frame, %zu examining %lld of %lld\n",
+      all.size(), some.size(), static_cast<long long>(examined), static_cast<long long>(frames));
+  ASSERT_GT(all.size(), 40u);
+  EXPECT_EQ(some.size(), all.size());
+  for (const Record& r : all) {
+    const auto& m = std::get<MarkerObservation>(r);
+    const auto it = found.find({m.camera, m.t});
+    ASSERT_NE(it, found.end()) << m.camera << " at " << m.t << " missed";
+    EXPECT_LT((it->second - m.camera_from_marker.translation).norm(), 1e-3);
+  }
+  // Most frames of a full recording are not looked at.
+  EXPECT_LT(examined, frames / 2);
+  fs::remove_all(dir);
+}
+
 TEST(DetectConfig, DefaultYamlSaysWhatTheCompiledDefaultsSay) {
   const DetectConfig loaded =
       loadDetectConfig(std::filesystem::path(LOOKBOTH_SHARE_DIR) / "config" / "default.yaml");

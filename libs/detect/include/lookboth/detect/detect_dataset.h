@@ -70,7 +70,10 @@ struct DetectOptions {
 struct CameraDetectSummary {
   std::string camera;
   bool fisheye = false;
-  std::int64_t frames = 0;      ///< Frames read.
+  std::int64_t frames = 0;  ///< Frames read.
+  /// Frames searched for the marker: all of them, or with a coarse search
+  /// (MarkerDetectorOptions::coarse_period_s) those around the passes.
+  std::int64_t examined = 0;
   std::int64_t skipped = 0;     ///< Frames that could not be decoded.
   std::int64_t detections = 0;  ///< Marker observations, or blob records.
   std::int64_t blobs = 0;       ///< Blobs in all (fisheye).

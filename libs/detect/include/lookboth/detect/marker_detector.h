@@ -73,6 +73,11 @@ struct MarkerDetectorOptions {
   /// marker elsewhere); 0 = keep everything.
   double max_speed_mps = 1.5;   ///< [m/s]
   double track_window_s = 1.0;  ///< [s]
+  /// Where the robot is not, the marker is not: a camera's frames are
+  /// examined one per `coarse_period_s`, and every frame around those that
+  /// show the marker (detect/pass_search.h); a pass shorter than this is
+  /// missed. 0 = every frame [s].
+  double coarse_period_s = 0.2;
   std::string check() const;
 };
 

@@ -1,0 +1,59 @@
+// Which of an environment camera's frames to examine for the robot's marker.
+//
+// A fixed camera records the whole drive, but the robot passes under it for
+// a few seconds: most frames cannot contain the marker. The search examines
+// one frame in `step` (coarse); where the marker is found, it examines every
+// frame around it, backwards and forwards, until `step` frames in a row show
+// no marker, then goes on coarsely. A pass is missed only when none of its
+// coarse frames shows the marker, so it must last less than `step` frames or
+// be missed by the detector on each of them: recall is measured against
+// examining every frame (doc/benchmarks.md, "Full recordings").
+#pragma once
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "lookboth/geometry/time.h"
+
+namespace lookboth {
+
+/// The coarse step [frames] for frames at `times` (in time order): the
+/// period in seconds over the median interval between frames, at least 1
+/// (every frame) when `period_s` is 0 or the camera is slower than it.
+std::size_t coarseStep(const std::vector<TimeNs>& times, double period_s);
+
+class PassSearch {
+ public:
+  /// `frames`: how many (indices 0..frames-1, in time order); `step` >= 1.
+  PassSearch(std::size_t frames, std::size_t step);
+
+  /// Examines frames through `examine(i)` (true: the marker is in frame i),
+  /// each at most once, in the order described above. Returns early when
+  /// `stop` is raised.
+  void run(const std::function<bool(std::size_t)>& examine, const std::atomic<bool>& stop);
+
+  /// How many frames were examined.
+  std::size_t examined() const { return examined_; }
+  /// Whether frame i was examined, and what it showed.
+  bool wasExamined(std::size_t i) const { return state_.at(i) != kUnseen; }
+  bool found(std::size_t i) const { return state_.at(i) == kFound; }
+
+ private:
+  enum State : std::uint8_t { kUnseen, kEmpty, kFound };
+  /// Frame i examined (once): whether it shows the marker.
+  bool look(std::size_t i);
+  /// Every frame from `from` towards `to` (exclusive), one after the other,
+  /// until `step_` frames in a row are empty; returns the first index not examined.
+  std::ptrdiff_t walk(std::ptrdiff_t from, std::ptrdiff_t to, std::ptrdiff_t direction);
+
+  std::vector<State> state_;
+  std::size_t step_;
+  std::size_t examined_ = 0;
+  const std::function<bool(std::size_t)>* examine_ = nullptr;
+  const std::atomic<bool>* stop_ = nullptr;
+};
+
+}  // namespace lookboth

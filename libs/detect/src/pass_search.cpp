@@ -1,0 +1,60 @@
+#include "lookboth/detect/pass_search.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace lookboth {
+
+std::size_t coarseStep(const std::vector<TimeNs>& times, double period_s) {
+  if (!(period_s > 0) || times.size() < 2) return 1;
+  std::vector<TimeNs> intervals;
+  intervals.reserve(times.size() - 1);
+  for (std::size_t i = 1; i < times.size(); ++i) intervals.push_back(times[i] - times[i - 1]);
+  std::nth_element(intervals.begin(), intervals.begin() + intervals.size() / 2, intervals.end());
+  const double interval_s = static_cast<double>(intervals[intervals.size() / 2]) * 1e-9;
+  if (!(interval_s > 0)) return 1;
+  return static_cast<std::size_t>(std::max(1.0, std::floor(period_s / interval_s + 1e-6)));
+}
+
+PassSearch::PassSearch(std::size_t frames, std::size_t step)
+    : state_(frames, kUnseen), step_(std::max<std::size_t>(1, step)) {}
+
+bool PassSearch::look(std::size_t i) {
+  if (state_[i] == kUnseen) {
+    state_[i] = (*examine_)(i) ? kFound : kEmpty;
+    ++examined_;
+  }
+  return state_[i] == kFound;
+}
+
+std::ptrdiff_t PassSearch::walk(std::ptrdiff_t from, std::ptrdiff_t to, std::ptrdiff_t direction) {
+  std::size_t empty = 0;
+  std::ptrdiff_t i = from;
+  for (; i != to && empty < step_ && !stop_->load(); i += direction) {
+    empty = look(static_cast<std::size_t>(i)) ? 0 : empty + 1;
+  }
+  return i;
+}
+
+void PassSearch::run(const std::function<bool(std::size_t)>& examine,
+                     const std::atomic<bool>& stop) {
+  examine_ = &examine;
+  stop_ = &stop;
+  const auto n = static_cast<std::ptrdiff_t>(state_.size());
+  const auto step = static_cast<std::ptrdiff_t>(step_);
+  std::ptrdiff_t i = 0;
+  while (i < n && !stop.load()) {
+    if (!look(static_cast<std::size_t>(i))) {
+      // The last frame is examined too: a pass at the very end is not
+      // shorter than the step for lack of a coarse frame after it.
+      i = (i + step >= n && i != n - 1) ? n - 1 : i + step;
+      continue;
+    }
+    walk(i - 1, -1, -1);
+    i = walk(i + 1, n, 1);
+  }
+  examine_ = nullptr;
+  stop_ = nullptr;
+}
+
+}  // namespace lookboth
