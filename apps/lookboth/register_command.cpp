@@ -25,6 +25,7 @@ struct RegisterArgs {
   bool no_detect = false;
   bool no_odometry = false;
   bool no_write_back = false;
+  bool sequential = false;
   bool verbose = false;
   int threads = 0;
   std::string update;  ///< A registration on record to update.
@@ -68,6 +69,7 @@ int runRegister(const RegisterArgs& args) {
     full.auto_odometry = !args.no_odometry;
     full.threads = args.threads;
     full.write_back = !args.no_write_back;
+    full.overlap_steps = !args.sequential;
     full.on_issue = printDatasetIssue;
     full.update_record = args.update;
     full.update_check = args.update_check;
@@ -128,6 +130,9 @@ void registerRegisterCommand(CLI::App& app, const std::function<void(CommandBody
                 "Do not run the visual odometry when the dataset has no 'vo' trajectory");
   cmd->add_option("--threads", args->threads, "Detection threads (0 = one per core)")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("--sequential", args->sequential,
+                "Run the detection, then the odometry (by default, when both are needed, the "
+                "odometry runs on one thread while detection runs on the others)");
   cmd->add_option("--update", args->update,
                   "A registration on record (a directory) to bring up to date with this drive: "
                   "the drive is registered, compared with the record as `lookboth check` does, "

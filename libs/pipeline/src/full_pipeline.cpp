@@ -12,6 +12,7 @@
 #include "lookboth/detect/detect_dataset.h"
 #include "lookboth/registration/site_frame.h"
 #include "lookboth/vo/run.h"
+#include "overlapped_steps.h"
 
 namespace lookboth {
 
@@ -159,30 +160,52 @@ struct ScratchDataset {
 
 }  // namespace
 
+namespace {
+
+/// Where a step's results go, as its line says it: the dataset, or the
+/// scratch copy (`out`).
+std::string writtenTo(const FullPipelineOptions& options, const std::filesystem::path& out) {
+  return out.empty() ? options.dataset.string() : "a temporary copy";
+}
+
+/// The detection step 1 runs (its options), or nullopt when it is skipped.
+std::optional<DetectOptions> detectionFor(const FullPipelineOptions& options,
+                                          const std::vector<ConfigLayer>& layers,
+                                          const DatasetContents& contents,
+                                          const std::filesystem::path& out) {
+  const bool need_markers = contents.camera_frames > 0 && contents.markers == 0;
+  const bool need_blobs = contents.fisheye_frames > 0 && contents.blob_records == 0;
+  if (!options.auto_detect || !(need_markers || need_blobs)) return std::nullopt;
+  DetectOptions detect;
+  detect.dataset = options.dataset;
+  detect.out = out;
+  detect.on_issue = options.on_issue;
+  detect.threads = options.threads;
+  detect.markers = need_markers;
+  detect.blobs = need_blobs;
+  detect.config = detectConfigFrom(layers);
+  return detect;
+}
+
+/// "detect: 120 marker detections, 300 fisheye frames with blobs added to ...".
+std::string detectLine(const DetectSummary& summary, const std::string& where) {
+  std::int64_t markers = 0;
+  std::int64_t blobs = 0;
+  for (const auto& camera : summary.cameras)
+    (camera.fisheye ? blobs : markers) += camera.detections;
+  return "detect: " + std::to_string(markers) + " marker detections, " + std::to_string(blobs) +
+         " fisheye frames with blobs added to " + where;
+}
+
+}  // namespace
+
 StepOutcome runDetectStep(const FullPipelineOptions& options,
                           const std::vector<ConfigLayer>& layers, const DatasetContents& contents,
                           const ProgressReporter& progress, const std::filesystem::path& out) {
   StepOutcome outcome;
-  const bool need_markers = contents.camera_frames > 0 && contents.markers == 0;
-  const bool need_blobs = contents.fisheye_frames > 0 && contents.blob_records == 0;
-  if (options.auto_detect && (need_markers || need_blobs)) {
-    DetectOptions detect;
-    detect.dataset = options.dataset;
-    detect.out = out;
-    detect.on_issue = options.on_issue;
-    detect.threads = options.threads;
-    detect.markers = need_markers;
-    detect.blobs = need_blobs;
-    detect.config = detectConfigFrom(layers);
-    const DetectSummary summary = detectDataset(detect, progress);
-    std::int64_t markers = 0;
-    std::int64_t blobs = 0;
-    for (const auto& camera : summary.cameras)
-      (camera.fisheye ? blobs : markers) += camera.detections;
+  if (const std::optional<DetectOptions> detect = detectionFor(options, layers, contents, out)) {
     outcome.ran = true;
-    outcome.summary = "detect: " + std::to_string(markers) + " marker detections, " +
-                      std::to_string(blobs) + " fisheye frames with blobs added to " +
-                      (out.empty() ? options.dataset.string() : std::string("a temporary copy"));
+    outcome.summary = detectLine(detectDataset(*detect, progress), writtenTo(options, out));
   } else {
     outcome.summary = "detect: skipped (" +
                       std::string(contents.camera_frames + contents.fisheye_frames == 0
@@ -193,42 +216,66 @@ StepOutcome runDetectStep(const FullPipelineOptions& options,
   return outcome;
 }
 
+namespace {
+
+/// Whether step 2 runs `lookboth odometry`; throws lookboth::Error when it is
+/// needed but cannot run.
+bool odometryWanted(const FullPipelineOptions& options, const DatasetContents& contents) {
+  const std::string vo_label = options.trajectory_label.empty() ? "vo" : options.trajectory_label;
+  if (options.mode != TrajectoryMode::kVisual || !options.trajectory_file.empty() ||
+      contents.hasTrajectory(vo_label))
+    return false;
+  if (!options.auto_odometry)
+    throw Error(options.dataset.string() + ": no visual odometry trajectory '" + vo_label +
+                "': run `lookboth odometry` first");
+  if (contents.fisheye_frames == 0)
+    throw Error(options.dataset.string() + ": no visual odometry trajectory '" + vo_label +
+                "' and no fisheye frames to run `lookboth odometry` on (the dataset's "
+                "trajectories: " +
+                describeTrajectories(contents) +
+                "); leave out --trajectory to let register choose, or name one: "
+                "--trajectory-label <label> for one up to scale, --trajectory metric for a "
+                "metric one");
+  if (vo_label != vo::kVoTrajectoryLabel)
+    throw Error(options.dataset.string() + ": no visual odometry trajectory '" + vo_label +
+                "': `lookboth odometry` writes '" + std::string(vo::kVoTrajectoryLabel) + "'");
+  return true;
+}
+
+vo::OdometryRunOptions odometryFor(const FullPipelineOptions& options,
+                                   const std::vector<ConfigLayer>& layers,
+                                   const std::filesystem::path& out) {
+  vo::OdometryRunOptions odometry;
+  odometry.dataset = options.dataset;
+  odometry.odometry = vo::odometryOptionsFrom(layers);
+  odometry.write_dataset = true;  // adds the trajectory to the dataset (augmentDataset)
+  odometry.out = out;
+  odometry.on_issue = options.on_issue;
+  return odometry;
+}
+
+/// "odometry: 360 poses added as trajectory 'vo' to ... (2 loop closures)";
+/// throws when the odometry tracked nothing.
+std::string odometryLine(const vo::OdometryRunSummary& summary, std::int64_t written,
+                         const std::string& where) {
+  return "odometry: " + std::to_string(written) + " poses added as trajectory '" +
+         std::string(vo::kVoTrajectoryLabel) + "' to " + where + " (" +
+         std::to_string(summary.result.statistics.loop_closures) + " loop closures)";
+}
+
+}  // namespace
+
 StepOutcome runOdometryStep(const FullPipelineOptions& options,
                             const std::vector<ConfigLayer>& layers, const DatasetContents& contents,
                             const ProgressReporter& progress, const std::filesystem::path& out) {
   StepOutcome outcome;
-  const std::string vo_label = options.trajectory_label.empty() ? "vo" : options.trajectory_label;
-  if (options.mode == TrajectoryMode::kVisual && options.trajectory_file.empty() &&
-      !contents.hasTrajectory(vo_label)) {
-    if (!options.auto_odometry)
-      throw Error(options.dataset.string() + ": no visual odometry trajectory '" + vo_label +
-                  "': run `lookboth odometry` first");
-    if (contents.fisheye_frames == 0)
-      throw Error(options.dataset.string() + ": no visual odometry trajectory '" + vo_label +
-                  "' and no fisheye frames to run `lookboth odometry` on (the dataset's "
-                  "trajectories: " +
-                  describeTrajectories(contents) +
-                  "); leave out --trajectory to let register choose, or name one: "
-                  "--trajectory-label <label> for one up to scale, --trajectory metric for a "
-                  "metric one");
-    if (vo_label != vo::kVoTrajectoryLabel)
-      throw Error(options.dataset.string() + ": no visual odometry trajectory '" + vo_label +
-                  "': `lookboth odometry` writes '" + std::string(vo::kVoTrajectoryLabel) + "'");
-    vo::OdometryRunOptions odometry;
-    odometry.dataset = options.dataset;
-    odometry.odometry = vo::odometryOptionsFrom(layers);
-    odometry.write_dataset = true;  // adds the trajectory to the dataset (augmentDataset)
-    odometry.out = out;
-    odometry.on_issue = options.on_issue;
-    const vo::OdometryRunSummary summary = vo::runOdometry(odometry, progress);
+  if (odometryWanted(options, contents)) {
+    const vo::OdometryRunSummary summary =
+        vo::runOdometry(odometryFor(options, layers, out), progress);
     if (summary.result.trajectory.empty())
       throw Error(options.dataset.string() + ": the visual odometry tracked no frame");
     outcome.ran = true;
-    outcome.summary = "odometry: " + std::to_string(summary.records_written) +
-                      " poses added as trajectory '" + vo_label + "' to " +
-                      (out.empty() ? options.dataset.string() : std::string("a temporary copy")) +
-                      " (" + std::to_string(summary.result.statistics.loop_closures) +
-                      " loop closures)";
+    outcome.summary = odometryLine(summary, summary.records_written, writtenTo(options, out));
   } else {
     outcome.summary = "odometry: skipped (" +
                       std::string(options.mode == TrajectoryMode::kMetric ? "metric trajectory"
@@ -298,6 +345,16 @@ struct RegistrationPipeline::State {
   std::optional<Registration> record;      ///< FullPipelineOptions::update_record, read.
   std::optional<FacilityCheck> check;      ///< The update's comparison with the record.
   std::optional<RegistrationRun> written;  ///< What the output step wrote.
+  /// Detection and odometry at once (overlapped_steps.h): the odometry
+  /// running, and the detections it waits for to be written.
+  std::shared_ptr<JointProgress> joint;
+  std::unique_ptr<BackgroundOdometry> background;
+  struct PendingDetections {
+    DetectOptions options;
+    std::vector<Record> records;
+    DetectSummary summary;
+  };
+  std::optional<PendingDetections> pending;
 };
 
 RegistrationPipeline::RegistrationPipeline(FullPipelineOptions options)
@@ -342,20 +399,80 @@ void RegistrationPipeline::prepare(const ProgressReporter& progress) {
 StepOutcome RegistrationPipeline::detect(const ProgressReporter& progress) {
   State& st = *state_;
   const std::filesystem::path out = st.scratch ? st.scratch->path : std::filesystem::path();
+  if (options_.overlap_steps) {
+    std::optional<DetectOptions> detect = detectionFor(st.working, st.layers, st.contents, out);
+    if (detect && odometryWanted(st.working, st.contents))
+      return detectAlongsideOdometry(std::move(*detect), progress);
+  }
   const StepOutcome outcome = runDetectStep(st.working, st.layers, st.contents, progress, out);
   if (outcome.ran && st.scratch) st.working.dataset = st.scratch->path;
   return outcome;
 }
 
+StepOutcome RegistrationPipeline::detectAlongsideOdometry(DetectOptions detect,
+                                                          const ProgressReporter& progress) {
+  State& st = *state_;
+  // Detection keeps its threads: the odometry's thread takes a share of the
+  // cores while it runs, and detection has them all once it is done (the
+  // odometry is usually the shorter: one camera against many).
+  st.joint = std::make_shared<JointProgress>(progress);
+  st.background =
+      std::make_unique<BackgroundOdometry>(odometryFor(st.working, st.layers, {}), st.joint);
+  DetectSummary summary;
+  std::vector<Record> records;
+  try {
+    records = runDetection(detect, st.joint->detection(), &summary);
+  } catch (...) {
+    st.background.reset();  // stopped and joined: its result is not wanted
+    throw;
+  }
+  st.joint->detectionDone();
+  StepOutcome outcome;
+  outcome.ran = true;
+  outcome.summary =
+      detectLine(summary, writtenTo(st.working, detect.out)) + " (the odometry ran alongside)";
+  st.pending.emplace(State::PendingDetections{std::move(detect), std::move(records), summary});
+  return outcome;
+}
+
 StepOutcome RegistrationPipeline::odometry(const ProgressReporter& progress) {
+  State& st = *state_;
+  if (st.background) return odometryAfterDetection(progress);
   // On the contents before detection: detection adds no trajectory. A
   // scratch copy that detection made is extended in place.
-  State& st = *state_;
   const bool in_scratch = st.scratch && st.working.dataset == st.scratch->path;
   const std::filesystem::path out =
       st.scratch && !in_scratch ? st.scratch->path : std::filesystem::path();
-  const StepOutcome outcome = runOdometryStep(st.working, st.layers, st.contents, progress, out);
+  StepOutcome outcome = runOdometryStep(st.working, st.layers, st.contents, progress, out);
+  if (outcome.ran && in_scratch) {
+    // Extended in place, the scratch copy is still a temporary copy.
+    const std::string path = st.scratch->path.string();
+    outcome.summary.replace(outcome.summary.find(path), path.size(), "a temporary copy");
+  }
   if (outcome.ran && st.scratch) st.working.dataset = st.scratch->path;
+  return outcome;
+}
+
+StepOutcome RegistrationPipeline::odometryAfterDetection(const ProgressReporter& progress) {
+  State& st = *state_;
+  const vo::OdometryRunSummary summary = st.background->wait();
+  st.background.reset();
+  st.joint.reset();
+  // Both results written now that nothing reads the dataset: the
+  // detections (to the scratch copy, or in place), then the trajectory
+  // into that.
+  State::PendingDetections pending = std::move(*st.pending);
+  st.pending.reset();
+  if (summary.result.trajectory.empty())
+    throw Error(st.working.dataset.string() + ": the visual odometry tracked no frame");
+  writeDetections(pending.options, std::move(pending.records), pending.summary, progress);
+  if (st.scratch) st.working.dataset = st.scratch->path;
+  const AugmentSummary written = vo::addOdometryTrajectory(
+      st.working.dataset, {}, false, summary.result.trajectory, options_.on_issue, progress);
+  StepOutcome outcome;
+  outcome.ran = true;
+  outcome.summary = odometryLine(summary, written.added, writtenTo(options_, pending.options.out)) +
+                    ", alongside detection";
   return outcome;
 }
 

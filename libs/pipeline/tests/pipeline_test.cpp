@@ -414,6 +414,73 @@ TEST_F(PipelineTest, WritesTheOutputDirectoryAtomically) {
               *run.registration.observability.aligned_position_rmse_m, 1e-12);
 }
 
+/// A rendered recording's first 12 s registered with detection and odometry
+/// at once (overlap_steps) and one after the other: the same registration;
+/// a stop during the overlapped detection stops the odometry too and leaves
+/// the dataset and the output as they were.
+TEST(OverlappedSteps, SameRegistrationAsOneStepAfterTheOtherAndAStopStopsBoth) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("lookboth_overlapped_steps_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  sim::SimulateOptions simulate;
+  simulate.scenario = "small";
+  simulate.out = dir / "small.rawlog";
+  simulate.max_duration_s = 12.0;
+  simulate.threads = 2;
+  sim::simulate(simulate, ProgressReporter());
+  const auto before = fs::last_write_time(simulate.out);
+
+  FullPipelineOptions options;
+  options.dataset = simulate.out;
+  options.choose_trajectory = true;
+  options.write_back = false;
+  options.out = dir / "overlapped";
+  const FullPipelineResult overlapped = runFullPipeline(options, ProgressReporter());
+  options.overlap_steps = false;
+  options.out = dir / "sequential";
+  const FullPipelineResult sequential = runFullPipeline(options, ProgressReporter());
+  auto line = [](const FullPipelineResult& result, const std::string& step) {
+    for (const std::string& l : result.steps) {
+      if (l.rfind(step + ": ", 0) == 0) return l;
+    }
+    return std::string();
+  };
+  EXPECT_NE(line(overlapped, "odometry").find("alongside detection"), std::string::npos)
+      << line(overlapped, "odometry");
+  EXPECT_EQ(line(sequential, "odometry").find("alongside"), std::string::npos)
+      << line(sequential, "odometry");
+  const auto& a = overlapped.run.registration.cameras;
+  const auto& b = sequential.run.registration.cameras;
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_GE(overlapped.run.registration.registeredCount(), 2u);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].status, b[i].status) << a[i].label;
+    EXPECT_LT((a[i].world_from_camera.translation - b[i].world_from_camera.translation).norm(),
+              1e-9)
+        << a[i].label;
+  }
+
+  // Stopped while detection runs (and the odometry beside it).
+  options.overlap_steps = true;
+  options.out = dir / "stopped";
+  ProgressReporter progress;
+  progress = progress.withCallback([progress](const ProgressEvent& event) {
+    if (event.stage == "detect" && event.done > 50) progress.requestStop();
+  });
+  EXPECT_THROW(runFullPipeline(options, progress), StopRequested);
+  EXPECT_FALSE(fs::exists(options.out));
+  EXPECT_EQ(fs::last_write_time(simulate.out), before);
+  std::size_t entries = 0;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    ++entries;
+    EXPECT_EQ(entry.path().filename().string().find("-dataset-tmp-"), std::string::npos)
+        << entry.path();
+  }
+  EXPECT_EQ(entries, 5u);  // small.rawlog, its manifest and images, and the two registrations
+  fs::remove_all(dir);
+}
+
 TEST(RegistrationConfig, UserFileOverridesAndErrorsNameTheField) {
   const std::string defaults =
       "register:\n  pipeline: [associate, look_down]\n  look_down: {min_detections: 3}\n";

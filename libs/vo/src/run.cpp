@@ -107,6 +107,33 @@ std::string OdometryRunOptions::check() const {
   return odometry.check();
 }
 
+AugmentSummary addOdometryTrajectory(const std::filesystem::path& dataset,
+                                     const std::filesystem::path& out, bool overwrite,
+                                     const Trajectory& trajectory,
+                                     const std::function<void(const DatasetIssue&)>& on_issue,
+                                     const ProgressReporter& progress) {
+  AugmentOptions augment;
+  augment.input = dataset;
+  augment.output = out;
+  augment.overwrite = overwrite;
+  augment.on_issue = on_issue;
+  augment.drop = [](const Record& record) {
+    const auto* pose = std::get_if<PoseSample>(&record);
+    return pose && pose->label == kVoTrajectoryLabel;
+  };
+  Manifest updated = DatasetReader::open(dataset)->manifest();
+  auto& list = updated.trajectories;
+  list.erase(std::remove_if(list.begin(), list.end(),
+                            [](const TrajectoryInfo& t) { return t.label == kVoTrajectoryLabel; }),
+             list.end());
+  list.push_back(TrajectoryInfo{kVoTrajectoryLabel, false, kVoTrajectoryDescription});
+  augment.manifest = updated;
+  std::vector<Record> added;
+  for (const StampedPose& p : trajectory.samples())
+    added.emplace_back(PoseSample{p.t, kVoTrajectoryLabel, p.world_from_body});
+  return augmentDataset(augment, std::move(added), progress);
+}
+
 OdometryRunSummary runOdometry(const OdometryRunOptions& options,
                                const ProgressReporter& progress) {
   if (const std::string why = options.check(); !why.empty()) throw Error("odometry: " + why);
@@ -235,27 +262,9 @@ OdometryRunSummary runOdometry(const OdometryRunOptions& options,
   }
   progress.checkStop();
   if (options.write_dataset) {
-    AugmentOptions augment;
-    augment.input = options.dataset;
-    augment.output = options.out;
-    augment.overwrite = options.overwrite;
-    augment.on_issue = options.on_issue;
-    augment.drop = [](const Record& record) {
-      const auto* pose = std::get_if<PoseSample>(&record);
-      return pose && pose->label == kVoTrajectoryLabel;
-    };
-    Manifest updated = manifest;
-    auto& list = updated.trajectories;
-    list.erase(
-        std::remove_if(list.begin(), list.end(),
-                       [](const TrajectoryInfo& t) { return t.label == kVoTrajectoryLabel; }),
-        list.end());
-    list.push_back(TrajectoryInfo{kVoTrajectoryLabel, false, kVoTrajectoryDescription});
-    augment.manifest = updated;
-    std::vector<Record> added;
-    for (const StampedPose& p : summary.result.trajectory.samples())
-      added.emplace_back(PoseSample{p.t, kVoTrajectoryLabel, p.world_from_body});
-    const AugmentSummary written = augmentDataset(augment, std::move(added), progress);
+    const AugmentSummary written =
+        addOdometryTrajectory(options.dataset, options.out, options.overwrite,
+                              summary.result.trajectory, options.on_issue, progress);
     summary.records_written = written.added;
     summary.dataset_written = written.output;
   }

@@ -56,6 +56,13 @@ class ProgressReporter {
   void checkStop() const {
     if (stopRequested()) throw StopRequested();
   }
+  /// A reporter that shares this one's stop flag and reports to `callback`
+  /// instead (e.g. to merge the reports of two jobs running at once).
+  ProgressReporter withCallback(ProgressCallback callback) const {
+    ProgressReporter other(*this);
+    other.callback_ = std::move(callback);
+    return other;
+  }
   /// The shared flag, for whoever must set it (e.g. a SIGINT handler).
   std::shared_ptr<std::atomic<bool>> stopFlag() const { return stop_; }
 

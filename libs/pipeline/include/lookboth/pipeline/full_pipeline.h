@@ -31,6 +31,8 @@
 
 namespace lookboth {
 
+struct DetectOptions;
+
 struct FullPipelineOptions {
   std::filesystem::path dataset;
   std::filesystem::path out;  ///< The registration directory.
@@ -49,7 +51,11 @@ struct FullPipelineOptions {
   bool auto_detect = true;    ///< Run detection when detections are missing.
   bool auto_odometry = true;  ///< Run odometry when the visual trajectory is missing.
   int threads = 0;            ///< Detection threads (0 = one per core).
-  bool write_back = true;     ///< Add detections and odometry to the dataset (see above).
+  /// When both detection and odometry run, the odometry runs on a thread of
+  /// its own beside detection's; both are written once both are done. Off:
+  /// one after the other.
+  bool overlap_steps = true;
+  bool write_back = true;  ///< Add detections and odometry to the dataset (see above).
   /// A registration on record to update with this drive (`register --update`;
   /// lookboth/calib/record_update.h): adds the step "update" before the
   /// output, which is then the record updated, in the record's frame.
@@ -180,6 +186,10 @@ class RegistrationPipeline {
   void prepare(const ProgressReporter& progress);
   StepOutcome detect(const ProgressReporter& progress);
   StepOutcome odometry(const ProgressReporter& progress);
+  /// Detection with the odometry on a thread beside it (overlap_steps).
+  StepOutcome detectAlongsideOdometry(DetectOptions detect, const ProgressReporter& progress);
+  /// The odometry started by detectAlongsideOdometry awaited; both written.
+  StepOutcome odometryAfterDetection(const ProgressReporter& progress);
   StepOutcome stage(const ProgressReporter& progress);
   StepOutcome update(const ProgressReporter& progress);
   StepOutcome output(const ProgressReporter& progress);

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "lookboth/core/progress.h"
+#include "lookboth/dataset/augment.h"
 #include "lookboth/dataset/dataset_io.h"
 #include "lookboth/vo/odometry.h"
 #include "lookboth/vo/options.h"
@@ -57,5 +58,15 @@ struct OdometryRunSummary {
 };
 
 OdometryRunSummary runOdometry(const OdometryRunOptions& options, const ProgressReporter& progress);
+
+/// Adds `trajectory` to `dataset` as trajectory "vo" (PoseSample records and
+/// the manifest's entry, replacing earlier ones), written to `out` (empty:
+/// the dataset replaced) through augmentDataset; what runOdometry writes
+/// when `write_dataset`, for a run made without it.
+AugmentSummary addOdometryTrajectory(const std::filesystem::path& dataset,
+                                     const std::filesystem::path& out, bool overwrite,
+                                     const Trajectory& trajectory,
+                                     const std::function<void(const DatasetIssue&)>& on_issue,
+                                     const ProgressReporter& progress);
 
 }  // namespace lookboth::vo

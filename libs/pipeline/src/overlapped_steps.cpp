@@ -1,0 +1,78 @@
+#include "overlapped_steps.h"
+
+#include <cmath>
+
+namespace lookboth {
+
+ProgressReporter JointProgress::detection() {
+  std::shared_ptr<JointProgress> self = shared_from_this();
+  return user_.withCallback([self](const ProgressEvent& event) { self->fromDetection(event); });
+}
+
+ProgressReporter JointProgress::odometry() {
+  std::shared_ptr<JointProgress> self = shared_from_this();
+  return odometry_reporter_.withCallback(
+      [self](const ProgressEvent& event) { self->fromOdometry(event); });
+}
+
+void JointProgress::odometryDone() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  odometry_done_ = true;
+}
+
+void JointProgress::detectionDone() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  detecting_ = false;
+}
+
+void JointProgress::fromDetection(const ProgressEvent& event) {
+  if (user_.stopRequested()) odometry_stop_->store(true);
+  std::lock_guard<std::mutex> lock(mutex_);
+  ProgressEvent joint = event;
+  if (odometry_done_) {
+    joint.message = "odometry alongside: done";
+  } else if (odometry_last_ && odometry_last_->total > 0) {
+    const double share = 100.0 * static_cast<double>(odometry_last_->done) /
+                         static_cast<double>(odometry_last_->total);
+    joint.message = "odometry alongside: " + std::to_string(std::lround(share)) + " %";
+  } else if (odometry_last_) {
+    joint.message = "odometry alongside: " + odometry_last_->stage;
+  }
+  user_.report(joint);
+}
+
+void JointProgress::fromOdometry(const ProgressEvent& event) {
+  if (user_.stopRequested()) odometry_stop_->store(true);
+  std::lock_guard<std::mutex> lock(mutex_);
+  odometry_last_ = event;
+  if (!detecting_) user_.report(event);
+}
+
+BackgroundOdometry::BackgroundOdometry(vo::OdometryRunOptions options,
+                                       std::shared_ptr<JointProgress> progress)
+    : progress_(std::move(progress)) {
+  options.write_dataset = false;
+  const ProgressReporter reporter = progress_->odometry();
+  thread_ = std::thread([this, options = std::move(options), reporter] {
+    try {
+      summary_ = vo::runOdometry(options, reporter);
+    } catch (...) {
+      error_ = std::current_exception();
+    }
+    progress_->odometryDone();
+  });
+}
+
+BackgroundOdometry::~BackgroundOdometry() {
+  if (!thread_.joinable()) return;
+  progress_->cancel();
+  thread_.join();
+}
+
+vo::OdometryRunSummary BackgroundOdometry::wait() {
+  if (thread_.joinable()) thread_.join();
+  if (error_) std::rethrow_exception(error_);
+  return *summary_;
+}
+
+}  // namespace lookboth

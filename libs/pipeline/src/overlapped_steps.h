@@ -1,0 +1,66 @@
+// Detection and odometry at once. They read the same dataset and neither
+// needs the other's result, so `register` runs the odometry on its own
+// thread while detection runs on the others (FullPipelineOptions::
+// overlap_steps); both results are written after both are done, so that
+// nothing reads the dataset while it is replaced.
+#pragma once
+
+#include <exception>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include "lookboth/core/progress.h"
+#include "lookboth/vo/run.h"
+
+namespace lookboth {
+
+/// One progress line for two jobs on two threads: while both run,
+/// detection's counts with the odometry's share in the message; the
+/// odometry's own once detection is done. Reports are serialised: a console
+/// bar or the desktop app's callback is never called from two threads at once.
+class JointProgress : public std::enable_shared_from_this<JointProgress> {
+ public:
+  explicit JointProgress(ProgressReporter user) : user_(std::move(user)) {}
+  /// Detection's reporter: the user's stop flag.
+  ProgressReporter detection();
+  /// The odometry's reporter: its own stop flag, raised by the user's or by cancel().
+  ProgressReporter odometry();
+  void detectionDone();
+  void odometryDone();
+  /// Stops the odometry (detection failed: its result is not wanted).
+  void cancel() { odometry_stop_->store(true); }
+
+ private:
+  void fromDetection(const ProgressEvent& event);
+  void fromOdometry(const ProgressEvent& event);
+
+  ProgressReporter user_;
+  ProgressReporter odometry_reporter_;
+  std::shared_ptr<std::atomic<bool>> odometry_stop_ = odometry_reporter_.stopFlag();
+  std::mutex mutex_;
+  std::optional<ProgressEvent> odometry_last_;
+  bool detecting_ = true;
+  bool odometry_done_ = false;
+};
+
+/// `lookboth odometry` on a thread of its own, without writing the dataset;
+/// wait() returns its summary (or rethrows its error). Dropped unfinished
+/// (detection failed or was stopped), it is stopped and joined.
+class BackgroundOdometry {
+ public:
+  BackgroundOdometry(vo::OdometryRunOptions options, std::shared_ptr<JointProgress> progress);
+  ~BackgroundOdometry();
+  BackgroundOdometry(const BackgroundOdometry&) = delete;
+  BackgroundOdometry& operator=(const BackgroundOdometry&) = delete;
+  vo::OdometryRunSummary wait();
+
+ private:
+  std::shared_ptr<JointProgress> progress_;
+  std::optional<vo::OdometryRunSummary> summary_;
+  std::exception_ptr error_;
+  std::thread thread_;
+};
+
+}  // namespace lookboth
