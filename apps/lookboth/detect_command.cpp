@@ -151,7 +151,10 @@ int runDetect(const DetectArgs& args) {
       frames += c.frames;
       (c.fisheye ? blob_records : markers) += c.detections;
       std::cout << "  " << c.camera << ": " << c.frames << " frames";
-      if (!c.fisheye && c.examined < c.frames) std::cout << " (" << c.examined << " examined)";
+      if (!c.fisheye && c.examined < c.frames) {
+        std::cout << " (" << c.examined << " examined"
+                  << (c.coarse_key_frames ? ", coarsely at its key frames)" : ")");
+      }
       if (c.fisheye) {
         std::cout << ", " << c.blobs << " blobs";
       } else {

@@ -59,6 +59,11 @@ std::optional<ImageSize> FrameDecoder::size(const ImageFrame& frame) {
   return imageFileSize(frame.image_file);
 }
 
+std::vector<std::int64_t> FrameDecoder::keyFrames(const ImageFrame& frame) {
+  if (!isVideoFrame(frame)) return {};
+  return video(frame.video_file).keyFrames();
+}
+
 std::string frameName(const ImageFrame& frame) {
   if (frame.encoded) return "the frame at t=" + formatSeconds(frame.t) + " (embedded)";
   if (isVideoFrame(frame)) {

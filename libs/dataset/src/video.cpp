@@ -78,9 +78,11 @@ std::pair<FormatPtr, int> openContainer(const fs::path& file) {
 /// packet lacks its presentation time (decoding times are another clock).
 /// Packets the demuxer marks as discarded (before an edit list's start, as in
 /// a clip cut without re-encoding) are not frames: the decoder drops them.
-/// `count` receives the number of frames.
+/// `count` receives the number of frames; `key_times` (when given) the
+/// presentation times of the key frames.
 std::vector<std::int64_t> packetTimes(AVFormatContext* format, int stream, const fs::path& file,
-                                      std::int64_t& count) {
+                                      std::int64_t& count,
+                                      std::vector<std::int64_t>* key_times = nullptr) {
   PacketPtr packet(av_packet_alloc());
   std::vector<std::int64_t> times;
   bool complete = !(format->iformat->flags & AVFMT_NOTIMESTAMPS);
@@ -91,6 +93,8 @@ std::vector<std::int64_t> packetTimes(AVFormatContext* format, int stream, const
       ++count;
       if (packet->pts == AV_NOPTS_VALUE) complete = false;
       if (complete) times.push_back(packet->pts);
+      if (complete && key_times && (packet->flags & AV_PKT_FLAG_KEY))
+        key_times->push_back(packet->pts);
     }
     av_packet_unref(packet.get());
   }
@@ -99,6 +103,7 @@ std::vector<std::int64_t> packetTimes(AVFormatContext* format, int stream, const
                      "read error after " + std::to_string(count) + " frames (" + averror(rc) + ")");
   }
   if (!complete) times.clear();
+  if (!complete && key_times) key_times->clear();
   std::sort(times.begin(), times.end());
   return times;
 }
@@ -174,6 +179,8 @@ struct VideoDecoder::Impl {
   /// frame's index is the position of its time. Empty for a stream without
   /// timestamps, whose frames are counted instead.
   std::vector<std::int64_t> pts;
+  /// Indices of the key frames (presentation order), sorted; empty without timestamps.
+  std::vector<std::int64_t> key_frames;
   std::int64_t frame_count = 0;
   std::int64_t next_index = 0;  ///< Index of the frame the decoder gives next.
   bool draining = false;        ///< End of file reached: the decoder is being emptied.
@@ -360,7 +367,13 @@ VideoDecoder::VideoDecoder(const fs::path& file, int threads) : impl_(std::make_
   impl_->threads = std::max(1, threads);
   {
     auto [format, stream] = openContainer(file);
-    impl_->pts = packetTimes(format.get(), stream, file, impl_->frame_count);
+    std::vector<std::int64_t> key_times;
+    impl_->pts = packetTimes(format.get(), stream, file, impl_->frame_count, &key_times);
+    for (const std::int64_t t : key_times) {
+      const auto it = std::lower_bound(impl_->pts.begin(), impl_->pts.end(), t);
+      if (it != impl_->pts.end() && *it == t) impl_->key_frames.push_back(it - impl_->pts.begin());
+    }
+    std::sort(impl_->key_frames.begin(), impl_->key_frames.end());
   }
   impl_->open();
 }
@@ -375,6 +388,7 @@ bool VideoDecoder::isCurrent() const {
   return !ec && now == impl_->stamp;
 }
 int VideoDecoder::width() const { return impl_->codec->width; }
+const std::vector<std::int64_t>& VideoDecoder::keyFrames() const { return impl_->key_frames; }
 int VideoDecoder::height() const { return impl_->codec->height; }
 
 cv::Mat VideoDecoder::frame(std::int64_t index, bool colour) {
@@ -382,7 +396,14 @@ cv::Mat VideoDecoder::frame(std::int64_t index, bool colour) {
   if (index < 0 || index >= d.frame_count) return {};
   if (index == d.last_index && colour == d.last_colour) return d.last_image.clone();
   bool passed = false;
-  if (index >= d.next_index && index <= d.next_index + Impl::kSeekAhead) {
+  // A key frame between the next frame and this one: decoding starts there
+  // (a seek) instead of decoding every frame before it.
+  const auto key = std::upper_bound(d.key_frames.begin(), d.key_frames.end(), index);
+  const bool key_ahead = key != d.key_frames.begin() && *std::prev(key) > d.next_index;
+  if (key_ahead && index > d.next_index && d.seekBefore(*std::prev(key), 0)) {
+    if (d.decodeTo(index, passed)) return d.take(index, colour);
+    if (!passed) return {};
+  } else if (index >= d.next_index && index <= d.next_index + Impl::kSeekAhead) {
     // Forward: every frame up to it decoded; past it without it, it is missing.
     return d.decodeTo(index, passed) ? d.take(index, colour) : cv::Mat();
   }

@@ -345,6 +345,31 @@ TEST(Video, FramesFarAheadAreReachedBySeeking) {
   }
 }
 
+// The key frames are listed, and a jump to a frame after a key frame ahead
+// starts there: key frame to key frame, the same pixels as decoding every frame.
+TEST(Video, KeyFramesAreListedAndAJumpToOneDecodesItAlone) {
+  const fs::path folder = scratch("keys") / "cam";
+  makeCameraVideo(folder, 100, "container", "--keyint 10");
+  VideoDecoder every(folder / "video.mp4");
+  std::vector<cv::Mat> frames;
+  for (int i = 0; i < 100; ++i) frames.push_back(every.frame(i, false));
+  VideoDecoder jumping(folder / "video.mp4");
+  const std::vector<std::int64_t>& keys = jumping.keyFrames();
+  // At most 10 apart (libx264 may add one at a scene cut).
+  ASSERT_GE(keys.size(), 10u);
+  EXPECT_EQ(keys.front(), 0);
+  for (std::size_t k = 1; k < keys.size(); ++k) EXPECT_LE(keys[k] - keys[k - 1], 10);
+  std::vector<std::int64_t> wanted;
+  for (std::size_t k = 0; k < keys.size(); k += 2) wanted.push_back(keys[k]);
+  for (const std::int64_t i : {31, 95, 20, 90}) wanted.push_back(i);
+  for (const std::int64_t i : wanted) {
+    const cv::Mat grey = jumping.frame(i, false);
+    ASSERT_FALSE(grey.empty()) << i;
+    EXPECT_EQ(readBarCode(grey), i);
+    EXPECT_EQ(cv::norm(grey, frames[static_cast<std::size_t>(i)], cv::NORM_INF), 0.0) << i;
+  }
+}
+
 TEST(Video, AClipCutWithoutReencodingStartsAtItsFirstShownFrame) {
   // Cut at 0.5 s without re-encoding: the container keeps the key frame
   // before the cut and an edit list that hides the frames before 0.5 s.

@@ -47,6 +47,7 @@ static void fields(MarkerDetectorOptions& o, OptionFields& f) {
   f.number("max_speed_mps", o.max_speed_mps);
   f.number("track_window_s", o.track_window_s);
   f.number("coarse_period_s", o.coarse_period_s);
+  f.number("coarse_key_frames_max_s", o.coarse_key_frames_max_s);
 }
 
 static void fields(BlobDetectorOptions& o, OptionFields& f) {
@@ -161,6 +162,7 @@ struct JobResult {
   std::vector<Record> records;
   std::int64_t skipped = 0, blobs = 0, ambiguous = 0, unresolved = 0, rejected = 0;
   std::int64_t examined = 0;
+  bool coarse_key_frames = false;
   MarkerDetectorStats candidates;
   BlobDetectorStats blob_candidates;
   std::vector<DatasetIssue> issues;
@@ -186,15 +188,23 @@ std::string sizeMismatch(const ImageFrame& frame, const Camera* camera, int widt
 
 /// A job's frames as grey pixels, each checked on the way (its size against
 /// the calibration, a damaged file: the frame is then skipped with its
-/// reason). Image files are decoded when asked for; a video's frames are
-/// decoded in order and the last `keep` kept, so that a pass found late is
-/// examined backwards without seeking. `done` counts the frames of the
-/// job's range [begin, end) passed.
+/// reason). Image files are decoded when asked for. A video's frames are
+/// kept, the last `keep` of them, so that a pass found late is examined
+/// backwards without a seek per frame: decoded one after the other
+/// (`eager`), or, when the coarse frames are key frames decoded alone, the
+/// `keep` frames before one asked for behind them decoded at once. `done`
+/// counts the frames of the job's range [begin, end) passed.
 class JobFrames {
  public:
   JobFrames(const CameraWork& work, const Job& job, JobResult& result,
-            std::atomic<std::int64_t>& done, size_t keep)
-      : work_(work), result_(result), done_(done), keep_(keep), end_(job.end), passed_(job.begin) {}
+            std::atomic<std::int64_t>& done, size_t keep, bool eager)
+      : work_(work),
+        result_(result),
+        done_(done),
+        keep_(keep),
+        eager_(eager),
+        end_(job.end),
+        passed_(job.begin) {}
   ~JobFrames() { done_ += static_cast<std::int64_t>(end_ - std::min(end_, passed_)); }
   JobFrames(const JobFrames&) = delete;
   JobFrames& operator=(const JobFrames&) = delete;
@@ -208,8 +218,16 @@ class JobFrames {
     for (const auto& [index, image] : kept_) {
       if (index == i) return image;
     }
-    if (!isVideoFrame(work_.frames[i]) || keep_ == 0 || i < next_) return decodeChecked(i);
-    for (size_t j = std::max(next_, i + 1 > keep_ ? i + 1 - keep_ : 0); j <= i; ++j) {
+    if (!isVideoFrame(work_.frames[i]) || keep_ == 0) return decodeChecked(i);
+    const size_t window = i + 1 > keep_ ? i + 1 - keep_ : 0;
+    size_t from = i;  // a jump ahead: that frame alone
+    if (i < next_) {
+      from = window;  // behind: the frames before it too, for a walk backwards
+    } else if (eager_ && i < next_ + keep_) {
+      from = std::max(next_, window);  // ahead: every frame up to it
+    }
+    if (from != next_) kept_.clear();
+    for (size_t j = from; j <= i; ++j) {
       kept_.emplace_back(j, decodeChecked(j));
       if (kept_.size() > keep_) kept_.pop_front();
     }
@@ -245,18 +263,63 @@ class JobFrames {
   JobResult& result_;
   std::atomic<std::int64_t>& done_;
   size_t keep_;
+  bool eager_;
   size_t end_;
   FrameDecoder decoder_;
   std::deque<std::pair<size_t, cv::Mat>> kept_;
-  size_t next_ = 0;  ///< The video frame decoded next in order.
+  size_t next_ = 0;  ///< The video frame after the last one decoded.
   size_t passed_;    ///< Frames before this one are behind the job.
 };
+
+/// The indices of a camera's frames that are key frames of their video.
+std::vector<size_t> keyFrameIndices(const CameraWork& work) {
+  FrameDecoder decoder;
+  std::map<std::string, std::set<std::int64_t>> keys;
+  std::vector<size_t> found;
+  for (size_t i = 0; i < work.frames.size(); ++i) {
+    const ImageFrame& frame = work.frames[i];
+    if (!isVideoFrame(frame)) continue;
+    auto it = keys.find(frame.video_file.string());
+    if (it == keys.end()) {
+      const std::vector<std::int64_t> list = decoder.keyFrames(frame);
+      it = keys.emplace(frame.video_file.string(), std::set<std::int64_t>(list.begin(), list.end()))
+               .first;
+    }
+    if (it->second.count(frame.video_frame)) found.push_back(i);
+  }
+  return found;
+}
+
+/// The coarse frames of a camera's video: its key frames when they are at
+/// most `max_s` apart (median) and further apart than `step` frames; else
+/// none (every step-th frame, the frames between decoded).
+std::vector<size_t> keyFrameCoarse(const CameraWork& work, const std::vector<TimeNs>& times,
+                                   size_t step, double max_s) {
+  if (!(max_s > 0) || step <= 1 || work.frames.empty() || !isVideoFrame(work.frames.front()))
+    return {};
+  std::vector<size_t> keys = keyFrameIndices(work);
+  if (keys.size() < 2) return {};
+  std::vector<TimeNs> key_times;
+  for (size_t k : keys) key_times.push_back(times[k]);
+  std::vector<TimeNs> gaps;
+  std::vector<size_t> index_gaps;
+  for (size_t k = 1; k < keys.size(); ++k) {
+    gaps.push_back(key_times[k] - key_times[k - 1]);
+    index_gaps.push_back(keys[k] - keys[k - 1]);
+  }
+  std::nth_element(gaps.begin(), gaps.begin() + gaps.size() / 2, gaps.end());
+  std::nth_element(index_gaps.begin(), index_gaps.begin() + index_gaps.size() / 2,
+                   index_gaps.end());
+  if (static_cast<double>(gaps[gaps.size() / 2]) * 1e-9 > max_s) return {};
+  if (index_gaps[index_gaps.size() / 2] <= step) return {};
+  return keys;
+}
 
 JobResult runFisheyeJob(const CameraWork& work, const Job& job, const DetectConfig& config,
                         std::atomic<std::int64_t>& done, const std::atomic<bool>& stop) {
   JobResult result;
   BlobDetector detector(config.blobs, work.sensor->camera ? &*work.sensor->camera : nullptr);
-  JobFrames frames(work, job, result, done, 0);
+  JobFrames frames(work, job, result, done, 0, false);
   for (size_t i = job.begin; i < job.end && !stop.load(); ++i) {
     const cv::Mat grey = frames.grey(i);
     if (grey.empty()) continue;
@@ -283,10 +346,18 @@ JobResult runMarkerJob(const CameraWork& work, const Job& job, const DetectConfi
   std::vector<TimeNs> times;
   for (const ImageFrame& frame : work.frames) times.push_back(frame.t);
   const size_t step = coarseStep(times, config.markers.coarse_period_s);
-  JobFrames frames(work, job, result, done, step > 1 ? 2 * step + 1 : 1);
+  // Key frames as coarse frames: the frames between them are not decoded;
+  // a walk backwards from one then needs up to a key interval before it.
+  const std::vector<size_t> keys =
+      keyFrameCoarse(work, times, step, config.markers.coarse_key_frames_max_s);
+  const size_t interval = keys.size() > 1 ? (keys.back() - keys.front()) / (keys.size() - 1) : 0;
+  const size_t keep = step <= 1 ? 1 : std::min<size_t>(64, std::max(2 * step + 1, interval + step));
+  JobFrames frames(work, job, result, done, keep, keys.empty());
   std::vector<std::vector<MarkerDetection>> found(work.frames.size());
   std::optional<size_t> last;
-  PassSearch search(work.frames.size(), step);
+  PassSearch search = keys.empty() ? PassSearch(work.frames.size(), step)
+                                   : PassSearch(work.frames.size(), step, keys);
+  result.coarse_key_frames = !keys.empty();
   search.run(
       [&](size_t i) {
         // The track (where to look first) holds from one frame to the next only.
@@ -473,6 +544,7 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
     s.unresolved += r.unresolved;
     s.rejected += r.rejected;
     s.examined += r.examined;
+    s.coarse_key_frames = s.coarse_key_frames || r.coarse_key_frames;
     addStats(s.marker_candidates, r.candidates);
     s.blob_candidates.add(r.blob_candidates);
     s.detections += static_cast<std::int64_t>(r.records.size());

@@ -164,6 +164,8 @@ std::string MarkerDetectorOptions::check() const {
   if (!(track_window_s > 0)) return "'track_window_s': must be positive";
   if (!(coarse_period_s >= 0) || coarse_period_s > 60)
     return "'coarse_period_s': must be between 0 (every frame) and 60 s";
+  if (!(coarse_key_frames_max_s >= 0) || coarse_key_frames_max_s > 60)
+    return "'coarse_key_frames_max_s': must be between 0 (never) and 60 s";
   return "";
 }
 

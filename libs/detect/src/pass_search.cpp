@@ -17,7 +17,21 @@ std::size_t coarseStep(const std::vector<TimeNs>& times, double period_s) {
 }
 
 PassSearch::PassSearch(std::size_t frames, std::size_t step)
-    : state_(frames, kUnseen), step_(std::max<std::size_t>(1, step)) {}
+    : state_(frames, kUnseen), step_(std::max<std::size_t>(1, step)) {
+  for (std::size_t i = 0; i < frames; i += step_) coarse_.push_back(i);
+  if (frames > 0 && coarse_.back() != frames - 1) coarse_.push_back(frames - 1);
+}
+
+PassSearch::PassSearch(std::size_t frames, std::size_t step, std::vector<std::size_t> coarse)
+    : state_(frames, kUnseen), step_(std::max<std::size_t>(1, step)), coarse_(std::move(coarse)) {
+  coarse_.erase(std::remove_if(coarse_.begin(), coarse_.end(),
+                               [frames](std::size_t i) { return i >= frames; }),
+                coarse_.end());
+  std::sort(coarse_.begin(), coarse_.end());
+  // The last frame too: a pass at the very end has no coarse frame after it.
+  if (frames > 0 && (coarse_.empty() || coarse_.back() != frames - 1))
+    coarse_.push_back(frames - 1);
+}
 
 bool PassSearch::look(std::size_t i) {
   if (state_[i] == kUnseen) {
@@ -41,17 +55,13 @@ void PassSearch::run(const std::function<bool(std::size_t)>& examine,
   examine_ = &examine;
   stop_ = &stop;
   const auto n = static_cast<std::ptrdiff_t>(state_.size());
-  const auto step = static_cast<std::ptrdiff_t>(step_);
-  std::ptrdiff_t i = 0;
-  while (i < n && !stop.load()) {
-    if (!look(static_cast<std::size_t>(i))) {
-      // The last frame is examined too: a pass at the very end is not
-      // shorter than the step for lack of a coarse frame after it.
-      i = (i + step >= n && i != n - 1) ? n - 1 : i + step;
-      continue;
-    }
+  std::ptrdiff_t resume = 0;  // frames before it were walked over
+  for (const std::size_t c : coarse_) {
+    const auto i = static_cast<std::ptrdiff_t>(c);
+    if (stop.load()) break;
+    if (i < resume || !look(c)) continue;
     walk(i - 1, -1, -1);
-    i = walk(i + 1, n, 1);
+    resume = walk(i + 1, n, 1);
   }
   examine_ = nullptr;
   stop_ = nullptr;

@@ -111,6 +111,30 @@ TEST(PassSearch, TheLastFrameIsExamined) {
   for (std::size_t i = 97; i < 100; ++i) EXPECT_TRUE(search.found(i)) << i;
 }
 
+TEST(PassSearch, GivenCoarseFramesLikeAVideosKeyFrames) {
+  // Key frames every 30 frames, walks ending after 6 empty frames: a pass
+  // holding a key frame is found whole, the frames between key frames away
+  // from it are never examined, and a pass between two key frames is missed.
+  std::vector<std::size_t> keys;
+  for (std::size_t k = 0; k < 300; k += 30) keys.push_back(k);
+  const std::vector<bool> shows = framesWith(300, {{100, 140}, {215, 235}});
+  std::vector<int> calls(300, 0);
+  PassSearch search(300, 6, keys);
+  const std::atomic<bool> stop{false};
+  search.run(
+      [&](std::size_t i) {
+        ++calls[i];
+        return static_cast<bool>(shows[i]);
+      },
+      stop);
+  for (std::size_t i = 100; i < 140; ++i) EXPECT_TRUE(search.found(i)) << i;
+  for (std::size_t i = 215; i < 235; ++i) EXPECT_FALSE(search.wasExamined(i)) << i;
+  for (std::size_t i = 0; i < 300; ++i) EXPECT_LE(calls[i], 1) << i;
+  // The key frames and the last frame (120 among them, in the pass), the
+  // pass, and 6 empty frames on each side of it.
+  EXPECT_EQ(search.examined(), keys.size() + 1 + 40 + 12 - 1);
+}
+
 TEST(PassSearch, StopsWhenAsked) {
   PassSearch search(1000, 1);
   std::atomic<bool> stop{false};

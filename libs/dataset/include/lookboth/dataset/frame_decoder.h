@@ -44,6 +44,10 @@ class FrameDecoder {
   /// video's container; nullopt when the format does not tell (decode it then).
   std::optional<ImageSize> size(const ImageFrame& frame);
 
+  /// For a frame of a video file, the indices (ImageFrame::video_frame) of
+  /// that file's key frames; empty for image frames.
+  std::vector<std::int64_t> keyFrames(const ImageFrame& frame);
+
  private:
   VideoDecoder& video(const std::filesystem::path& file);
 

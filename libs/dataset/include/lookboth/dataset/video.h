@@ -69,6 +69,10 @@ class VideoDecoder {
   bool isCurrent() const;
   int width() const;
   int height() const;
+  /// Indices of the frames that decode alone (key frames), in presentation
+  /// order; empty when the container has no timestamps. Going to a frame
+  /// after a key frame further ahead starts decoding at that key frame.
+  const std::vector<std::int64_t>& keyFrames() const;
 
   /// Frame `index` (0 = the first in presentation order): 8-bit grey, or
   /// 8-bit BGR when `colour`. Empty when the file has no such frame or it

@@ -74,6 +74,8 @@ struct CameraDetectSummary {
   /// Frames searched for the marker: all of them, or with a coarse search
   /// (MarkerDetectorOptions::coarse_period_s) those around the passes.
   std::int64_t examined = 0;
+  /// The coarse frames were its video's key frames (coarse_key_frames_max_s).
+  bool coarse_key_frames = false;
   std::int64_t skipped = 0;     ///< Frames that could not be decoded.
   std::int64_t detections = 0;  ///< Marker observations, or blob records.
   std::int64_t blobs = 0;       ///< Blobs in all (fisheye).

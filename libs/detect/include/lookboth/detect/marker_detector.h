@@ -78,6 +78,11 @@ struct MarkerDetectorOptions {
   /// show the marker (detect/pass_search.h); a pass shorter than this is
   /// missed. 0 = every frame [s].
   double coarse_period_s = 0.2;
+  /// In a video whose key frames are at most this far apart (median), the
+  /// coarse frames are its key frames, which decode alone: the frames
+  /// between them are not decoded at all. A pass shorter than the interval
+  /// is then what can be missed. 0 = never [s].
+  double coarse_key_frames_max_s = 1.0;
   std::string check() const;
 };
 

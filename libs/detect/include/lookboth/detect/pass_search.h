@@ -7,7 +7,9 @@
 // no marker, then goes on coarsely. A pass is missed only when none of its
 // coarse frames shows the marker, so it must last less than `step` frames or
 // be missed by the detector on each of them: recall is measured against
-// examining every frame (doc/benchmarks.md, "Full recordings").
+// examining every frame (doc/benchmarks.md, "Full recordings"). In a video
+// whose key frames are close enough, the coarse frames are its key frames:
+// the frames between them are not decoded at all.
 #pragma once
 
 #include <atomic>
@@ -27,8 +29,13 @@ std::size_t coarseStep(const std::vector<TimeNs>& times, double period_s);
 
 class PassSearch {
  public:
-  /// `frames`: how many (indices 0..frames-1, in time order); `step` >= 1.
+  /// `frames`: how many (indices 0..frames-1, in time order); `step` >= 1:
+  /// the coarse frames are every step-th and the last, and a walk ends after
+  /// `step` empty frames in a row.
   PassSearch(std::size_t frames, std::size_t step);
+  /// The coarse frames given instead (sorted indices, e.g. a video's key
+  /// frames, which decode alone); the last frame is added.
+  PassSearch(std::size_t frames, std::size_t step, std::vector<std::size_t> coarse);
 
   /// Examines frames through `examine(i)` (true: the marker is in frame i),
   /// each at most once, in the order described above. Returns early when
@@ -51,6 +58,7 @@ class PassSearch {
 
   std::vector<State> state_;
   std::size_t step_;
+  std::vector<std::size_t> coarse_;
   std::size_t examined_ = 0;
   const std::function<bool(std::size_t)>* examine_ = nullptr;
   const std::atomic<bool>* stop_ = nullptr;

@@ -1,0 +1,146 @@
+#!/usr/bin/env bash
+# Full-recording benchmark (doc/benchmarks.md, "Full recordings"): every
+# frame of a drive, as fixed cameras record it, most frames without the
+# robot. `small`'s world, its first 10 s: 6 ceiling cameras at 1920x1080,
+# 30 Hz (`store_radius_m: all`: 1782 frames), the fisheye at 640x360, 10 Hz.
+# In one run, on the same frames:
+#   - marker detection on one core (taskset, --threads 1, --no-blobs):
+#     examining every frame (coarse_period_s: 0) against the coarse search
+#     (the default), from PNG files and from H.264 videos (libx264, crf 23,
+#     a key frame a second: the coarse frames are the key frames; and
+#     without that, coarse_key_frames_max_s: 0);
+#     recall of the coarse search against every frame, per camera;
+#   - the decoding peers: `ffmpeg -threads 1 -f null` of the same PNG files
+#     and videos (decoding alone, the floor of anything that reads every frame);
+#   - the whole `register` on 2 cores (detection, odometry, the stages),
+#     overlapped (the default) and --sequential, against the drive's span.
+# Usage: LOOKBOTH_BENCH_DIR=/tmp/fr scripts/bench_full_recording.sh  (keeps the
+# rendered recording, about 15 min on 2 cores, for the next run); REPS=3.
+set -euo pipefail
+
+here="$(cd "$(dirname "$0")" && pwd)"
+lookboth="${LOOKBOTH:-$here/../build/apps/lookboth/lookboth}"
+reps="${REPS:-3}"
+if [[ -n ${LOOKBOTH_BENCH_DIR:-} ]]; then
+  work=$LOOKBOTH_BENCH_DIR
+  mkdir -p "$work"
+else
+  work="$(mktemp -d)"
+  trap 'rm -rf "$work"' EXIT
+fi
+rm -f "$work"/t_*
+
+sed -e 's/^name: small/name: full_recording/' \
+    -e 's/calibration: ceiling_camera_640x360_ros.yaml/calibration: ceiling_camera_ros.yaml/' \
+    -e 's/^  rate_hz: 10$/  rate_hz: 30/' \
+    -e 's/store_radius_m: 2.0/store_radius_m: all/' \
+    -e 's/^noise:.*/noise: {marker_corner_sigma_px: 0.15, blob_sigma_px: 1.2}/' \
+    "$here/../share/lookboth/scenarios/small.yaml" >"$work/scenario.yaml"
+if [[ ! -d $work/site ]]; then
+  "$lookboth" simulate --scenario "$work/scenario.yaml" --duration 10 --format folder \
+    --out "$work/site" >/dev/null
+fi
+cameras=(cam00 cam01 cam02 cam03 cam04 cam05)
+if [[ ! -d $work/video ]]; then
+  "$lookboth" convert --from "$work/site" --to "$work/video_tmp" >/dev/null
+  # A key frame a second, as network cameras are usually set up.
+  for c in "${cameras[@]}"; do
+    python3 "$here/frames_to_video.py" "$work/video_tmp/cameras/$c" --keyint 30
+  done
+  mv "$work/video_tmp" "$work/video"
+fi
+printf 'detect:\n  markers:\n    coarse_period_s: 0\n' >"$work/every.yaml"
+printf 'detect:\n  markers:\n    coarse_period_s: 0.2\n' >"$work/coarse.yaml"
+printf 'detect:\n  markers:\n    coarse_key_frames_max_s: 0\n' >"$work/no_keys.yaml"
+
+# shellcheck source=bench_common.sh
+source "$here/bench_common.sh"
+wait_for_quiet_machine
+
+run() {  # run NAME CMD...: wall ms of CMD
+  local name=$1; shift
+  local t0 t1
+  t0=$(date +%s%N)
+  "$@" >"$work/out_$name.txt" 2>"$work/stderr.txt" || { cat "$work/stderr.txt" >&2; exit 1; }
+  t1=$(date +%s%N)
+  echo $(( (t1 - t0) / 1000000 )) >>"$work/t_$name"
+}
+detect() {  # detect NAME DATASET CONFIG
+  rm -rf "$work/det_$1"
+  run "$1" taskset -c 0 "$lookboth" detect "$2" --threads 1 --no-blobs --detections-only \
+    --config "$work/$3.yaml" --out "$work/det_$1"
+}
+png_dirs=() video_files=()
+for c in "${cameras[@]}"; do
+  png_dirs+=("$work/site/cameras/$c/frames")
+  video_files+=("$work/video/cameras/$c/video.mp4")
+done
+ffmpeg_each='for input in "$@"; do
+  case $input in
+    *.mp4) ffmpeg -v error -threads 1 -i "$input" -f null - ;;
+    *) ffmpeg -v error -threads 1 -pattern_type glob -i "$input/*.png" -f null - ;;
+  esac
+done'
+for ((r = 0; r < reps; r++)); do
+  run ffmpeg_png taskset -c 0 bash -c "$ffmpeg_each" _ "${png_dirs[@]}"
+  run ffmpeg_video taskset -c 0 bash -c "$ffmpeg_each" _ "${video_files[@]}"
+  # One camera the robot never passes (cam00): the cost of an empty frame.
+  run ffmpeg_png_empty taskset -c 0 bash -c "$ffmpeg_each" _ "${png_dirs[0]}"
+  run ffmpeg_video_empty taskset -c 0 bash -c "$ffmpeg_each" _ "${video_files[0]}"
+  rm -rf "$work/det_png_empty" "$work/det_video_empty"
+  run png_empty taskset -c 0 "$lookboth" detect "$work/site" --cameras cam00 --threads 1 \
+    --detections-only --config "$work/every.yaml" --out "$work/det_png_empty"
+  run video_empty taskset -c 0 "$lookboth" detect "$work/video" --cameras cam00 --threads 1 \
+    --detections-only --config "$work/every.yaml" --out "$work/det_video_empty"
+  detect png_every "$work/site" every
+  detect png_coarse "$work/site" coarse
+  detect video_every "$work/video" every
+  detect video_coarse "$work/video" coarse
+  detect video_no_keys "$work/video" no_keys
+  run register_overlapped "$lookboth" register "$work/site" --no-write-back --overwrite \
+    --out "$work/reg_overlapped"
+  run register_sequential "$lookboth" register "$work/site" --no-write-back --overwrite \
+    --out "$work/reg_sequential" --sequential
+done
+
+median() { sort -n | sed -n "$(( (reps + 1) / 2 ))p"; }
+frames=0
+for c in "${cameras[@]}"; do
+  frames=$((frames + $(tail -n +2 "$work/site/cameras/$c/frames.csv" | grep -c .)))
+done
+echo "full recording: 6 cameras, $frames frames at 1920x1080 (10 s at 30 Hz); medians of $reps"
+printf '%-44s %8s %10s %10s\n' run "wall s" "ms/frame" "markers"
+for name in ffmpeg_png png_every png_coarse ffmpeg_video video_every video_coarse video_no_keys; do
+  ms=$(median <"$work/t_$name")
+  markers=-
+  [[ -f $work/det_$name/detections/markers.csv ]] &&
+    markers=$(($(tail -n +2 "$work/det_$name/detections/markers.csv" | grep -c .)))
+  awk -v l="$name" -v ms="$ms" -v f="$frames" -v m="$markers" \
+    'BEGIN { printf "%-44s %8.2f %10.2f %10s\n", l, ms / 1000, ms / f, m }'
+done
+empty=$(tail -n +2 "$work/site/cameras/cam00/frames.csv" | grep -c .)
+echo "an empty frame (cam00, $empty frames, every frame examined), ms per frame:"
+for name in ffmpeg_png_empty png_empty ffmpeg_video_empty video_empty; do
+  ms=$(median <"$work/t_$name")
+  awk -v l="$name" -v ms="$ms" -v f="$empty" 'BEGIN { printf "  %-40s %8.2f\n", l, ms / f }'
+done
+for name in register_overlapped register_sequential; do
+  ms=$(median <"$work/t_$name")
+  awk -v l="$name (2 cores)" -v ms="$ms" \
+    'BEGIN { printf "%-44s %8.2f   %.2fx the drive (10 s)\n", l, ms / 1000, ms / 10000 }'
+  grep "run time" "$work/out_$name.txt" || true
+done
+# Recall of the coarse search against every frame, per camera and format.
+for format in png_coarse video_coarse video_no_keys; do
+  python3 - "$work/det_${format%%_*}_every" "$work/det_$format" "$format" <<'PY'
+import csv, sys
+def load(d):
+    with open(d + "/detections/markers.csv") as f:
+        return {(r["camera"], r["timestamp_ns"]) for r in csv.DictReader(f)}
+every, coarse = load(sys.argv[1]), load(sys.argv[2])
+found = len(every & coarse)
+print(f"{sys.argv[3]}: the coarse search finds {found} of the {len(every)} markers examining "
+      f"every frame finds ({100.0 * found / max(1, len(every)):.2f} %), and {len(coarse - every)} more")
+PY
+done
+grep "examined" "$work/out_png_coarse.txt" "$work/out_video_coarse.txt" || true
