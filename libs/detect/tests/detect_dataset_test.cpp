@@ -226,9 +226,54 @@ TEST_F(DetectDatasetTest, WritesInPlaceReplacesOnRerunAndSkipsCorruptImages) {
 // default.yaml says what the compiled defaults say, every key of markers
 // and blobs (a library user or a test that builds the options in code runs
 // what `lookboth detect` runs).
+/// The markers of a coarse search (every frame examined when
+/// `coarse_period_s` is 0), by (camera, time), and the frames it examined.
+struct Searched {
+  std::map<std::pair<std::string, TimeNs>, Eigen::Vector3d> markers;
+  std::int64_t frames = 0, examined = 0;
+  bool key_frames = false;
+};
+Searched searchMarkers(const fs::path& dataset, double coarse_period_s) {
+  DetectOptions options;
+  options.dataset = dataset;
+  options.config = defaultDetectConfig();
+  options.blobs = false;
+  options.config.markers.coarse_period_s = coarse_period_s;
+  DetectSummary summary;
+  Searched searched;
+  for (const Record& r : runDetection(options, ProgressReporter(), &summary)) {
+    const auto& m = std::get<MarkerObservation>(r);
+    searched.markers[{m.camera, m.t}] = m.camera_from_marker.translation;
+  }
+  for (const CameraDetectSummary& c : summary.cameras) {
+    searched.frames += c.frames;
+    searched.examined += c.examined;
+    searched.key_frames = searched.key_frames || c.coarse_key_frames;
+  }
+  return searched;
+}
+
+/// Every marker that examining every frame finds is in `coarse` too, at the same pose.
+void expectSameMarkers(const Searched& every, const Searched& coarse, const std::string& what) {
+  std::printf("%s: %zu markers examining every frame, %zu examining %lld of %lld\n", what.c_str(),
+              every.markers.size(), coarse.markers.size(), static_cast<long long>(coarse.examined),
+              static_cast<long long>(coarse.frames));
+  EXPECT_GT(every.markers.size(), 40u) << what;
+  EXPECT_EQ(coarse.markers.size(), every.markers.size()) << what;
+  for (const auto& [key, position] : every.markers) {
+    const auto it = coarse.markers.find(key);
+    ASSERT_NE(it, coarse.markers.end()) << what << ": " << key.first << " at " << key.second;
+    EXPECT_LT((it->second - position).norm(), 1e-3) << what;
+  }
+  // Most frames of a full recording are not looked at.
+  EXPECT_LT(coarse.examined, coarse.frames / 2) << what;
+}
+
 /// Every marker that examining every frame finds, the coarse search finds
 /// too, on a full recording (every frame of the drive, most without the
-/// robot): `small`'s first 6 s, 6 cameras at 10 Hz, searched one frame in 5.
+/// robot): `small`'s first 6 s, 6 cameras at 10 Hz, searched one frame in 5;
+/// then its cameras as H.264 videos with a key frame a second, searched at
+/// their key frames.
 TEST(CoarseSearch, FindsWhatEveryFrameFindsOnAFullRecording) {
   const fs::path dir = fs::temp_directory_path() / "lookboth_coarse_search_test";
   fs::remove_all(dir);
@@ -243,43 +288,24 @@ TEST(CoarseSearch, FindsWhatEveryFrameFindsOnAFullRecording) {
   std::ofstream(dir / "full_recording.yaml") << yaml;
   sim::SimulateOptions simulate;
   simulate.scenario = (dir / "full_recording.yaml").string();
-  simulate.out = dir / "full.rawlog";
+  simulate.out = dir / "site";
+  simulate.kind = DatasetKind::kFolder;
   simulate.max_duration_s = 6.0;
   simulate.threads = 2;
   sim::simulate(simulate, ProgressReporter());
 
-  DetectOptions options;
-  options.dataset = simulate.out;
-  options.config = defaultDetectConfig();
-  options.blobs = false;
-  options.config.markers.coarse_period_s = 0;
-  DetectSummary every, coarse;
-  const std::vector<Record> all = runDetection(options, ProgressReporter(), &every);
-  options.config.markers.coarse_period_s = 0.5;
-  const std::vector<Record> some = runDetection(options, ProgressReporter(), &coarse);
-  std::map<std::pair<std::string, TimeNs>, Eigen::Vector3d> found;
-  for (const Record& r : some) {
-    const auto& m = std::get<MarkerObservation>(r);
-    found[{m.camera, m.t}] = m.camera_from_marker.translation;
+  expectSameMarkers(searchMarkers(simulate.out, 0), searchMarkers(simulate.out, 0.5), "PNG");
+  const std::string script = std::string(LOOKBOTH_SHARE_DIR) + "/../../scripts/frames_to_video.py";
+  for (int c = 0; c < 6; ++c) {
+    const std::string command = "python3 '" + script + "' '" +
+                                (simulate.out / "cameras" / ("cam0" + std::to_string(c))).string() +
+                                "' --crf 18 --keyint 10";
+    ASSERT_EQ(std::system(command.c_str()), 0) << command;
   }
-  std::int64_t frames = 0, examined = 0;
-  for (const CameraDetectSummary& c : coarse.cameras) {
-    frames += c.frames;
-    examined += c.examined;
-  }
-  std::printf(
-      "full recording, 6 s: %zu markers examining every frame, %zu examining %lld of %lld\n",
-      all.size(), some.size(), static_cast<long long>(examined), static_cast<long long>(frames));
-  ASSERT_GT(all.size(), 40u);
-  EXPECT_EQ(some.size(), all.size());
-  for (const Record& r : all) {
-    const auto& m = std::get<MarkerObservation>(r);
-    const auto it = found.find({m.camera, m.t});
-    ASSERT_NE(it, found.end()) << m.camera << " at " << m.t << " missed";
-    EXPECT_LT((it->second - m.camera_from_marker.translation).norm(), 1e-3);
-  }
-  // Most frames of a full recording are not looked at.
-  EXPECT_LT(examined, frames / 2);
+  const Searched every = searchMarkers(simulate.out, 0);
+  const Searched keys = searchMarkers(simulate.out, 0.5);
+  EXPECT_TRUE(keys.key_frames);
+  expectSameMarkers(every, keys, "H.264, a key frame a second");
   fs::remove_all(dir);
 }
 
