@@ -9,7 +9,7 @@
 #     (the default), from PNG files and from H.264 videos (libx264, crf 23,
 #     a key frame a second: the coarse frames are the key frames; and
 #     without that, coarse_key_frames_max_s: 0);
-#     recall of the coarse search against every frame, per camera;
+#     recall of the coarse search against every frame, per format;
 #   - the decoding peers: `ffmpeg -threads 1 -f null` of the same PNG files
 #     and videos (decoding alone, the floor of anything that reads every frame);
 #   - the whole `register` on 2 cores (detection, odometry, the stages),
@@ -130,7 +130,7 @@ for name in register_overlapped register_sequential; do
     'BEGIN { printf "%-44s %8.2f   %.2fx the drive (10 s)\n", l, ms / 1000, ms / 10000 }'
   grep "run time" "$work/out_$name.txt" || true
 done
-# Recall of the coarse search against every frame, per camera and format.
+# Recall of the coarse search against every frame, per format.
 for format in png_coarse video_coarse video_no_keys; do
   python3 - "$work/det_${format%%_*}_every" "$work/det_$format" "$format" <<'PY'
 import csv, sys

@@ -132,7 +132,7 @@ void registerRegisterCommand(CLI::App& app, const std::function<void(CommandBody
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--sequential", args->sequential,
                 "Run the detection, then the odometry (by default, when both are needed, the "
-                "odometry runs on one thread while detection runs on the others)");
+                "odometry runs beside detection, on threads of its own)");
   cmd->add_option("--update", args->update,
                   "A registration on record (a directory) to bring up to date with this drive: "
                   "the drive is registered, compared with the record as `lookboth check` does, "

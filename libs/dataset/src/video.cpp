@@ -1,5 +1,6 @@
 // Video files through FFmpeg: timestamps by demultiplexing, frames by
-// decoding forward (seeking only when going back or far ahead), grey frames
+// decoding forward (seeking when going back, far ahead, or to a key frame
+// ahead of the decoder), grey frames
 // taken from the luma plane without a colour conversion.
 #include "lookboth/dataset/video.h"
 
@@ -406,6 +407,11 @@ cv::Mat VideoDecoder::frame(std::int64_t index, bool colour) {
   } else if (index >= d.next_index && index <= d.next_index + Impl::kSeekAhead) {
     // Forward: every frame up to it decoded; past it without it, it is missing.
     return d.decodeTo(index, passed) ? d.take(index, colour) : cv::Mat();
+  } else if (key != d.key_frames.begin() && index < d.next_index &&
+             d.seekBefore(*std::prev(key), 0)) {
+    // Back: from the key frame before it, when the container lists them.
+    if (d.decodeTo(index, passed)) return d.take(index, colour);
+    if (!passed) return {};
   }
   // Key frames are found by decoding time, which runs ahead of presentation
   // time: a seek starts a little before the frame, further back while it

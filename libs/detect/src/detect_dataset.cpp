@@ -190,19 +190,22 @@ std::string sizeMismatch(const ImageFrame& frame, const Camera* camera, int widt
 /// the calibration, a damaged file: the frame is then skipped with its
 /// reason). Image files are decoded when asked for. A video's frames are
 /// kept, the last `keep` of them, so that a pass found late is examined
-/// backwards without a seek per frame: decoded one after the other
-/// (`eager`), or, when the coarse frames are key frames decoded alone, the
-/// `keep` frames before one asked for behind them decoded at once. `done`
-/// counts the frames of the job's range [begin, end) passed.
+/// backwards without a seek per frame: decoded one after the other, or,
+/// when the coarse frames are key frames decoded alone (`keys`: the job's
+/// frames that are), those before one asked for behind them decoded at once,
+/// from the key frame before it when that is within `keep`. `done` counts the
+/// frames of the job's range [begin, end) passed; a frame skipped is counted,
+/// and its reason given, once.
 class JobFrames {
  public:
   JobFrames(const CameraWork& work, const Job& job, JobResult& result,
-            std::atomic<std::int64_t>& done, size_t keep, bool eager)
+            std::atomic<std::int64_t>& done, size_t keep, std::vector<size_t> keys = {})
       : work_(work),
         result_(result),
         done_(done),
         keep_(keep),
-        eager_(eager),
+        eager_(keys.empty()),
+        keys_(std::move(keys)),
         end_(job.end),
         passed_(job.begin) {}
   ~JobFrames() { done_ += static_cast<std::int64_t>(end_ - std::min(end_, passed_)); }
@@ -222,7 +225,10 @@ class JobFrames {
     const size_t window = i + 1 > keep_ ? i + 1 - keep_ : 0;
     size_t from = i;  // a jump ahead: that frame alone
     if (i < next_) {
-      from = window;  // behind: the frames before it too, for a walk backwards
+      // Behind: the frames before it too, for a walk backwards.
+      from = window;
+      const auto key = std::upper_bound(keys_.begin(), keys_.end(), i);
+      if (key != keys_.begin() && i - *std::prev(key) < keep_) from = *std::prev(key);
     } else if (eager_ && i < next_ + keep_) {
       from = std::max(next_, window);  // ahead: every frame up to it
     }
@@ -243,19 +249,21 @@ class JobFrames {
     // does not have; a huge one would be decoded into gigabytes first.
     if (const std::optional<ImageSize> size = decoder_.size(frame)) {
       if (std::string why = sizeMismatch(frame, camera, size->width, size->height); !why.empty())
-        return skip(std::move(why));
+        return skip(i, std::move(why));
     }
     cv::Mat grey = decoder_.decode(frame, FrameColour::kGrey);
     if (grey.empty())
-      return skip("cannot decode image " + frameName(frame) + " (corrupt?); frame skipped");
+      return skip(i, "cannot decode image " + frameName(frame) + " (corrupt?); frame skipped");
     if (std::string why = sizeMismatch(frame, camera, grey.cols, grey.rows); !why.empty())
-      return skip(std::move(why));
+      return skip(i, std::move(why));
     return grey;
   }
 
-  cv::Mat skip(std::string why) {
-    ++result_.skipped;
-    result_.issues.push_back({work_.sensor->label, std::move(why)});
+  cv::Mat skip(size_t i, std::string why) {
+    if (skipped_.insert(i).second) {
+      ++result_.skipped;
+      result_.issues.push_back({work_.sensor->label, std::move(why)});
+    }
     return {};
   }
 
@@ -264,6 +272,8 @@ class JobFrames {
   std::atomic<std::int64_t>& done_;
   size_t keep_;
   bool eager_;
+  std::vector<size_t> keys_;
+  std::set<size_t> skipped_;
   size_t end_;
   FrameDecoder decoder_;
   std::deque<std::pair<size_t, cv::Mat>> kept_;
@@ -319,7 +329,7 @@ JobResult runFisheyeJob(const CameraWork& work, const Job& job, const DetectConf
                         std::atomic<std::int64_t>& done, const std::atomic<bool>& stop) {
   JobResult result;
   BlobDetector detector(config.blobs, work.sensor->camera ? &*work.sensor->camera : nullptr);
-  JobFrames frames(work, job, result, done, 0, false);
+  JobFrames frames(work, job, result, done, 0);
   for (size_t i = job.begin; i < job.end && !stop.load(); ++i) {
     const cv::Mat grey = frames.grey(i);
     if (grey.empty()) continue;
@@ -352,7 +362,7 @@ JobResult runMarkerJob(const CameraWork& work, const Job& job, const DetectConfi
       keyFrameCoarse(work, times, step, config.markers.coarse_key_frames_max_s);
   const size_t interval = keys.size() > 1 ? (keys.back() - keys.front()) / (keys.size() - 1) : 0;
   const size_t keep = step <= 1 ? 1 : std::min<size_t>(64, std::max(2 * step + 1, interval + step));
-  JobFrames frames(work, job, result, done, keep, keys.empty());
+  JobFrames frames(work, job, result, done, keep, keys);
   std::vector<std::vector<MarkerDetection>> found(work.frames.size());
   std::optional<size_t> last;
   PassSearch search = keys.empty() ? PassSearch(work.frames.size(), step)

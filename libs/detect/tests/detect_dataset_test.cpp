@@ -223,9 +223,6 @@ TEST_F(DetectDatasetTest, WritesInPlaceReplacesOnRerunAndSkipsCorruptImages) {
   EXPECT_EQ(readAll(copy).size(), after.size());
 }
 
-// default.yaml says what the compiled defaults say, every key of markers
-// and blobs (a library user or a test that builds the options in code runs
-// what `lookboth detect` runs).
 /// The markers of a coarse search (every frame examined when
 /// `coarse_period_s` is 0), by (camera, time), and the frames it examined.
 struct Searched {
@@ -309,6 +306,9 @@ TEST(CoarseSearch, FindsWhatEveryFrameFindsOnAFullRecording) {
   fs::remove_all(dir);
 }
 
+// default.yaml says what the compiled defaults say, every key of markers
+// and blobs (a library user or a test that builds the options in code runs
+// what `lookboth detect` runs).
 TEST(DetectConfig, DefaultYamlSaysWhatTheCompiledDefaultsSay) {
   const DetectConfig loaded =
       loadDetectConfig(std::filesystem::path(LOOKBOTH_SHARE_DIR) / "config" / "default.yaml");

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <utility>
 
 #include "lookboth/core/error.h"
 #include "lookboth/core/output_path.h"
@@ -242,6 +243,16 @@ bool odometryWanted(const FullPipelineOptions& options, const DatasetContents& c
   return true;
 }
 
+/// odometryWanted without its errors: false when the odometry cannot run
+/// (its step says why).
+bool odometryWouldRun(const FullPipelineOptions& options, const DatasetContents& contents) {
+  try {
+    return odometryWanted(options, contents);
+  } catch (const Error&) {
+    return false;
+  }
+}
+
 vo::OdometryRunOptions odometryFor(const FullPipelineOptions& options,
                                    const std::vector<ConfigLayer>& layers,
                                    const std::filesystem::path& out) {
@@ -345,16 +356,10 @@ struct RegistrationPipeline::State {
   std::optional<Registration> record;      ///< FullPipelineOptions::update_record, read.
   std::optional<FacilityCheck> check;      ///< The update's comparison with the record.
   std::optional<RegistrationRun> written;  ///< What the output step wrote.
-  /// Detection and odometry at once (overlapped_steps.h): the odometry
-  /// running, and the detections it waits for to be written.
-  std::shared_ptr<JointProgress> joint;
-  std::unique_ptr<BackgroundOdometry> background;
-  struct PendingDetections {
-    DetectOptions options;
-    std::vector<Record> records;
-    DetectSummary summary;
-  };
-  std::optional<PendingDetections> pending;
+  /// The odometry run beside detection (overlapped_steps.h), in the detect
+  /// step: the odometry step's line, or its error.
+  std::optional<std::string> odometry_alongside;
+  std::exception_ptr odometry_error;
 };
 
 RegistrationPipeline::RegistrationPipeline(FullPipelineOptions options)
@@ -401,7 +406,7 @@ StepOutcome RegistrationPipeline::detect(const ProgressReporter& progress) {
   const std::filesystem::path out = st.scratch ? st.scratch->path : std::filesystem::path();
   if (options_.overlap_steps) {
     std::optional<DetectOptions> detect = detectionFor(st.working, st.layers, st.contents, out);
-    if (detect && odometryWanted(st.working, st.contents))
+    if (detect && odometryWouldRun(st.working, st.contents))
       return detectAlongsideOdometry(std::move(*detect), progress);
   }
   const StepOutcome outcome = runDetectStep(st.working, st.layers, st.contents, progress, out);
@@ -412,32 +417,56 @@ StepOutcome RegistrationPipeline::detect(const ProgressReporter& progress) {
 StepOutcome RegistrationPipeline::detectAlongsideOdometry(DetectOptions detect,
                                                           const ProgressReporter& progress) {
   State& st = *state_;
+  const std::string where = writtenTo(st.working, detect.out);
   // Detection keeps its threads: the odometry's thread takes a share of the
   // cores while it runs, and detection has them all once it is done (the
   // odometry is usually the shorter: one camera against many).
-  st.joint = std::make_shared<JointProgress>(progress);
-  st.background =
-      std::make_unique<BackgroundOdometry>(odometryFor(st.working, st.layers, {}), st.joint);
+  const auto joint = std::make_shared<JointProgress>(progress);
+  vo::OdometryRunOptions odometry = odometryFor(st.working, st.layers, {});
+  odometry.limit_opencv_threads = false;                      // OpenCV's pool is detection's too
+  BackgroundOdometry background(std::move(odometry), joint);  // stopped and joined if we throw
   DetectSummary summary;
-  std::vector<Record> records;
+  std::vector<Record> records = runDetection(detect, joint->detection(), &summary);
+  joint->detectionDone();
+  std::optional<vo::OdometryRunSummary> odometry_summary;
   try {
-    records = runDetection(detect, st.joint->detection(), &summary);
+    odometry_summary = background.wait(progress);
+    if (odometry_summary->result.trajectory.empty())
+      throw Error(st.working.dataset.string() + ": the visual odometry tracked no frame");
+  } catch (const StopRequested&) {
+    throw;  // the step did not finish: nothing written
   } catch (...) {
-    st.background.reset();  // stopped and joined: its result is not wanted
-    throw;
+    st.odometry_error = std::current_exception();  // the odometry step reports it
   }
-  st.joint->detectionDone();
+  // Both written now that nothing reads the dataset: the detections (to
+  // the scratch copy, or in place) whatever became of the odometry, then the
+  // trajectory into them.
+  writeDetections(detect, std::move(records), summary, progress);
+  if (st.scratch) st.working.dataset = st.scratch->path;
+  if (odometry_summary && !st.odometry_error) {
+    const AugmentSummary written =
+        vo::addOdometryTrajectory(st.working.dataset, {}, false,
+                                  odometry_summary->result.trajectory, options_.on_issue, progress);
+    st.odometry_alongside = odometryLine(*odometry_summary, written.added, where) +
+                            ", alongside detection (its time is in detect's)";
+  }
   StepOutcome outcome;
   outcome.ran = true;
-  outcome.summary =
-      detectLine(summary, writtenTo(st.working, detect.out)) + " (the odometry ran alongside)";
-  st.pending.emplace(State::PendingDetections{std::move(detect), std::move(records), summary});
+  outcome.summary = detectLine(summary, where);
   return outcome;
 }
 
 StepOutcome RegistrationPipeline::odometry(const ProgressReporter& progress) {
   State& st = *state_;
-  if (st.background) return odometryAfterDetection(progress);
+  // Run beside detection, in its step: its outcome, or its error (once: a
+  // second try runs the odometry on its own).
+  if (st.odometry_error) std::rethrow_exception(std::exchange(st.odometry_error, nullptr));
+  if (st.odometry_alongside) {
+    StepOutcome outcome;
+    outcome.ran = true;
+    outcome.summary = *std::exchange(st.odometry_alongside, std::nullopt);
+    return outcome;
+  }
   // On the contents before detection: detection adds no trajectory. A
   // scratch copy that detection made is extended in place.
   const bool in_scratch = st.scratch && st.working.dataset == st.scratch->path;
@@ -450,29 +479,6 @@ StepOutcome RegistrationPipeline::odometry(const ProgressReporter& progress) {
     outcome.summary.replace(outcome.summary.find(path), path.size(), "a temporary copy");
   }
   if (outcome.ran && st.scratch) st.working.dataset = st.scratch->path;
-  return outcome;
-}
-
-StepOutcome RegistrationPipeline::odometryAfterDetection(const ProgressReporter& progress) {
-  State& st = *state_;
-  const vo::OdometryRunSummary summary = st.background->wait();
-  st.background.reset();
-  st.joint.reset();
-  // Both results written now that nothing reads the dataset: the
-  // detections (to the scratch copy, or in place), then the trajectory
-  // into that.
-  State::PendingDetections pending = std::move(*st.pending);
-  st.pending.reset();
-  if (summary.result.trajectory.empty())
-    throw Error(st.working.dataset.string() + ": the visual odometry tracked no frame");
-  writeDetections(pending.options, std::move(pending.records), pending.summary, progress);
-  if (st.scratch) st.working.dataset = st.scratch->path;
-  const AugmentSummary written = vo::addOdometryTrajectory(
-      st.working.dataset, {}, false, summary.result.trajectory, options_.on_issue, progress);
-  StepOutcome outcome;
-  outcome.ran = true;
-  outcome.summary = odometryLine(summary, written.added, writtenTo(options_, pending.options.out)) +
-                    ", alongside detection";
   return outcome;
 }
 

@@ -1,5 +1,6 @@
 #include "overlapped_steps.h"
 
+#include <chrono>
 #include <cmath>
 
 namespace lookboth {
@@ -60,6 +61,7 @@ BackgroundOdometry::BackgroundOdometry(vo::OdometryRunOptions options,
       error_ = std::current_exception();
     }
     progress_->odometryDone();
+    finished_ = true;
   });
 }
 
@@ -69,7 +71,11 @@ BackgroundOdometry::~BackgroundOdometry() {
   thread_.join();
 }
 
-vo::OdometryRunSummary BackgroundOdometry::wait() {
+vo::OdometryRunSummary BackgroundOdometry::wait(const ProgressReporter& progress) {
+  while (!finished_.load()) {
+    if (progress.stopRequested()) progress_->cancel();
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
   if (thread_.joinable()) thread_.join();
   if (error_) std::rethrow_exception(error_);
   return *summary_;

@@ -1,8 +1,8 @@
 // Detection and odometry at once. They read the same dataset and neither
-// needs the other's result, so `register` runs the odometry on its own
-// thread while detection runs on the others (FullPipelineOptions::
-// overlap_steps); both results are written after both are done, so that
-// nothing reads the dataset while it is replaced.
+// needs the other's result, so `register`'s detect step runs the odometry
+// (its tracking thread and its decoding thread) beside detection's workers
+// (FullPipelineOptions::overlap_steps); both results are written after both
+// are done, so that nothing reads the dataset while it is replaced.
 #pragma once
 
 #include <exception>
@@ -46,20 +46,22 @@ class JointProgress : public std::enable_shared_from_this<JointProgress> {
 };
 
 /// `lookboth odometry` on a thread of its own, without writing the dataset;
-/// wait() returns its summary (or rethrows its error). Dropped unfinished
-/// (detection failed or was stopped), it is stopped and joined.
+/// wait() returns its summary (or rethrows its error), stopping it when
+/// `progress` is asked to stop. Dropped unfinished (detection failed or was
+/// stopped), it is stopped and joined.
 class BackgroundOdometry {
  public:
   BackgroundOdometry(vo::OdometryRunOptions options, std::shared_ptr<JointProgress> progress);
   ~BackgroundOdometry();
   BackgroundOdometry(const BackgroundOdometry&) = delete;
   BackgroundOdometry& operator=(const BackgroundOdometry&) = delete;
-  vo::OdometryRunSummary wait();
+  vo::OdometryRunSummary wait(const ProgressReporter& progress);
 
  private:
   std::shared_ptr<JointProgress> progress_;
   std::optional<vo::OdometryRunSummary> summary_;
   std::exception_ptr error_;
+  std::atomic<bool> finished_{false};
   std::thread thread_;
 };
 

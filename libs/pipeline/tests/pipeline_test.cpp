@@ -417,7 +417,8 @@ TEST_F(PipelineTest, WritesTheOutputDirectoryAtomically) {
 /// A rendered recording's first 12 s registered with detection and odometry
 /// at once (overlap_steps) and one after the other: the same registration;
 /// a stop during the overlapped detection stops the odometry too and leaves
-/// the dataset and the output as they were.
+/// the dataset and the output as they were; a failed odometry leaves the
+/// detections written.
 TEST(OverlappedSteps, SameRegistrationAsOneStepAfterTheOtherAndAStopStopsBoth) {
   const fs::path dir =
       fs::temp_directory_path() / ("lookboth_overlapped_steps_" + std::to_string(::getpid()));
@@ -478,6 +479,22 @@ TEST(OverlappedSteps, SameRegistrationAsOneStepAfterTheOtherAndAStopStopsBoth) {
         << entry.path();
   }
   EXPECT_EQ(entries, 5u);  // small.rawlog, its manifest and images, and the two registrations
+
+  // The odometry fails (it cannot initialise): the detections it ran beside
+  // are written all the same, and the odometry's step says why.
+  options.write_back = true;
+  options.out = dir / "failed";
+  options.config_overrides = "odometry:\n  init_min_parallax_deg: 80\n";
+  try {
+    runFullPipeline(options, ProgressReporter());
+    ADD_FAILURE() << "an odometry that cannot initialise did not fail";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("odometry"), std::string::npos) << e.what();
+  }
+  const DatasetContents after = inspectDataset(simulate.out, ProgressReporter());
+  EXPECT_GT(after.markers, 0);
+  EXPECT_GT(after.blob_records, 0);
+  EXPECT_FALSE(after.hasTrajectory("vo"));
   fs::remove_all(dir);
 }
 

@@ -166,10 +166,15 @@ OdometryRunSummary runOdometry(const OdometryRunOptions& options,
   // OpenCV's own worker threads off: the two threads here are the design
   // (decoding beside tracking), results and CPU timings stay per thread.
   struct OpenCvThreads {
+    explicit OpenCvThreads(bool on) : limit(on) {
+      if (limit) cv::setNumThreads(1);
+    }
+    ~OpenCvThreads() {
+      if (limit) cv::setNumThreads(previous);
+    }
+    bool limit;
     int previous = cv::getNumThreads();
-    OpenCvThreads() { cv::setNumThreads(1); }
-    ~OpenCvThreads() { cv::setNumThreads(previous); }
-  } opencv_threads;
+  } opencv_threads(options.limit_opencv_threads);
 
   OdometryRunSummary summary;
   summary.camera = label;

@@ -93,7 +93,8 @@ struct DetectSummary {
   std::vector<CameraDetectSummary> cameras;
   AugmentSummary written;
   std::vector<DatasetIssue> issues;
-  /// Every environment-camera frame searched for the marker (camera, stamp).
+  /// Every environment-camera frame (camera, stamp), examined or not: one
+  /// the coarse search skipped that shows the marker counts as missed.
   std::vector<std::pair<std::string, TimeNs>> searched;
   double detect_seconds = 0;  ///< Wall time of decoding + detection.
 };

@@ -75,8 +75,8 @@ struct MarkerDetectorOptions {
   double track_window_s = 1.0;  ///< [s]
   /// Where the robot is not, the marker is not: a camera's frames are
   /// examined one per `coarse_period_s`, and every frame around those that
-  /// show the marker (detect/pass_search.h); a pass shorter than this is
-  /// missed. 0 = every frame [s].
+  /// show the marker (detect/pass_search.h); a pass shorter than this can
+  /// be missed. 0 = every frame [s].
   double coarse_period_s = 0.2;
   /// In a video whose key frames are at most this far apart (median), the
   /// coarse frames are its key frames, which decode alone: the frames

@@ -5,8 +5,9 @@
 // one frame in `step` (coarse); where the marker is found, it examines every
 // frame around it, backwards and forwards, until `step` frames in a row show
 // no marker, then goes on coarsely. A pass is missed only when none of its
-// coarse frames shows the marker, so it must last less than `step` frames or
-// be missed by the detector on each of them: recall is measured against
+// coarse frames shows the marker, so it must fall between two coarse frames
+// (last less than `step` frames, or less than the gap between the coarse
+// frames given) or be missed by the detector on each: recall is measured against
 // examining every frame (doc/benchmarks.md, "Full recordings"). In a video
 // whose key frames are close enough, the coarse frames are its key frames:
 // the frames between them are not decoded at all.

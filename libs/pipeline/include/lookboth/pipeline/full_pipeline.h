@@ -15,7 +15,9 @@
 // next run, the report and the desktop app find them; each says so in its
 // step line. With write_back off they go to a temporary copy beside the
 // output instead (images hard-linked for a folder, copied for a rawlog),
-// removed when the run ends: the dataset is not touched.
+// removed when the run ends: the dataset is not touched. When both are
+// needed, step 1 runs the odometry beside detection and writes both
+// (FullPipelineOptions::overlap_steps); step 2 then says what it did.
 #pragma once
 
 #include <filesystem>
@@ -51,9 +53,10 @@ struct FullPipelineOptions {
   bool auto_detect = true;    ///< Run detection when detections are missing.
   bool auto_odometry = true;  ///< Run odometry when the visual trajectory is missing.
   int threads = 0;            ///< Detection threads (0 = one per core).
-  /// When both detection and odometry run, the odometry runs on a thread of
-  /// its own beside detection's; both are written once both are done. Off:
-  /// one after the other.
+  /// When both detection and odometry run, the detect step runs the
+  /// odometry on a thread of its own beside detection's and writes both once
+  /// both are done (the detections also when the odometry fails; nothing
+  /// when stopped); the odometry step then reports it. Off: one after the other.
   bool overlap_steps = true;
   bool write_back = true;  ///< Add detections and odometry to the dataset (see above).
   /// A registration on record to update with this drive (`register --update`;
@@ -186,10 +189,10 @@ class RegistrationPipeline {
   void prepare(const ProgressReporter& progress);
   StepOutcome detect(const ProgressReporter& progress);
   StepOutcome odometry(const ProgressReporter& progress);
-  /// Detection with the odometry on a thread beside it (overlap_steps).
+  /// Detection with the odometry on a thread beside it (overlap_steps),
+  /// both awaited and written in this step; the odometry step then says what
+  /// the odometry did.
   StepOutcome detectAlongsideOdometry(DetectOptions detect, const ProgressReporter& progress);
-  /// The odometry started by detectAlongsideOdometry awaited; both written.
-  StepOutcome odometryAfterDetection(const ProgressReporter& progress);
   StepOutcome stage(const ProgressReporter& progress);
   StepOutcome update(const ProgressReporter& progress);
   StepOutcome output(const ProgressReporter& progress);

@@ -33,6 +33,10 @@ struct OdometryRunOptions {
   bool overwrite = false;     ///< Replace an existing `out`, `tum_out` or `map_out`.
   std::string camera;         ///< The fisheye's label; empty = the manifest's fisheye.
   double max_duration_s = 0;  ///< Only the first seconds of frames [s]; 0 = all.
+  /// OpenCV's own worker threads off while the odometry runs (its two
+  /// threads are the design). Off when other work runs OpenCV beside it:
+  /// the setting is the process's.
+  bool limit_opencv_threads = true;
   /// Told of what the user should know while the dataset is written (e.g.
   /// waiting for another run that is rewriting it).
   std::function<void(const DatasetIssue&)> on_issue;
