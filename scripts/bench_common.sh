@@ -12,3 +12,15 @@ wait_for_quiet_machine() {
   done
   echo "load average (1 min) before the timed runs: $(load)"
 }
+
+# The benchmark's working folder in `work`: LOOKBOTH_BENCH_DIR (kept, with
+# what it renders, for the next run), else a temporary one removed at exit.
+bench_work_dir() {
+  if [[ -n ${LOOKBOTH_BENCH_DIR:-} ]]; then
+    work=$LOOKBOTH_BENCH_DIR
+    mkdir -p "$work"
+  else
+    work="$(mktemp -d)"
+    trap 'rm -rf "$work"' EXIT
+  fi
+}

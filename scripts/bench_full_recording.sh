@@ -21,13 +21,9 @@ set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 lookboth="${LOOKBOTH:-$here/../build/apps/lookboth/lookboth}"
 reps="${REPS:-3}"
-if [[ -n ${LOOKBOTH_BENCH_DIR:-} ]]; then
-  work=$LOOKBOTH_BENCH_DIR
-  mkdir -p "$work"
-else
-  work="$(mktemp -d)"
-  trap 'rm -rf "$work"' EXIT
-fi
+# shellcheck source=bench_common.sh
+source "$here/bench_common.sh"
+bench_work_dir
 rm -f "$work"/t_*
 
 sed -e 's/^name: small/name: full_recording/' \
@@ -53,8 +49,6 @@ printf 'detect:\n  markers:\n    coarse_period_s: 0\n' >"$work/every.yaml"
 printf 'detect:\n  markers:\n    coarse_period_s: 0.2\n' >"$work/coarse.yaml"
 printf 'detect:\n  markers:\n    coarse_key_frames_max_s: 0\n' >"$work/no_keys.yaml"
 
-# shellcheck source=bench_common.sh
-source "$here/bench_common.sh"
 wait_for_quiet_machine
 
 run() {  # run NAME CMD...: wall ms of CMD

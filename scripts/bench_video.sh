@@ -16,13 +16,9 @@ lookboth="${LOOKBOTH:-$here/../build/apps/lookboth/lookboth}"
 crf="${1:-23}"
 reps=3
 # LOOKBOTH_BENCH_DIR keeps the rendered recording (about 20 min on 2 cores) for a later run.
-if [[ -n ${LOOKBOTH_BENCH_DIR:-} ]]; then
-  work=$LOOKBOTH_BENCH_DIR
-  mkdir -p "$work"
-else
-  work="$(mktemp -d)"
-  trap 'rm -rf "$work"' EXIT
-fi
+# shellcheck source=bench_common.sh
+source "$here/bench_common.sh"
+bench_work_dir
 rm -f "$work"/t_*
 
 sed -e 's/^name: small/name: video_bench/' \
@@ -45,8 +41,6 @@ seconds=$(awk -v n="$frames" 'BEGIN { printf "%.1f", n / 30 }')
 mb=$(du -m "$work/video/cameras/cam00/video.mp4" | cut -f1)
 png_mb=$(du -sm "$work/png/cameras/cam00/frames" | cut -f1)
 
-# shellcheck source=bench_common.sh
-source "$here/bench_common.sh"
 wait_for_quiet_machine
 
 run() {  # run NAME CMD...: wall ms of CMD, pinned to one core

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <optional>
 #include <random>
 #include <utility>
 
@@ -18,10 +19,13 @@ std::vector<bool> framesWith(std::size_t n,
   return shows;
 }
 
-/// Runs a search over `shows`, counting how often each frame is examined.
-PassSearch searchOver(const std::vector<bool>& shows, std::size_t step, std::vector<int>& calls) {
+/// Runs a search over `shows` (every step-th frame coarse, or the `coarse`
+/// frames given), counting how often each frame is examined.
+PassSearch searchOver(const std::vector<bool>& shows, std::size_t step, std::vector<int>& calls,
+                      const std::optional<std::vector<std::size_t>>& coarse = std::nullopt) {
   calls.assign(shows.size(), 0);
-  PassSearch search(shows.size(), step);
+  PassSearch search =
+      coarse ? PassSearch(shows.size(), step, *coarse) : PassSearch(shows.size(), step);
   const std::atomic<bool> stop{false};
   search.run(
       [&](std::size_t i) {
@@ -118,15 +122,8 @@ TEST(PassSearch, GivenCoarseFramesLikeAVideosKeyFrames) {
   std::vector<std::size_t> keys;
   for (std::size_t k = 0; k < 300; k += 30) keys.push_back(k);
   const std::vector<bool> shows = framesWith(300, {{100, 140}, {215, 235}});
-  std::vector<int> calls(300, 0);
-  PassSearch search(300, 6, keys);
-  const std::atomic<bool> stop{false};
-  search.run(
-      [&](std::size_t i) {
-        ++calls[i];
-        return static_cast<bool>(shows[i]);
-      },
-      stop);
+  std::vector<int> calls;
+  const PassSearch search = searchOver(shows, 6, calls, keys);
   for (std::size_t i = 100; i < 140; ++i) EXPECT_TRUE(search.found(i)) << i;
   for (std::size_t i = 215; i < 235; ++i) EXPECT_FALSE(search.wasExamined(i)) << i;
   for (std::size_t i = 0; i < 300; ++i) EXPECT_LE(calls[i], 1) << i;
