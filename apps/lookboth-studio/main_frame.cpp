@@ -825,12 +825,17 @@ void MainFrame::exportFormats(const std::string& formats, const std::string& dir
   }
   try {
     const std::vector<ExportFormat> chosen = parseExportFormats(formats);
-    std::map<std::string, Camera> intrinsics;
-    for (const CameraSensor& sensor : index_->manifest().cameras) {
-      if (sensor.camera) intrinsics.emplace(sensor.label, *sensor.camera);
+    ExportSources sources;
+    const Manifest& manifest = index_->manifest();
+    for (const CameraSensor& sensor : manifest.cameras) {
+      if (sensor.camera) sources.intrinsics.emplace(sensor.label, *sensor.camera);
+      for (const MarkerObservation& m : index_->markers(sensor.label)) {
+        if (m.marker_id == manifest.marker.id) sources.marker_detections.push_back(m);
+      }
     }
+    if (const CameraSensor* fisheye = manifest.fisheye()) sources.fisheye = fisheye->label;
     for (const std::string& line :
-         exportRegistrationFormats(*registration_, intrinsics, dir, chosen, ExportOptions{})) {
+         exportRegistrationFormats(*registration_, sources, dir, chosen, ExportOptions{})) {
       log(wxString::FromUTF8(line));
     }
     log("Exported to " + wxString::FromUTF8(dir));

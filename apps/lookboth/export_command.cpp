@@ -6,7 +6,6 @@
 #include "commands.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/output_path.h"
-#include "lookboth/dataset/dataset_io.h"
 #include "lookboth/export/export.h"
 #include "lookboth/registration/registration.h"
 
@@ -31,21 +30,6 @@ std::vector<ExportFormat> parseFormats(const std::string& text) {
   }
 }
 
-std::map<std::string, Camera> datasetIntrinsics(const std::filesystem::path& dataset) {
-  if (!std::filesystem::exists(dataset)) {
-    throw Error({dataset.string(), 0, "", ""},
-                "the registered dataset is not there; name it with --dataset");
-  }
-  std::map<std::string, Camera> intrinsics;
-  DatasetReadOptions read_options;
-  read_options.check_images = false;
-  const std::unique_ptr<DatasetReader> reader = DatasetReader::open(dataset, read_options);
-  for (const CameraSensor& sensor : reader->manifest().cameras) {
-    if (sensor.camera) intrinsics.emplace(sensor.label, *sensor.camera);
-  }
-  return intrinsics;
-}
-
 int runExport(const ExportArgs& args) {
   const std::vector<ExportFormat> formats = parseFormats(args.formats);
   ExportOptions options;
@@ -56,10 +40,10 @@ int runExport(const ExportArgs& args) {
   const std::filesystem::path dataset =
       std::filesystem::path(args.dataset.empty() ? registration.dataset : args.dataset);
   checkOutputPath(args.out, {args.registration, dataset}, args.overwrite);
-  const std::map<std::string, Camera> intrinsics = datasetIntrinsics(dataset);
+  const ExportSources sources = readExportSources(dataset);
 
   const std::vector<std::string> lines =
-      exportRegistrationFormats(registration, intrinsics, args.out, formats, options);
+      exportRegistrationFormats(registration, sources, args.out, formats, options);
   for (const std::string& line : lines) std::cout << line << "\n";
   std::cout << "wrote " << args.out << "\n";
   return 0;
@@ -85,8 +69,8 @@ void registerExportCommand(CLI::App& app, const std::function<void(CommandBody)>
   cmd->add_option("--out", args->out, "The folder to write")->required();
   cmd->add_flag("--overwrite", args->overwrite, "Replace an existing --out");
   cmd->add_option("--dataset", args->dataset,
-                  "The dataset registered, for the intrinsics (default: the one "
-                  "registration.yaml names)");
+                  "The dataset registered, for the intrinsics and, in MRPT's graph, the "
+                  "detections (default: the one registration.yaml names)");
   cmd->add_flag("--include-suspect", args->include_suspect,
                 "Also export the cameras marked suspect (their status is written with them)");
   cmd->add_option("--world-frame", args->world_frame,

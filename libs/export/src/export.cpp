@@ -9,6 +9,7 @@
 #include "formats.h"
 #include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
+#include "lookboth/dataset/dataset_io.h"
 
 namespace lookboth {
 
@@ -67,6 +68,29 @@ std::string ExportOptions::check() const {
   return "";
 }
 
+ExportSources readExportSources(const std::filesystem::path& dataset) {
+  if (!std::filesystem::exists(dataset)) {
+    throw Error({dataset.string(), 0, "", ""},
+                "the registered dataset is not there; name it with --dataset");
+  }
+  ExportSources sources;
+  DatasetReadOptions read_options;
+  read_options.check_images = false;
+  const std::unique_ptr<DatasetReader> reader = DatasetReader::open(dataset, read_options);
+  const Manifest& manifest = reader->manifest();
+  for (const CameraSensor& sensor : manifest.cameras) {
+    if (sensor.camera) sources.intrinsics.emplace(sensor.label, *sensor.camera);
+  }
+  if (const CameraSensor* fisheye = manifest.fisheye()) sources.fisheye = fisheye->label;
+  while (const std::optional<Record> record = reader->next()) {
+    const auto* marker = std::get_if<MarkerObservation>(&*record);
+    if (marker != nullptr && marker->marker_id == manifest.marker.id) {
+      sources.marker_detections.push_back(*marker);
+    }
+  }
+  return sources;
+}
+
 namespace export_detail {
 
 void ExportContext::write(const std::filesystem::path& name, const std::string& contents) const {
@@ -91,12 +115,12 @@ const Camera& requireIntrinsics(const ExportedCamera& camera, const char* format
 
 }  // namespace export_detail
 
-ExportResult exportRegistration(const Registration& registration,
-                                const std::map<std::string, Camera>& intrinsics,
+ExportResult exportRegistration(const Registration& registration, const ExportSources& sources,
                                 const std::filesystem::path& out, const ExportOptions& options) {
   if (const std::string why = options.check(); !why.empty()) throw Error("export: " + why);
   ExportResult result;
-  export_detail::ExportContext context{registration, {}, out, options, &result};
+  export_detail::ExportContext context{registration, sources, {}, out, options, &result};
+  const std::map<std::string, Camera>& intrinsics = sources.intrinsics;
   for (const CameraRegistration& camera : registration.cameras) {
     const bool wanted = camera.status == CameraStatus::kRegistered ||
                         (options.include_suspect && camera.status == CameraStatus::kSuspect);
@@ -134,7 +158,7 @@ ExportResult exportRegistration(const Registration& registration,
 }
 
 std::vector<std::string> exportRegistrationFormats(const Registration& registration,
-                                                   const std::map<std::string, Camera>& intrinsics,
+                                                   const ExportSources& sources,
                                                    const std::filesystem::path& out,
                                                    const std::vector<ExportFormat>& formats,
                                                    ExportOptions options) {
@@ -144,7 +168,7 @@ std::vector<std::string> exportRegistrationFormats(const Registration& registrat
       options.format = format;
       const std::filesystem::path where =
           formats.size() == 1 ? folder : folder / exportFormatName(format);
-      const ExportResult result = exportRegistration(registration, intrinsics, where, options);
+      const ExportResult result = exportRegistration(registration, sources, where, options);
       lines.push_back(std::string(exportFormatName(format)) + ": " +
                       std::to_string(result.cameras) + " cameras, " +
                       std::to_string(result.files.size()) + " files");

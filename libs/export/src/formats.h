@@ -21,6 +21,7 @@ struct ExportedCamera {
 
 struct ExportContext {
   const Registration& registration;
+  const ExportSources& sources;
   std::vector<ExportedCamera> cameras;
   std::filesystem::path out;
   ExportOptions options;

@@ -1,9 +1,13 @@
 // MRPT: the registration as a pose graph (registration.graph, written by
 // MRPT's own CNetworkOfPoses3DCov, read by `graph-slam --3d`): one node per
-// trajectory pose, then one per camera; an edge between consecutive
-// trajectory poses (their relative pose, the covariance of the joint
-// adjustment's motion prior), and one from the trajectory pose nearest each
-// camera to the camera (the camera's covariance); plus each camera as a
+// trajectory pose, then one per camera; the edges are the measurements, so
+// that MRPT's optimiser can redo the adjustment: consecutive trajectory
+// poses (their relative pose, the covariance of the joint adjustment's
+// motion prior), each detection of the robot's marker (trajectory node to
+// camera, the detection's covariance), each blob associated with a camera
+// (trajectory node to camera, a bearing: loose along its ray and in
+// rotation); a camera without detections gets one edge from the trajectory
+// pose nearest it with its registered covariance. Plus each camera as a
 // CPose3DPDFGaussian in cameras_pdf.txt (its mean and covariance) and in
 // cameras.rawlog (a CObservationRobotPose per camera, its sensorLabel the
 // camera's label: RawLogViewer and rawlog-edit read it).
@@ -16,9 +20,11 @@
 #include <mrpt/serialization/CArchive.h>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <sstream>
 
 #include "formats.h"
+#include "graph_edges.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
 #include "lookboth/geometry/lie.h"
@@ -31,23 +37,30 @@ namespace {
 using mrpt::poses::CPose3D;
 using mrpt::poses::CPose3DPDFGaussian;
 
-struct MotionSigmas {
+/// What the joint adjustment weighted its inputs with, as the registration
+/// ran it (its configuration, the drift factors it estimated).
+struct GraphSigmas {
   double m_per_sqrt_m = 0.01, deg_per_sqrt_m = 0.2, min_m = 0.0005, min_deg = 0.005;
+  double blob_px = 1.0;
+  double default_m = 0.01, default_deg = 2.0;  ///< A detection without an information matrix.
 };
 
-/// The joint's motion prior as the registration ran it: its configured
-/// drift model times the factors it estimated.
-MotionSigmas motionSigmas(const Registration& reg) {
-  MotionSigmas s;
+double readDouble(const YAML::Node& section, const char* key, double fallback) {
+  return section[key] ? section[key].as<double>() : fallback;
+}
+
+GraphSigmas graphSigmas(const Registration& reg) {
+  GraphSigmas s;
   try {
     const YAML::Node joint = YAML::Load(reg.config_yaml)["joint"];
     if (joint && joint.IsMap()) {
-      if (joint["drift_m_per_sqrt_m"]) s.m_per_sqrt_m = joint["drift_m_per_sqrt_m"].as<double>();
-      if (joint["drift_deg_per_sqrt_m"]) {
-        s.deg_per_sqrt_m = joint["drift_deg_per_sqrt_m"].as<double>();
-      }
-      if (joint["min_sigma_m"]) s.min_m = joint["min_sigma_m"].as<double>();
-      if (joint["min_sigma_deg"]) s.min_deg = joint["min_sigma_deg"].as<double>();
+      s.m_per_sqrt_m = readDouble(joint, "drift_m_per_sqrt_m", s.m_per_sqrt_m);
+      s.deg_per_sqrt_m = readDouble(joint, "drift_deg_per_sqrt_m", s.deg_per_sqrt_m);
+      s.min_m = readDouble(joint, "min_sigma_m", s.min_m);
+      s.min_deg = readDouble(joint, "min_sigma_deg", s.min_deg);
+      s.blob_px = readDouble(joint, "blob_sigma_px", s.blob_px);
+      s.default_m = readDouble(joint, "default_translation_sigma_m", s.default_m);
+      s.default_deg = readDouble(joint, "default_rotation_sigma_deg", s.default_deg);
     }
   } catch (const YAML::Exception&) {
     // The defaults above: the configuration is what register wrote.
@@ -59,39 +72,177 @@ MotionSigmas motionSigmas(const Registration& reg) {
   return s;
 }
 
-Matrix6d motionCovariance(const MotionSigmas& s, double distance_m) {
-  const double t = std::max(s.min_m, s.m_per_sqrt_m * std::sqrt(distance_m));
-  const double r = std::max(s.min_deg, s.deg_per_sqrt_m * std::sqrt(distance_m)) * M_PI / 180;
+Matrix6d diagonalCovariance(double sigma_m, double sigma_rad) {
   Matrix6d covariance = Matrix6d::Zero();
-  covariance.diagonal() << t * t, t * t, t * t, r * r, r * r, r * r;
+  covariance.diagonal() << sigma_m * sigma_m, sigma_m * sigma_m, sigma_m * sigma_m,
+      sigma_rad * sigma_rad, sigma_rad * sigma_rad, sigma_rad * sigma_rad;
   return covariance;
 }
 
-/// The trajectory pose nearest the camera (the robot passes under it).
-std::size_t nearestPose(const std::vector<StampedPose>& trajectory, const Rigid3d& camera) {
-  std::size_t best = 0;
-  double best_distance = std::numeric_limits<double>::infinity();
-  for (std::size_t k = 0; k < trajectory.size(); ++k) {
-    const double d = (trajectory[k].world_from_body.translation - camera.translation).norm();
-    if (d < best_distance) {
-      best_distance = d;
-      best = k;
-    }
-  }
-  return best;
+Matrix6d motionCovariance(const GraphSigmas& s, double distance_m) {
+  const double t = std::max(s.min_m, s.m_per_sqrt_m * std::sqrt(distance_m));
+  const double r = std::max(s.min_deg, s.deg_per_sqrt_m * std::sqrt(distance_m)) * M_PI / 180;
+  return diagonalCovariance(t, r);
 }
 
-void addTrajectory(const Registration& reg, mrpt::graphs::CNetworkOfPoses3DCov* graph) {
-  const MotionSigmas sigmas = motionSigmas(reg);
-  for (std::size_t k = 0; k < reg.trajectory.size(); ++k) {
-    graph->nodes[k] = toMrptPose(reg.trajectory[k].world_from_body);
-    if (k == 0) continue;
-    const Rigid3d& a = reg.trajectory[k - 1].world_from_body;
-    const Rigid3d& b = reg.trajectory[k].world_from_body;
-    const Rigid3d relative = a.inverse() * b;
-    graph->insertEdge(
-        k - 1, k, toMrptPosePdf(relative, motionCovariance(sigmas, relative.translation.norm())));
+/// Squared Mahalanobis distance beyond which a marker detection is left out
+/// of the graph: 10 sigmas, an outlier by any measure (the registration set
+/// it aside; MRPT's graph optimisers have no robust loss to do so).
+constexpr double kMarkerEdgeGateChi2 = 100;
+
+/// Builds the graph step by step: the trajectory, the cameras, their edges.
+class GraphBuilder {
+ public:
+  explicit GraphBuilder(const ExportContext& context)
+      : context_(context),
+        reg_(context.registration),
+        sigmas_(graphSigmas(reg_)),
+        trajectory_(reg_.trajectory) {
+    graph_.root = 0;
   }
+
+  void addTrajectory() {
+    for (std::size_t k = 0; k < reg_.trajectory.size(); ++k) {
+      graph_.nodes[k] = toMrptPose(reg_.trajectory[k].world_from_body);
+      if (k == 0) continue;
+      const Rigid3d relative =
+          reg_.trajectory[k - 1].world_from_body.inverse() * reg_.trajectory[k].world_from_body;
+      graph_.insertEdge(
+          k - 1, k,
+          toMrptPosePdf(relative, motionCovariance(sigmas_, relative.translation.norm())));
+    }
+  }
+
+  void addCameraNodes() {
+    std::size_t id = reg_.trajectory.size();
+    for (const ExportedCamera& c : context_.cameras) {
+      graph_.nodes[id] = toMrptPose(c.registration->world_from_camera);
+      node_of_[c.registration->label] = id++;
+    }
+  }
+
+  void addMarkerEdges() {
+    const Matrix6d fallback =
+        diagonalCovariance(sigmas_.default_m, sigmas_.default_deg * M_PI / 180);
+    for (const MarkerObservation& detection : context_.sources.marker_detections) {
+      const CameraRegistration* camera = exportedCamera(detection.camera);
+      if (camera == nullptr) continue;
+      const TimeNs offset = camera->clock_offset ? camera->clock_offset->offset_ns : 0;
+      const std::optional<PoseEdge> edge =
+          markerEdge(trajectory_, detection, offset, reg_.fisheye_from_marker, fallback);
+      if (!edge) continue;
+      if (edgeChi2(*edge, registeredRelative(*edge, *camera)) > kMarkerEdgeGateChi2) {
+        ++markers_left_out_;
+        continue;
+      }
+      insert(*edge, camera->label);
+      ++marker_edges_[camera->label];
+    }
+  }
+
+  void addBlobEdges() {
+    const auto fisheye = context_.sources.intrinsics.find(context_.sources.fisheye);
+    if (fisheye == context_.sources.intrinsics.end()) return;
+    for (const BlobAssociation& blob : reg_.blob_associations) {
+      const CameraRegistration* camera = exportedCamera(blob.camera);
+      if (camera == nullptr) continue;
+      const std::optional<PoseEdge> edge =
+          blobEdge(trajectory_, blob, fisheye->second, camera->world_from_camera, sigmas_.blob_px);
+      if (!edge) continue;
+      insert(*edge, camera->label);
+      ++blob_edges_;
+    }
+  }
+
+  /// A camera no detection reached: one edge from the trajectory pose
+  /// nearest it, its registered covariance in that pose's frame.
+  void addCovarianceEdges() {
+    for (const ExportedCamera& c : context_.cameras) {
+      const CameraRegistration& camera = *c.registration;
+      if (marker_edges_.count(camera.label) != 0) continue;
+      const Matrix6d covariance = camera.covariance.value_or(Matrix6d::Identity() * 1e-4);
+      const std::size_t k = nearestPose(camera.world_from_camera);
+      const Rigid3d& node = reg_.trajectory[k].world_from_body;
+      // Translation into the node's frame; the right perturbation of the
+      // rotation is unchanged.
+      Matrix6d turn = Matrix6d::Identity();
+      turn.topLeftCorner<3, 3>() = node.rotation.toRotationMatrix().transpose();
+      insert({k, false, node.inverse() * camera.world_from_camera,
+              turn * covariance * turn.transpose()},
+             camera.label);
+      ++covariance_edges_;
+    }
+  }
+
+  const mrpt::graphs::CNetworkOfPoses3DCov& graph() const { return graph_; }
+
+  std::string summary() const {
+    int markers = 0;
+    for (const auto& [label, n] : marker_edges_) markers += n;
+    std::string text = "registration.graph: " + std::to_string(markers) + " marker detection, " +
+                       std::to_string(blob_edges_) + " blob and " +
+                       std::to_string(covariance_edges_) + " registered-covariance edges";
+    if (markers_left_out_ > 0) {
+      text += "; " + std::to_string(markers_left_out_) +
+              " marker detections left out, more than 10 sigmas from the registration";
+    }
+    return text;
+  }
+
+ private:
+  const CameraRegistration* exportedCamera(const std::string& label) const {
+    if (node_of_.count(label) == 0) return nullptr;
+    return reg_.findCamera(label);
+  }
+
+  Rigid3d registeredRelative(const PoseEdge& edge, const CameraRegistration& camera) const {
+    const Rigid3d node_from_camera =
+        reg_.trajectory[edge.node].world_from_body.inverse() * camera.world_from_camera;
+    return edge.from_camera ? node_from_camera.inverse() : node_from_camera;
+  }
+
+  void insert(const PoseEdge& edge, const std::string& label) {
+    const std::size_t camera = node_of_.at(label);
+    graph_.insertEdge(edge.from_camera ? camera : edge.node, edge.from_camera ? edge.node : camera,
+                      toMrptPosePdf(edge.first_from_second, edge.covariance));
+  }
+
+  /// The trajectory pose nearest the camera (the robot passes under it).
+  std::size_t nearestPose(const Rigid3d& camera) const {
+    std::size_t best = 0;
+    double best_distance = std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0; k < reg_.trajectory.size(); ++k) {
+      const double d = (reg_.trajectory[k].world_from_body.translation - camera.translation).norm();
+      if (d < best_distance) {
+        best_distance = d;
+        best = k;
+      }
+    }
+    return best;
+  }
+
+  const ExportContext& context_;
+  const Registration& reg_;
+  GraphSigmas sigmas_;
+  Trajectory trajectory_;
+  mrpt::graphs::CNetworkOfPoses3DCov graph_;
+  std::map<std::string, std::size_t> node_of_;
+  std::map<std::string, int> marker_edges_;
+  int blob_edges_ = 0, covariance_edges_ = 0, markers_left_out_ = 0;
+};
+
+std::string graphText(const ExportContext& context, std::string* summary) {
+  GraphBuilder builder(context);
+  builder.addTrajectory();
+  builder.addCameraNodes();
+  builder.addMarkerEdges();
+  builder.addBlobEdges();
+  builder.addCovarianceEdges();
+  *summary = builder.summary();
+  std::ostringstream text;
+  text.precision(17);  // MRPT writes through the stream: all the digits of a double
+  builder.graph().writeAsText(text);
+  return text.str();
 }
 
 }  // namespace
@@ -103,9 +254,9 @@ void writeMrpt(const ExportContext& context) {
         "export mrpt: the registration has no trajectory (trajectory.tum) to make "
         "the graph's nodes");
   }
-  mrpt::graphs::CNetworkOfPoses3DCov graph;
-  graph.root = 0;
-  addTrajectory(reg, &graph);
+  std::string summary;
+  context.write("registration.graph", graphText(context, &summary));
+  context.result->notes.push_back(summary);
   std::ostringstream pdfs;
   pdfs << "# label x y z yaw pitch roll [m, rad], then the 6x6 covariance over them, rows first\n";
   // Each camera's pose PDF also as MRPT observations (cameras.rawlog:
@@ -113,20 +264,9 @@ void writeMrpt(const ExportContext& context) {
   // drive's end, the registration's time.
   mrpt::io::CMemoryStream rawlog;
   auto archive = mrpt::serialization::archiveFrom(rawlog);
-  std::size_t id = reg.trajectory.size();
   for (const ExportedCamera& c : context.cameras) {
     const CameraRegistration& camera = *c.registration;
     const Matrix6d covariance = camera.covariance.value_or(Matrix6d::Identity() * 1e-4);
-    graph.nodes[id] = toMrptPose(camera.world_from_camera);
-    const std::size_t k = nearestPose(reg.trajectory, camera.world_from_camera);
-    const Rigid3d& node = reg.trajectory[k].world_from_body;
-    // The camera relative to the node: translation in the node's frame,
-    // the rotation's right perturbation unchanged.
-    Matrix6d turn = Matrix6d::Identity();
-    turn.topLeftCorner<3, 3>() = node.rotation.toRotationMatrix().transpose();
-    graph.insertEdge(k, id,
-                     toMrptPosePdf(node.inverse() * camera.world_from_camera,
-                                   turn * covariance * turn.transpose()));
     const CPose3DPDFGaussian pdf = toMrptPosePdf(camera.world_from_camera, covariance);
     mrpt::obs::CObservationRobotPose observation;
     observation.sensorLabel = camera.label;
@@ -142,12 +282,7 @@ void writeMrpt(const ExportContext& context) {
       for (int col = 0; col < 6; ++col) pdfs << " " << formatDouble(pdf.cov(r, col));
     }
     pdfs << "\n";
-    ++id;
   }
-  std::ostringstream text;
-  text.precision(17);  // MRPT writes through the stream: all the digits of a double
-  graph.writeAsText(text);
-  context.write("registration.graph", text.str());
   context.write("cameras_pdf.txt", pdfs.str());
   const auto* bytes = static_cast<const char*>(rawlog.getRawBufferData());
   context.write("cameras.rawlog", std::string(bytes, bytes + rawlog.getTotalBytesCount()));

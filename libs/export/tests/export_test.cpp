@@ -16,9 +16,11 @@
 #include <regex>
 #include <sstream>
 
+#include "../src/graph_edges.h"
 #include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
 #include "lookboth/export/export.h"
+#include "lookboth/geometry/lie.h"
 #include "lookboth/geometry/pose_conversions.h"
 
 namespace lookboth {
@@ -46,7 +48,7 @@ CameraRegistration camera(const std::string& label, CameraStatus status, const R
 
 struct Fixture {
   Registration reg;
-  std::map<std::string, Camera> intrinsics;
+  ExportSources sources;
   Fixture() {
     reg.dataset = "/data/site.rawlog";
     reg.created = "2026-11-26T12:00:00Z";
@@ -59,10 +61,11 @@ struct Fixture {
       reg.trajectory.push_back(
           {k * 100000000LL, pose(0.01 * k, -0.02, 0.1 * k, {0.2 * k, 0.05 * k * k / 50, 0.4})});
     }
-    intrinsics.emplace("cam_a", Camera(PinholeModel{}, 640, 480, {500, 501, 320, 240}));
-    intrinsics.emplace("cam_b", Camera(RadTanModel{}, 1920, 1080,
-                                       {1000, 1001, 960, 540, -0.1, 0.02, 1e-4, -2e-4, 0.003}));
-    intrinsics.emplace(
+    sources.intrinsics.emplace("cam_a", Camera(PinholeModel{}, 640, 480, {500, 501, 320, 240}));
+    sources.intrinsics.emplace(
+        "cam_b",
+        Camera(RadTanModel{}, 1920, 1080, {1000, 1001, 960, 540, -0.1, 0.02, 1e-4, -2e-4, 0.003}));
+    sources.intrinsics.emplace(
         "cam_c", Camera(DoubleSphereModel{}, 1920, 1080, {477.0, 477.0, 959.5, 539.5, -0.2, 0.6}));
   }
 };
@@ -79,7 +82,7 @@ ExportResult run(const Fixture& f, ExportFormat format, const std::filesystem::p
   ExportOptions options;
   options.format = format;
   options.include_suspect = include_suspect;
-  return exportRegistration(f.reg, f.intrinsics, dir, options);
+  return exportRegistration(f.reg, f.sources, dir, options);
 }
 
 std::vector<std::string> dataLines(const std::filesystem::path& path) {
@@ -301,6 +304,137 @@ TEST(Export, MrptGraphReadsBackAndIsConsistent) {
   EXPECT_NEAR(first->pose.mean.x(), 1.0, 1e-12);
   EXPECT_NEAR(first->pose.cov(3, 3), 6e-4, 1e-12);
   EXPECT_NEAR(first->pose.cov(2, 2), 3.0, 1e-12);
+}
+
+// A registration with exact detections of the robot's marker (one camera's
+// clock 25 ms ahead) and exact blobs through a fisheye.
+struct DetectedFixture : Fixture {
+  int markers = 0, blobs = 0;
+  DetectedFixture() {
+    reg.fisheye_from_marker = pose(0.02, -0.01, 1.5, {0.0, -0.15, -0.05});
+    reg.cameras[1].clock_offset = ClockOffsetEstimate{25000000, 1.0, true};
+    sources.fisheye = "fisheye";
+    sources.intrinsics.emplace("fisheye", Camera(KannalaBrandtModel{}, 1280, 1024,
+                                                 {300, 301, 640, 512, 0.01, -0.002, 0, 0}));
+    const Trajectory trajectory(reg.trajectory);
+    const Camera& fisheye = sources.intrinsics.at("fisheye");
+    for (int i = 0; i < 3; ++i) {  // cam_a, cam_b, the suspect cam_c
+      const CameraRegistration& c = reg.cameras[i];
+      const TimeNs offset = c.clock_offset ? c.clock_offset->offset_ns : 0;
+      for (TimeNs t = 150000000 + i * 7000000; t < 4800000000; t += 330000000) {
+        const Rigid3d world_from_fisheye = trajectory.interpolate(t, 0).world_from_body;
+        MarkerObservation m;
+        m.t = t + offset;
+        m.camera = c.label;
+        m.camera_from_marker =
+            c.world_from_camera.inverse() * world_from_fisheye * reg.fisheye_from_marker;
+        m.information.diagonal() << 1e6, 2e6, 3e5, 1e2, 2e2, 1e4;
+        sources.marker_detections.push_back(m);
+        ++markers;
+      }
+      for (std::size_t k = 0; k < reg.trajectory.size(); k += 7) {
+        const Rigid3d& world_from_fisheye = reg.trajectory[k].world_from_body;
+        const auto pixel =
+            fisheye.project(world_from_fisheye.inverse() * c.world_from_camera.translation);
+        if (!pixel) continue;
+        reg.blob_associations.push_back({reg.trajectory[k].t, c.label, pixel->x(), pixel->y()});
+        ++blobs;
+      }
+    }
+  }
+};
+
+double rotationError(const Rigid3d& a, const Rigid3d& b) {
+  return so3Log(Eigen::Quaterniond(a.rotation.conjugate() * b.rotation)).norm();
+}
+
+TEST(Export, MrptGraphEdgesAreTheDetectionsAndBlobs) {
+  DetectedFixture f;
+  ASSERT_GT(f.blobs, 10);
+  // One detection half a metre off: left out, and said so.
+  MarkerObservation off = f.sources.marker_detections[3];
+  off.t += 1000;
+  off.camera_from_marker.translation.x() += 0.5;
+  f.sources.marker_detections.push_back(off);
+  const std::filesystem::path dir = freshFolder("mrpt_edges");
+  const ExportResult result = run(f, ExportFormat::kMrpt, dir, true);
+  ASSERT_EQ(result.notes.size(), 1u);
+  EXPECT_EQ(result.notes[0], "registration.graph: " + std::to_string(f.markers) +
+                                 " marker detection, " + std::to_string(f.blobs) +
+                                 " blob and 0 registered-covariance edges; 1 marker detections "
+                                 "left out, more than 10 sigmas from the registration");
+  // Every edge as written (MRPT's loader would fuse a marker's and a blob's
+  // edge between the same two nodes by default).
+  mrpt::graphs::CNetworkOfPoses3DCov graph;
+  graph.loadFromTextFile((dir / "registration.graph").string(), false);
+  const std::size_t n = f.reg.trajectory.size();
+  ASSERT_EQ(graph.edges.size(), n - 1 + f.markers + f.blobs);
+  int from_camera = 0;
+  for (const auto& [ids, edge] : graph.edges) {
+    const Rigid3d relative = fromMrptPose(graph.nodes.at(ids.first)).inverse() *
+                             fromMrptPose(graph.nodes.at(ids.second));
+    const Rigid3d measured = fromMrptPose(edge.mean);
+    EXPECT_LT((measured.translation - relative.translation).norm(), 1e-9) << ids.first;
+    EXPECT_LT(rotationError(measured, relative), 1e-9) << ids.first;
+    if (ids.first >= n) ++from_camera;  // a marker detection: camera -> trajectory
+  }
+  EXPECT_EQ(from_camera, f.markers);
+}
+
+TEST(Export, MrptGraphKeepsTheCovarianceEdgeOfACameraWithoutDetections) {
+  DetectedFixture f;
+  f.sources.marker_detections.clear();
+  const std::filesystem::path dir = freshFolder("mrpt_no_markers");
+  const ExportResult result = run(f, ExportFormat::kMrpt, dir, true);
+  EXPECT_EQ(result.notes.at(0), "registration.graph: 0 marker detection, " +
+                                    std::to_string(f.blobs) +
+                                    " blob and 3 registered-covariance edges");
+}
+
+TEST(GraphEdges, ADetectionsCovarianceFollowsTheCompositionToFirstOrder) {
+  const Rigid3d camera_from_marker = pose(2.9, 0.1, -0.4, {0.2, -0.3, 3.1});
+  const Rigid3d marker_from_node = pose(0.3, -0.2, 1.1, {0.5, -1, 0.2});
+  const Rigid3d composed = camera_from_marker * marker_from_node;
+  const double h = 1e-7;
+  for (int i = 0; i < 6; ++i) {
+    Eigen::Matrix<double, 6, 1> d = Eigen::Matrix<double, 6, 1>::Zero();
+    d(i) = h;
+    const Rigid3d moved(camera_from_marker.rotation * so3Exp(Eigen::Vector3d(d.tail<3>())),
+                        camera_from_marker.translation + d.head<3>());
+    const Rigid3d composed_moved = moved * marker_from_node;
+    Eigen::Matrix<double, 6, 1> column;
+    column.head<3>() = (composed_moved.translation - composed.translation) / h;
+    column.tail<3>() =
+        so3Log(Eigen::Quaterniond(composed.rotation.conjugate() * composed_moved.rotation)) / h;
+    Matrix6d unit = Matrix6d::Zero();
+    unit(i, i) = 1;
+    const Matrix6d covariance =
+        export_detail::composedCovariance(camera_from_marker, marker_from_node, unit);
+    EXPECT_LT((covariance - column * column.transpose()).norm(), 1e-6) << "component " << i;
+  }
+}
+
+TEST(GraphEdges, ABlobIsABearingLooseAlongItsRayAndInRotation) {
+  // The fisheye at the origin, the camera 3 m straight above it: seen at the
+  // principal point, where the model's scale is f (300 px/rad).
+  const Trajectory trajectory({{0, Rigid3d()}, {100000000, Rigid3d()}});
+  const Camera fisheye(KannalaBrandtModel{}, 1280, 1024, {300, 300, 640, 512, 0.01, 0, 0, 0});
+  const Rigid3d world_from_camera = pose(3.1, 0.0, 0.3, {0, 0, 3});
+  const BlobAssociation blob{50000000, "cam", 640, 512};
+  export_detail::BlobEdgeLooseness loose;
+  const auto edge =
+      export_detail::blobEdge(trajectory, blob, fisheye, world_from_camera, 2.0, loose);
+  ASSERT_TRUE(edge);
+  EXPECT_LT((edge->first_from_second.translation - Eigen::Vector3d(0, 0, 3)).norm(), 1e-9);
+  EXPECT_LT(rotationError(edge->first_from_second, world_from_camera), 1e-12);
+  const double sideways = 3 * 2.0 / 300;  // range * sigma_px / f [m]
+  Matrix6d expected = Matrix6d::Zero();
+  expected.diagonal() << sideways * sideways, sideways * sideways, 100, 100, 100, 100;
+  EXPECT_LT((edge->covariance - expected).norm(), 1e-9) << edge->covariance;
+  // A pixel that maps to no ray gives no edge.
+  const Camera narrow(PinholeModel{}, 640, 480, {500, 500, 320, 240});
+  const BlobAssociation behind{50000000, "cam", 1e9, 1e9};
+  EXPECT_FALSE(export_detail::blobEdge(trajectory, behind, narrow, world_from_camera, 1.0));
 }
 
 TEST(Export, NothingToExportIsAnError) {

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "lookboth/cameras/camera.h"
+#include "lookboth/dataset/records.h"
 #include "lookboth/registration/registration.h"
 
 namespace lookboth {
@@ -46,6 +47,25 @@ struct ExportOptions {
   std::string check() const;
 };
 
+/// What an export reads besides the registration: the registered dataset's
+/// calibrations and detections (`readExportSources`).
+struct ExportSources {
+  /// The cameras' calibrations by label, the fisheye's included.
+  std::map<std::string, Camera> intrinsics;
+  /// The fisheye's label: MRPT's graph turns its blobs into edges through
+  /// its calibration. Empty: no blob edges.
+  std::string fisheye;
+  /// The detections of the robot's marker: MRPT's graph has an edge from
+  /// the trajectory to the camera for each. A camera with none gets one edge
+  /// from its registered covariance instead.
+  std::vector<MarkerObservation> marker_detections;
+};
+
+/// The sources of a dataset (its manifest's calibrations and fisheye, the
+/// detections of its robot's marker), read in one pass; lookboth::Error
+/// naming the dataset when it cannot be read.
+ExportSources readExportSources(const std::filesystem::path& dataset);
+
 /// What an export wrote, and what it left out and why (a camera whose model
 /// the format cannot express, e.g. a ROS camera_info for a double sphere).
 struct ExportResult {
@@ -56,12 +76,10 @@ struct ExportResult {
 
 /// Writes `registration` in `options.format` into the folder `out` (created
 /// if missing; each file written under a temporary name and renamed when
-/// complete). `intrinsics` holds the cameras' calibrations by label (the
-/// registered dataset's manifest). Throws lookboth::Error naming the camera
-/// when an exported camera has no calibration, or has a model that a format
-/// needing intrinsics (COLMAP) cannot express.
-ExportResult exportRegistration(const Registration& registration,
-                                const std::map<std::string, Camera>& intrinsics,
+/// complete), with what `sources` holds of the dataset registered. Throws lookboth::Error naming
+/// the camera when an exported camera has no calibration, or has a model that a format needing
+/// intrinsics (COLMAP) cannot express.
+ExportResult exportRegistration(const Registration& registration, const ExportSources& sources,
                                 const std::filesystem::path& out, const ExportOptions& options);
 
 /// Several formats at once into the folder `out`, written atomically (under
@@ -71,7 +89,7 @@ ExportResult exportRegistration(const Registration& registration,
 /// format (cameras, files) and per note, for the command line and the
 /// desktop app.
 std::vector<std::string> exportRegistrationFormats(const Registration& registration,
-                                                   const std::map<std::string, Camera>& intrinsics,
+                                                   const ExportSources& sources,
                                                    const std::filesystem::path& out,
                                                    const std::vector<ExportFormat>& formats,
                                                    ExportOptions options);
