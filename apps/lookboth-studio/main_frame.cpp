@@ -23,6 +23,7 @@
 
 #include "camera_table.h"
 #include "image_view.h"
+#include "lookboth/calib/fixed_markers.h"
 #include "lookboth/core/atomic_file.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
@@ -829,9 +830,9 @@ void MainFrame::exportFormats(const std::string& formats, const std::string& dir
     const Manifest& manifest = index_->manifest();
     for (const CameraSensor& sensor : manifest.cameras) {
       if (sensor.camera) sources.intrinsics.emplace(sensor.label, *sensor.camera);
-      for (const MarkerObservation& m : index_->markers(sensor.label)) {
-        if (m.marker_id == manifest.marker.id) sources.marker_detections.push_back(m);
-      }
+    }
+    for (const MarkerObservation& m : indexedMarkerDetections()) {
+      if (m.marker_id == manifest.marker.id) sources.marker_detections.push_back(m);
     }
     if (const CameraSensor* fisheye = manifest.fisheye()) sources.fisheye = fisheye->label;
     for (const std::string& line :
@@ -842,6 +843,16 @@ void MainFrame::exportFormats(const std::string& formats, const std::string& dir
   } catch (const std::exception& e) {
     fail(wxString::FromUTF8(e.what()), "Not exported");
   }
+}
+
+std::vector<MarkerObservation> MainFrame::indexedMarkerDetections() const {
+  std::vector<MarkerObservation> all;
+  if (!index_) return all;
+  for (const CameraSensor& sensor : index_->manifest().cameras) {
+    const std::vector<MarkerObservation>& markers = index_->markers(sensor.label);
+    all.insert(all.end(), markers.begin(), markers.end());
+  }
+  return all;
 }
 
 void MainFrame::chooseAndExportFormats(const std::string& formats) {
@@ -968,7 +979,12 @@ void MainFrame::chooseAndAlign(bool floor, bool with_scale) {
   try {
     SiteAlignmentOptions options;
     options.with_scale = with_scale;
-    writeAligned(alignRegistrationToControlPoints(*registration_, points, options), dir);
+    // Fixed markers ("marker:<id>" points) located from the index's detections.
+    const LocatedPoints markers =
+        index_ ? locateFixedMarkers(*registration_, indexedMarkerDetections(),
+                                    index_->manifest().marker.id)
+               : LocatedPoints{};
+    writeAligned(alignRegistrationToControlPoints(*registration_, points, options, markers), dir);
   } catch (const std::exception& e) {
     fail(wxString::FromUTF8(e.what()), "Not aligned");
   }

@@ -77,6 +77,20 @@ void DatasetReader::reportNote(const std::string& where, const std::string& mess
   issues_.push_back(std::move(note));
 }
 
+MarkerDetections readMarkerDetections(const fs::path& dataset) {
+  DatasetReadOptions options;
+  options.check_images = false;
+  const std::unique_ptr<DatasetReader> reader = DatasetReader::open(dataset, options);
+  MarkerDetections result;
+  result.manifest = reader->manifest();
+  while (const std::optional<Record> record = reader->next()) {
+    if (const auto* marker = std::get_if<MarkerObservation>(&*record)) {
+      result.detections.push_back(*marker);
+    }
+  }
+  return result;
+}
+
 std::unique_ptr<DatasetReader> DatasetReader::open(const fs::path& path,
                                                    const DatasetReadOptions& options) {
   if (!fs::exists(path)) throw Error({path.string(), 0, "", ""}, "no such file or folder");

@@ -74,19 +74,13 @@ ExportSources readExportSources(const std::filesystem::path& dataset) {
                 "the registered dataset is not there; name it with --dataset");
   }
   ExportSources sources;
-  DatasetReadOptions read_options;
-  read_options.check_images = false;
-  const std::unique_ptr<DatasetReader> reader = DatasetReader::open(dataset, read_options);
-  const Manifest& manifest = reader->manifest();
-  for (const CameraSensor& sensor : manifest.cameras) {
+  const MarkerDetections read = readMarkerDetections(dataset);
+  for (const CameraSensor& sensor : read.manifest.cameras) {
     if (sensor.camera) sources.intrinsics.emplace(sensor.label, *sensor.camera);
   }
-  if (const CameraSensor* fisheye = manifest.fisheye()) sources.fisheye = fisheye->label;
-  while (const std::optional<Record> record = reader->next()) {
-    const auto* marker = std::get_if<MarkerObservation>(&*record);
-    if (marker != nullptr && marker->marker_id == manifest.marker.id) {
-      sources.marker_detections.push_back(*marker);
-    }
+  if (const CameraSensor* fisheye = read.manifest.fisheye()) sources.fisheye = fisheye->label;
+  for (const MarkerObservation& marker : read.detections) {
+    if (marker.marker_id == read.manifest.marker.id) sources.marker_detections.push_back(marker);
   }
   return sources;
 }

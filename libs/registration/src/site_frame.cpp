@@ -219,13 +219,31 @@ Eigen::Vector3d trajectoryPoint(const Registration& reg, const ControlPoint& poi
   return pose.world_from_body.translation;
 }
 
+Pair locatedPair(const ControlPoint& point, const LocatedPoints& located,
+                 const std::string& source) {
+  const auto found = located.find(point.name);
+  if (found == located.end()) {
+    throw Error({source, point.line, "name", ""},
+                "'" + point.name +
+                    "': no registered camera detected that marker (its id is in the "
+                    "dataset's detections only when a camera saw it; check the id)");
+  }
+  const double variance = found->second.covariance.trace() / 3;
+  return {&point, found->second.p_in_world, point.sigma_m * point.sigma_m + variance};
+}
+
 std::vector<Pair> pairUp(const Registration& reg, const std::vector<ControlPoint>& points,
-                         const std::string& source, std::size_t minimum) {
+                         const std::string& source, std::size_t minimum,
+                         const LocatedPoints& located) {
   std::vector<Pair> pairs;
   for (const ControlPoint& point : points) {
     const double sigma2 = point.sigma_m * point.sigma_m;
     if (!point.name.empty() && point.name[0] == '@') {
       pairs.push_back({&point, trajectoryPoint(reg, point, source), sigma2});
+      continue;
+    }
+    if (namesFixedMarker(point.name)) {
+      pairs.push_back(locatedPair(point, located, source));
       continue;
     }
     const CameraRegistration* camera = reg.findCamera(point.name);
@@ -324,10 +342,15 @@ void checkConsistency(const std::vector<Pair>& pairs, const std::string& source,
 
 }  // namespace
 
+std::string fixedMarkerPointName(int id) { return "marker:" + std::to_string(id); }
+
+bool namesFixedMarker(const std::string& name) { return name.rfind("marker:", 0) == 0; }
+
 SiteAlignment alignToControlPoints(const Registration& reg, const std::vector<ControlPoint>& points,
-                                   const std::string& source, const SiteAlignmentOptions& options) {
+                                   const std::string& source, const SiteAlignmentOptions& options,
+                                   const LocatedPoints& located) {
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
-  const std::vector<Pair> pairs = pairUp(reg, points, source, options.with_scale ? 4 : 3);
+  const std::vector<Pair> pairs = pairUp(reg, points, source, options.with_scale ? 4 : 3, located);
   checkConsistency(pairs, source, options);
   SiteAlignment result;
   const Sim3d site_from_world = alignPairs(pairs, pairs.size(), options.with_scale, source);
@@ -450,9 +473,10 @@ std::string padded(const std::string& text, std::size_t width, bool left) {
 
 AlignedRegistration alignRegistrationToControlPoints(const Registration& reg,
                                                      const std::filesystem::path& path,
-                                                     const SiteAlignmentOptions& options) {
+                                                     const SiteAlignmentOptions& options,
+                                                     const LocatedPoints& located) {
   const std::vector<ControlPoint> points = readControlPoints(path);
-  const SiteAlignment site = alignToControlPoints(reg, points, path.string(), options);
+  const SiteAlignment site = alignToControlPoints(reg, points, path.string(), options, located);
   const std::string scale_text =
       options.with_scale ? ", scale " + formatFixed(site.scale, 6) + " +- " +
                                formatFixed(std::sqrt(site.covariance(6, 6)) * site.scale, 6)

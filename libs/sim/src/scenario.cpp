@@ -392,6 +392,26 @@ void readLaterDrive(Parser& p, Section s, LaterDriveSpec& later) {
   s.finish();
 }
 
+void readFloorMarkers(Parser& p, const YAML::Node& list, std::vector<FloorMarkerSpec>& markers) {
+  if (!list.IsDefined()) return;
+  if (!list.IsSequence()) {
+    throw Error(p.at(list, "floor_markers"),
+                "expected a list of {id, position_m, yaw_deg, size_m}");
+  }
+  for (size_t i = 0; i < list.size(); ++i) {
+    Section m(p, list[i], "floor_markers[" + std::to_string(i) + "]");
+    FloorMarkerSpec marker;
+    m.require("id");
+    m.require("position_m");
+    m.integer("id", marker.id);
+    m.vector3("position_m", marker.position_m);
+    m.number("yaw_deg", marker.yaw_deg);
+    m.number("size_m", marker.size_m);
+    m.finish();
+    markers.push_back(marker);
+  }
+}
+
 std::optional<std::pair<std::string, std::string>> prefixed(const std::string& prefix,
                                                             const std::string& why) {
   if (why.empty()) return std::nullopt;
@@ -433,8 +453,33 @@ bool FaultSpec::any() const {
          duplicated_timestamps > 0 || !motion_blur.empty() || !low_texture_region.empty();
 }
 
+namespace {
+
+std::optional<std::pair<std::string, std::string>> floorMarkersProblem(const Scenario& sc) {
+  std::set<int> ids = {sc.marker.id};
+  const int dictionary_size = knownMarkerDictionaries().at(sc.marker.dictionary);
+  for (size_t i = 0; i < sc.floor_markers.size(); ++i) {
+    const FloorMarkerSpec& m = sc.floor_markers[i];
+    const std::string field = "floor_markers[" + std::to_string(i) + "]";
+    if (m.id < 0 || m.id >= dictionary_size) {
+      return std::make_pair(field + ".id", "must be in [0, " + std::to_string(dictionary_size - 1) +
+                                               "] (" + sc.marker.dictionary + ")");
+    }
+    if (!ids.insert(m.id).second) {
+      return std::make_pair(
+          field + ".id", std::to_string(m.id) + " is the robot's marker or another floor marker");
+    }
+    if (auto p = range(field + ".size_m", m.size_m, 0.01, 5)) return p;
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
 std::optional<std::pair<std::string, std::string>> Scenario::problem() const {
   if (name.empty()) return std::make_pair(std::string("name"), std::string("empty"));
+  if (auto p = prefixed("marker", marker.check())) return p;
+  if (auto p = floorMarkersProblem(*this)) return p;
   {
     WorldSpec w = world;
     w.low_texture_region = faults.low_texture_region;
@@ -642,6 +687,7 @@ Scenario scenarioFromYaml(const std::string& yaml, const std::string& source,
   }
   readFaults(parser, top.sub("faults"), scenario.faults);
   readLaterDrive(parser, top.sub("later_drive"), scenario.later_drive);
+  readFloorMarkers(parser, top.get("floor_markers"), scenario.floor_markers);
   top.finish();
   scenario.source = source;
   if (const auto p = scenario.problem()) {

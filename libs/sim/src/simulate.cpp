@@ -49,6 +49,8 @@ struct Event {
   bool duplicated = false;    ///< Carries the previous record's stamp (a fault).
   /// Detections-only env frames: the marker observation to write, if any.
   std::optional<MarkerObservation> marker;
+  /// Detections-only env frames: the floor markers (scenario floor_markers) seen.
+  std::vector<MarkerObservation> floor_markers;
 };
 
 double uniform(std::mt19937& rng, double lo, double hi) {
@@ -497,8 +499,50 @@ void addWheelOdometry(const Setup& setup, std::vector<Event>& events) {
   }
 }
 
+/// A floor marker as a MarkerSpec (the robot marker's dictionary).
+MarkerSpec floorMarkerSpec(const Scenario& sc, const FloorMarkerSpec& floor) {
+  MarkerSpec spec = sc.marker;
+  spec.id = floor.id;
+  spec.size_m = floor.size_m;
+  return spec;
+}
+
+Rigid3d worldFromFloorMarker(const FloorMarkerSpec& floor) {
+  return Rigid3d(
+      Eigen::Quaterniond(Eigen::AngleAxisd(floor.yaw_deg * kDegree, Eigen::Vector3d::UnitZ())),
+      floor.position_m);
+}
+
+/// The floor markers camera c's frame k detects, each with noise drawn from
+/// a stream of its own (so that a scenario without floor markers draws what
+/// it drew before they existed).
+std::vector<MarkerObservation> simulateFloorMarkers(const Setup& setup, std::size_t c,
+                                                    std::int64_t k) {
+  const Scenario& sc = setup.scenario;
+  const EnvCameraPlacement& placement = setup.placements[c];
+  std::vector<MarkerObservation> seen;
+  for (const FloorMarkerSpec& floor : sc.floor_markers) {
+    const MarkerSpec spec = floorMarkerSpec(sc, floor);
+    const Rigid3d camera_from_floor =
+        placement.world_from_camera.inverse() * worldFromFloorMarker(floor);
+    const auto side = detectableSide(*setup.env_camera, camera_from_floor, spec, sc.noise);
+    if (!side) continue;
+    std::mt19937 noise(
+        itemSeed(setup.noise_seed, "floor/" + placement.label + "/" + std::to_string(floor.id), k));
+    std::optional<MarkerObservation> m =
+        sc.noise.marker_corners ? markerFromNoisyCorners(*setup.env_camera, camera_from_floor, spec,
+                                                         sc.noise.marker_corner_sigma_px, noise)
+                                : noisyMarker(camera_from_floor, *side, spec, sc.noise, noise);
+    if (!m) continue;
+    m->camera = placement.label;
+    seen.push_back(*m);
+  }
+  return seen;
+}
+
 /// In detections-only mode, what camera c's frame k detects (into
-/// e.marker): the marker, a decoy, or nothing. False when nothing.
+/// e.marker): the marker, a decoy, or nothing; and (into e.floor_markers)
+/// the floor markers it sees. False when nothing.
 bool simulateDetection(const Setup& setup, std::size_t c, std::int64_t k,
                        const Rigid3d& world_from_base, Event& e,
                        std::map<std::string, std::int64_t>& fault_counts) {
@@ -541,7 +585,9 @@ bool simulateDetection(const Setup& setup, std::size_t c, std::int64_t k,
     e.marker->t = e.stamp;
     e.marker->camera = placement.label;
   }
-  return e.marker.has_value();
+  e.floor_markers = simulateFloorMarkers(setup, c, k);
+  for (MarkerObservation& m : e.floor_markers) m.t = e.stamp;
+  return e.marker.has_value() || !e.floor_markers.empty();
 }
 
 /// Environment-camera frames while the robot is near, only between the
@@ -633,6 +679,7 @@ void duplicateTimestamps(const Setup& setup, const SimulateOptions& options,
     events[i].stamp = events[previous].stamp;
     events[i].duplicated = true;
     if (events[i].marker) events[i].marker->t = events[i].stamp;
+    for (MarkerObservation& m : events[i].floor_markers) m.t = events[i].stamp;
     ++done;
   }
   fault_counts["duplicated timestamps"] += done;
@@ -757,6 +804,14 @@ std::shared_ptr<const std::vector<std::uint8_t>> renderEventImage(
           drawDecoy(image, env, camera_from_decoy, sc.marker);
           ++decoys;
         }
+      }
+    }
+    for (const FloorMarkerSpec& floor : sc.floor_markers) {
+      const MarkerSpec spec = floorMarkerSpec(sc, floor);
+      const Rigid3d camera_from_floor =
+          placement.world_from_camera.inverse() * worldFromFloorMarker(floor);
+      if (detectableSide(env, camera_from_floor, spec, sc.noise)) {
+        drawDecoy(image, env, camera_from_floor, spec);
       }
     }
   }
@@ -927,6 +982,7 @@ SimulateSummary simulate(const SimulateOptions& options, const ProgressReporter&
         case EventKind::kEnv:
           if (options.detections_only) {
             if (e.marker) count(*e.marker);
+            for (const MarkerObservation& m : e.floor_markers) count(m);
           } else {
             ImageFrame frame;
             frame.t = e.stamp;

@@ -133,6 +133,33 @@ TEST(Scenario, LaterDriveReadsItsSeedAndMoves) {
             std::string::npos);
 }
 
+// Markers fixed on the floor: read with their defaults; an id taken by the
+// robot's marker or another floor marker, or outside the dictionary, is named.
+TEST(Scenario, FloorMarkersAreReadAndChecked) {
+  const std::string list = "floor_markers:\n  - {id: 20, position_m: [1, 2, 0], yaw_deg: 30}\n";
+  const Scenario s = parse(std::string(kMinimal) + list);
+  ASSERT_EQ(s.floor_markers.size(), 1u);
+  EXPECT_EQ(s.floor_markers[0].id, 20);
+  EXPECT_EQ(s.floor_markers[0].position_m, Eigen::Vector3d(1, 2, 0));
+  EXPECT_EQ(s.floor_markers[0].yaw_deg, 30);
+  EXPECT_EQ(s.floor_markers[0].size_m, 0.3);
+  EXPECT_TRUE(parse(kMinimal).floor_markers.empty());
+  const std::string robot_id = std::to_string(s.marker.id);
+  EXPECT_NE(parseError(std::string(kMinimal) + "floor_markers:\n  - {id: " + robot_id +
+                       ", position_m: [1, 2, 0]}\n")
+                .find("floor_markers[0].id"),
+            std::string::npos);
+  EXPECT_NE(parseError(std::string(kMinimal) + list + "  - {id: 20, position_m: [3, 2, 0]}\n")
+                .find("floor_markers[1].id"),
+            std::string::npos);
+  EXPECT_NE(
+      parseError(std::string(kMinimal) + "floor_markers:\n  - {id: 5000, position_m: [1, 2, 0]}\n")
+          .find("floor_markers[0].id"),
+      std::string::npos);
+  EXPECT_NE(parseError(std::string(kMinimal) + "floor_markers:\n  - {id: 21}\n").find("position_m"),
+            std::string::npos);
+}
+
 TEST(Scenario, ErrorsNameTheFieldAndTheLine) {
   struct Case {
     std::string yaml, expected;

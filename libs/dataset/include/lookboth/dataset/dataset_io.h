@@ -118,6 +118,15 @@ class DatasetWriter {
   std::int64_t records_written_ = 0;
 };
 
+/// A dataset's manifest and its marker detections (every id, in the
+/// dataset's order), read in one pass without checking its images: what
+/// `export` and `align` need of a registered dataset.
+struct MarkerDetections {
+  Manifest manifest;
+  std::vector<MarkerObservation> detections;
+};
+MarkerDetections readMarkerDetections(const std::filesystem::path& dataset);
+
 /// The manifest path of a rawlog dataset: <dir>/<stem>.yaml.
 std::filesystem::path manifestPathFor(const std::filesystem::path& rawlog);
 /// MRPT's external images folder of a rawlog: <dir>/<stem>_Images (computed

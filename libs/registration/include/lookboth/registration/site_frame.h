@@ -12,6 +12,7 @@
 #pragma once
 
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -35,12 +36,14 @@ struct FloorFit {
 /// line: the floor's tilt about that line is then not determined.
 FloorFit fitFloor(const Registration& registration);
 
-/// A surveyed point in the site's frame: a camera's position, or a point the
+/// A surveyed point in the site's frame: a camera's position, a point the
 /// robot's trajectory passed (its dock): the fisheye's optical centre at the
 /// start of the drive ("@start"), at its end ("@end") or at a time ("@<unix
-/// seconds>", the robot's clock).
+/// seconds>", the robot's clock), or the centre of a marker fixed in the
+/// facility that the cameras detected ("marker:<id>", located by
+/// calib's locateFixedMarkers).
 struct ControlPoint {
-  std::string name;           ///< The camera's label, or "@start", "@end", "@<seconds>".
+  std::string name;  ///< The camera's label, "@start", "@end", "@<seconds>" or "marker:<id>".
   Eigen::Vector3d p_in_site;  ///< [m]
   double sigma_m = 0;         ///< Standard deviation of each coordinate [m].
   int line = 0;               ///< In its file, for messages.
@@ -49,6 +52,21 @@ struct ControlPoint {
 /// Reads a CSV with the header `name,x,y,z,sigma_m` (metres; '#' comments).
 /// Errors name the file, the line and the column.
 std::vector<ControlPoint> readControlPoints(const std::filesystem::path& path);
+
+/// A point the registration locates besides its cameras and its trajectory
+/// (a fixed marker, "marker:<id>"): where, and how well [m, m^2].
+struct LocatedPoint {
+  Eigen::Vector3d p_in_world = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  int detections = 0;  ///< Detections it was located from.
+};
+/// By control-point name ("marker:7").
+using LocatedPoints = std::map<std::string, LocatedPoint>;
+
+/// "marker:<id>" for a fixed marker's id.
+std::string fixedMarkerPointName(int id);
+/// True when a control point's name is a fixed marker's ("marker:...").
+bool namesFixedMarker(const std::string& name);
 
 struct ControlPointResidual {
   std::string name;
@@ -83,16 +101,18 @@ struct SiteAlignmentOptions {
 
 /// The weighted rigid (or, with_scale, similarity) alignment of the
 /// registration's points to the control points: the registered cameras'
-/// positions and the trajectory's (weights 1 / (sigma^2 + the camera's own
-/// position variance; a trajectory point's is not recorded: its sigma
+/// positions, the trajectory's and the `located` fixed markers' (weights
+/// 1 / (sigma^2 + the point's own position variance, the mean of its
+/// covariance's diagonal; a trajectory point's is not recorded: its sigma
 /// alone)). `source` names the points' file in messages. Throws
 /// lookboth::Error for fewer than 3 usable points (4 with the scale), a
-/// point naming no registered camera or no time of the trajectory, or an
-/// inconsistent point (which one, and by how much).
+/// point naming no registered camera, no time of the trajectory or no
+/// located marker, or an inconsistent point (which one, and by how much).
 SiteAlignment alignToControlPoints(const Registration& registration,
                                    const std::vector<ControlPoint>& points,
                                    const std::string& source,
-                                   const SiteAlignmentOptions& options = {});
+                                   const SiteAlignmentOptions& options = {},
+                                   const LocatedPoints& located = {});
 
 /// `registration` with every pose (cameras, their stage poses, the
 /// trajectory) mapped by `new_from_world` (a similarity: positions scaled,
@@ -123,6 +143,7 @@ AlignedRegistration alignRegistrationToFloor(const Registration& registration);
 /// added to every camera's.
 AlignedRegistration alignRegistrationToControlPoints(const Registration& registration,
                                                      const std::filesystem::path& path,
-                                                     const SiteAlignmentOptions& options = {});
+                                                     const SiteAlignmentOptions& options = {},
+                                                     const LocatedPoints& located = {});
 
 }  // namespace lookboth

@@ -149,6 +149,18 @@ struct LaterDriveSpec {
   bool active() const { return noise_seed != 0 || !moved.empty(); }
 };
 
+/// A marker fixed in the facility (printed on the floor, in the robot
+/// marker's dictionary): every camera that sees it detects it, a point whose
+/// surveyed position makes a control point of `lookboth align` ("marker:<id>").
+/// Rendered frames draw it on top of what is there (the robot passing over
+/// it does not hide it).
+struct FloorMarkerSpec {
+  int id = 0;
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  ///< Its centre, world frame [m].
+  double yaw_deg = 0;                                    ///< About the vertical; its face looks up.
+  double size_m = 0.3;                                   ///< Side of the black square [m].
+};
+
 struct Scenario {
   std::string name;
   std::string description;
@@ -162,6 +174,7 @@ struct Scenario {
   DetectionNoiseSpec noise;
   FaultSpec faults;
   LaterDriveSpec later_drive;
+  std::vector<FloorMarkerSpec> floor_markers;
   std::filesystem::path source;      ///< The file it was read from ("" when built in code).
   std::map<std::string, int> lines;  ///< Line of each field in `source` (for messages).
 
