@@ -962,8 +962,9 @@ void MainFrame::chooseAndAlign(bool floor, bool with_scale) {
   std::string points;
   if (!floor) {
     wxFileDialog open(this,
-                      "Control points (CSV name,x,y,z,sigma_m; name a camera, or @start, @end "
-                      "or @<unix seconds> for the robot's position then)",
+                      "Control points (CSV name,x,y,z,sigma_m; name a camera, @start, @end "
+                      "or @<unix seconds> for the robot's position then, or marker:<id> for "
+                      "a marker on the floor the cameras saw)",
                       "", "", "CSV files (*.csv)|*.csv|All files|*",
                       wxFD_OPEN | wxFD_FILE_MUST_EXIST);
     if (open.ShowModal() != wxID_OK) return;
