@@ -163,6 +163,7 @@ int runDetect(const DetectArgs& args) {
           std::cout << " (" << c.ambiguous << " ambiguous from one frame, " << c.unresolved
                     << " unresolved)";
         }
+        if (c.fixed_markers) std::cout << ", " << c.fixed_markers << " of fixed markers";
       }
       if (c.rejected) std::cout << ", " << c.rejected << " rejected (inconsistent with the track)";
       if (c.skipped) std::cout << ", " << c.skipped << " skipped (undecodable)";

@@ -96,6 +96,25 @@ void OptionFields::integers(const char* key, std::map<std::string, std::int64_t>
   }
 }
 
+void OptionFields::numbersByLabel(const char* key, std::map<std::string, double>& target,
+                                  const char* form) {
+  if (!wanted(key)) return;
+  if (!reader_) {
+    YAML::Node map(YAML::NodeType::Map);
+    for (const auto& [label, value] : target) map[label] = value;
+    node_[key] = map;
+    return;
+  }
+  const YAML::Node entries = node(key);
+  if (entries.IsNull()) return;
+  if (!entries.IsMap())
+    throw Error(reader_->at(entries, path(key)), std::string("expected a mapping ") + form);
+  for (const auto& entry : entries) {
+    const std::string label = reader_->key(entry.first, path(key));
+    target[label] = reader_->number(entry.second, path(key) + "." + label);
+  }
+}
+
 bool OptionFields::numbers(const char* key, std::vector<double>& values, const char* expected,
                            bool* present) {
   if (!wanted(key)) return false;

@@ -48,6 +48,8 @@ static void fields(MarkerDetectorOptions& o, OptionFields& f) {
   f.number("track_window_s", o.track_window_s);
   f.number("coarse_period_s", o.coarse_period_s);
   f.number("coarse_key_frames_max_s", o.coarse_key_frames_max_s);
+  f.numbersByLabel("fixed_marker_sizes_m", o.fixed_marker_sizes_m, "id: side [m]");
+  f.integer("fixed_marker_frames", o.fixed_marker_frames);
 }
 
 static void fields(BlobDetectorOptions& o, OptionFields& f) {
@@ -162,6 +164,7 @@ struct JobResult {
   std::vector<Record> records;
   std::int64_t skipped = 0, blobs = 0, ambiguous = 0, unresolved = 0, rejected = 0;
   std::int64_t examined = 0;
+  std::int64_t fixed_markers = 0;  ///< Of `records`, the fixed markers' observations.
   bool coarse_key_frames = false;
   MarkerDetectorStats candidates;
   BlobDetectorStats blob_candidates;
@@ -345,6 +348,46 @@ JobResult runFisheyeJob(const CameraWork& work, const Job& job, const DetectConf
   return result;
 }
 
+/// The markers fixed in the facility (fixed_marker_sizes_m), each searched
+/// in the whole of `fixed_marker_frames` frames spread over the camera's
+/// recording; one marker's detections are a track of their own, over which
+/// its pose ambiguity is resolved.
+void detectFixedMarkers(const CameraWork& work, const DetectConfig& config, const MarkerSpec& robot,
+                        JobFrames& frames, const std::vector<TimeNs>& times, JobResult& result) {
+  const MarkerDetectorOptions& options = config.markers;
+  if (options.fixed_marker_sizes_m.empty() || times.empty()) return;
+  std::vector<MarkerDetector> detectors;
+  for (const auto& [key, size] : options.fixed_marker_sizes_m) {
+    MarkerSpec spec = robot;
+    spec.id = parseFixedMarkerId(key).value_or(0);
+    spec.size_m = size;
+    detectors.emplace_back(spec, *work.sensor->camera, options);
+  }
+  const size_t n = times.size();
+  const size_t count = std::min<size_t>(n, static_cast<size_t>(options.fixed_marker_frames));
+  std::set<size_t> chosen;
+  for (size_t k = 0; k < count; ++k) chosen.insert(count == 1 ? n / 2 : k * (n - 1) / (count - 1));
+  std::vector<std::vector<std::pair<TimeNs, MarkerDetection>>> found(detectors.size());
+  for (const size_t i : chosen) {
+    const cv::Mat grey = frames.grey(i);
+    if (grey.empty()) continue;
+    for (size_t d = 0; d < detectors.size(); ++d) {
+      detectors[d].resetTrack();
+      for (MarkerDetection& m : detectors[d].detect(grey))
+        found[d].emplace_back(times[i], std::move(m));
+    }
+  }
+  for (auto& track : found) {
+    std::vector<MarkerDetection*> pointers;
+    for (auto& [t, m] : track) pointers.push_back(&m);
+    resolveAmbiguity(pointers);
+    for (const auto& [t, m] : track) {
+      result.records.push_back(toMarkerObservation(m, t, work.sensor->label));
+      ++result.fixed_markers;
+    }
+  }
+}
+
 /// One environment camera's frames searched for the marker (PassSearch: one
 /// frame in `coarse_period_s`, every frame around the passes), then its
 /// track: outliers rejected, the pose ambiguity resolved.
@@ -398,6 +441,7 @@ JobResult runMarkerJob(const CameraWork& work, const Job& job, const DetectConfi
     result.ambiguous += d.ambiguous ? 1 : 0;
     result.records.push_back(toMarkerObservation(d, t, work.sensor->label));
   }
+  detectFixedMarkers(work, config, marker, frames, times, result);
   return result;
 }
 
@@ -418,6 +462,11 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
   std::unique_ptr<DatasetReader> reader = DatasetReader::open(options.dataset, read_options);
   const Manifest& manifest = reader->manifest();
   const std::string source = options.dataset.string();
+  if (options.config.markers.fixed_marker_sizes_m.count(std::to_string(manifest.marker.id))) {
+    throw Error({source, 0, "detect.markers.fixed_marker_sizes_m", ""},
+                "marker " + std::to_string(manifest.marker.id) +
+                    " is the robot's (the manifest's marker), not a fixed one");
+  }
 
   // Which cameras.
   std::vector<CameraWork> work;
@@ -557,7 +606,8 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
     s.coarse_key_frames = s.coarse_key_frames || r.coarse_key_frames;
     addStats(s.marker_candidates, r.candidates);
     s.blob_candidates.add(r.blob_candidates);
-    s.detections += static_cast<std::int64_t>(r.records.size());
+    s.detections += static_cast<std::int64_t>(r.records.size()) - r.fixed_markers;
+    s.fixed_markers += r.fixed_markers;
     for (DatasetIssue& issue : r.issues) {
       if (options.on_issue) options.on_issue(issue);
       if (summary) summary->issues.push_back(issue);

@@ -165,6 +165,7 @@ MarkerEvaluation evaluateMarkers(const GroundTruthView& truth,
   int nees_count = 0;
   std::map<std::string, std::vector<WeightedError>> errors_by_camera;
   for (const MarkerObservation& d : detections) {
+    if (d.marker_id != truth.manifest.marker.id) continue;  // a fixed marker: not the robot's
     ++out.detections;
     const auto pose = truth.cameraFromMarker(d.camera, d.t);
     if (!pose) continue;

@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <map>
 #include <opencv2/aruco.hpp>
@@ -150,6 +151,13 @@ cv::Ptr<cv::aruco::Dictionary> readDictionaryFile(const std::filesystem::path& p
 
 }  // namespace
 
+std::optional<int> parseFixedMarkerId(const std::string& key) {
+  int id = -1;
+  const auto [end, error] = std::from_chars(key.data(), key.data() + key.size(), id);
+  if (error != std::errc() || end != key.data() + key.size() || id < 0) return std::nullopt;
+  return id;
+}
+
 std::string MarkerDetectorOptions::check() const {
   if (detect_scale < 0 || detect_scale > 8)
     return "'detect_scale': must be in [0, 8] (0 = automatic), got " + std::to_string(detect_scale);
@@ -166,6 +174,15 @@ std::string MarkerDetectorOptions::check() const {
     return "'coarse_period_s': must be between 0 (every frame) and 60 s";
   if (!(coarse_key_frames_max_s >= 0) || coarse_key_frames_max_s > 60)
     return "'coarse_key_frames_max_s': must be between 0 (never) and 60 s";
+  for (const auto& [id, size] : fixed_marker_sizes_m) {
+    const std::optional<int> number = parseFixedMarkerId(id);
+    if (!number) return "'fixed_marker_sizes_m': '" + id + "' is not a marker id (0 or more)";
+    if (!(size > 0) || size > 5) {
+      return "'fixed_marker_sizes_m': marker " + id + "'s side must be in (0, 5] m";
+    }
+  }
+  if (fixed_marker_frames < 1 || fixed_marker_frames > 10000)
+    return "'fixed_marker_frames': must be between 1 and 10000";
   return "";
 }
 

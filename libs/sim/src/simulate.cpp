@@ -761,6 +761,55 @@ void drawDecoy(cv::Mat& image, const Camera& camera, const Rigid3d& camera_from_
   blended.convertTo(image, CV_8U);
 }
 
+/// Draws a marker lying on the floor (scenario floor_markers) into an env
+/// frame by casting each pixel's rays through the camera's model onto its
+/// plane (3x3 per pixel), so that its edges curve as the lens bends them and
+/// a detector fitting them through the model finds its true pose. Printed:
+/// about 70 % as bright as the backlit robot marker.
+void drawFloorMarker(cv::Mat& image, const Camera& camera, const Rigid3d& camera_from_marker,
+                     const MarkerSpec& marker) {
+  const cv::Ptr<cv::aruco::Dictionary> dict = cv::aruco::getPredefinedDictionary(
+      static_cast<cv::aruco::PREDEFINED_DICTIONARY_NAME>(arucoDictionaryId(marker.dictionary)));
+  const int cells = dict->markerSize + 2;  // black border included
+  const int cell_px = 16, quiet = cell_px;
+  cv::Mat bitmap;
+  cv::aruco::drawMarker(dict, marker.id, cells * cell_px, bitmap, 1);
+  cv::copyMakeBorder(bitmap, bitmap, quiet, quiet, quiet, quiet, cv::BORDER_CONSTANT, 255);
+  const double h = 0.5 * marker.size_m * (cells * cell_px + 2.0 * quiet) / (cells * cell_px);
+  cv::Rect2d box;
+  for (const Eigen::Vector3d& corner : {Eigen::Vector3d(-h, h, 0), Eigen::Vector3d(h, h, 0),
+                                        Eigen::Vector3d(h, -h, 0), Eigen::Vector3d(-h, -h, 0)}) {
+    const auto pixel = camera.project(camera_from_marker * corner);
+    if (!pixel) return;
+    box |= cv::Rect2d(pixel->x() - 2, pixel->y() - 2, 4, 4);
+  }
+  box &= cv::Rect2d(0, 0, image.cols - 1, image.rows - 1);
+  const Rigid3d marker_from_camera = camera_from_marker.inverse();
+  const double w = bitmap.cols;
+  for (int row = static_cast<int>(box.y); row <= static_cast<int>(box.y + box.height); ++row) {
+    for (int col = static_cast<int>(box.x); col <= static_cast<int>(box.x + box.width); ++col) {
+      double sum = 0;
+      int inside = 0;
+      for (int sub = 0; sub < 9; ++sub) {
+        const Eigen::Vector2d pixel(col + (sub % 3 - 1) / 3.0, row + (sub / 3 - 1) / 3.0);
+        const auto ray = camera.unproject(pixel);
+        if (!ray) continue;
+        const Eigen::Vector3d d = marker_from_camera.rotation * *ray;
+        const Eigen::Vector3d& o = marker_from_camera.translation;
+        if (d.z() * o.z() >= 0) continue;  // the ray does not reach the marker's plane
+        const Eigen::Vector3d p = o - (o.z() / d.z()) * d;
+        const double u = (p.x() + h) / (2 * h) * w, v = (h - p.y()) / (2 * h) * w;
+        if (u < 0 || v < 0 || u >= w || v >= w) continue;
+        sum += bitmap.at<std::uint8_t>(static_cast<int>(v), static_cast<int>(u));
+        ++inside;
+      }
+      if (inside == 0) continue;
+      std::uint8_t& out = image.at<std::uint8_t>(row, col);
+      out = cv::saturate_cast<std::uint8_t>(out * (9 - inside) / 9.0 + 0.7 * sum / 9.0);
+    }
+  }
+}
+
 /// The rendered frame of one event, PNG-encoded (called from several
 /// threads); `decoys` counts the false markers drawn.
 std::shared_ptr<const std::vector<std::uint8_t>> renderEventImage(
@@ -811,7 +860,7 @@ std::shared_ptr<const std::vector<std::uint8_t>> renderEventImage(
       const Rigid3d camera_from_floor =
           placement.world_from_camera.inverse() * worldFromFloorMarker(floor);
       if (detectableSide(env, camera_from_floor, spec, sc.noise)) {
-        drawDecoy(image, env, camera_from_floor, spec);
+        drawFloorMarker(image, env, camera_from_floor, spec);
       }
     }
   }

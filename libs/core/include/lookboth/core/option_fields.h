@@ -40,6 +40,10 @@ class OptionFields {
   /// it in errors ("label: ns").
   void integers(const char* key, std::map<std::string, std::int64_t>& target,
                 const char* form = "label: integer");
+  /// A mapping label: number (e.g. fixed markers' sizes by id); `form` shows
+  /// it in errors ("id: size_m").
+  void numbersByLabel(const char* key, std::map<std::string, double>& target,
+                      const char* form = "label: number");
   /// A list of exactly `values.size()` numbers; `expected` shows its form in
   /// errors ("[x, y, z]"). With `optional`, null (or ~) clears it: the return
   /// is then false (and `values` untouched) when the key is null.

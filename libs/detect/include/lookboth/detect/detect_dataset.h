@@ -77,7 +77,9 @@ struct CameraDetectSummary {
   /// The coarse frames were its video's key frames (coarse_key_frames_max_s).
   bool coarse_key_frames = false;
   std::int64_t skipped = 0;     ///< Frames that could not be decoded.
-  std::int64_t detections = 0;  ///< Marker observations, or blob records.
+  std::int64_t detections = 0;  ///< The robot marker's observations, or blob records.
+  /// Observations of the markers fixed in the facility (fixed_marker_sizes_m).
+  std::int64_t fixed_markers = 0;
   std::int64_t blobs = 0;       ///< Blobs in all (fisheye).
   std::int64_t ambiguous = 0;   ///< Markers ambiguous from their frame alone.
   std::int64_t unresolved = 0;  ///< ... and not resolved by the track (best-fitting pose kept).

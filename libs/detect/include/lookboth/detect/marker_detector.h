@@ -83,8 +83,20 @@ struct MarkerDetectorOptions {
   /// between them are not decoded at all. A pass shorter than the interval
   /// is then what can be missed. 0 = never [s].
   double coarse_key_frames_max_s = 1.0;
+  /// Markers fixed in the facility (printed on the floor; the robot
+  /// marker's dictionary, other ids): their sides [m] by id ("20": 0.3).
+  /// Each camera looks for them, the whole frame, in `fixed_marker_frames`
+  /// of its frames spread over its recording: a marker that does not move
+  /// needs no more. They locate control points of `lookboth align`
+  /// ("marker:<id>"). Empty: none.
+  std::map<std::string, double> fixed_marker_sizes_m;
+  int fixed_marker_frames = 10;
   std::string check() const;
 };
+
+/// A fixed marker's id from its key in fixed_marker_sizes_m ("20"); nullopt
+/// when the key is not a whole number of 0 or more.
+std::optional<int> parseFixedMarkerId(const std::string& key);
 
 /// One pose hypothesis of a detected square.
 struct MarkerPoseHypothesis {
