@@ -4,6 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <mutex>
+#include <tuple>
 #include <utility>
 
 #include "lookboth/core/error.h"
@@ -817,12 +820,40 @@ CameraModelId cameraModelId(const CameraModel& model) {
   return std::visit([](const auto& m) { return m.kId; }, model);
 }
 
+namespace {
+
+/// maxIncidenceAngle scans the model (milliseconds per camera), and a run
+/// makes the same calibrations many times (each pass over a dataset reads
+/// its manifest): the result is kept by model, size and parameters, up to
+/// kMaxCached of them (a fit that tries many parameters starts afresh).
+double cachedMaxIncidenceAngle(const CameraModel& model, int width, int height,
+                               const std::vector<double>& params) {
+  constexpr std::size_t kMaxCached = 1024;
+  const auto* scaramuzza = std::get_if<ScaramuzzaModel>(&model);
+  using Key = std::tuple<int, int, int, int, std::vector<double>>;
+  Key key{static_cast<int>(cameraModelId(model)), width, height,
+          scaramuzza ? scaramuzza->num_poly : 0, params};
+  static std::mutex mutex;
+  static std::map<Key, double> cache;
+  {
+    const std::lock_guard<std::mutex> lock(mutex);
+    if (const auto found = cache.find(key); found != cache.end()) return found->second;
+  }
+  const double angle = std::visit(
+      [&](const auto& m) { return m.maxIncidenceAngle(params.data(), width, height); }, model);
+  const std::lock_guard<std::mutex> lock(mutex);
+  if (cache.size() >= kMaxCached) cache.clear();
+  cache.emplace(std::move(key), angle);
+  return angle;
+}
+
+}  // namespace
+
 Camera::Camera(CameraModel model, int width, int height, std::vector<double> params)
     : model_(std::move(model)), width_(width), height_(height), params_(std::move(params)) {
   const std::string message = validate(model_, width_, height_, params_);
   if (!message.empty()) throw Error(message);
-  max_incidence_angle_ = std::visit(
-      [&](const auto& m) { return m.maxIncidenceAngle(params_.data(), width_, height_); }, model_);
+  max_incidence_angle_ = cachedMaxIncidenceAngle(model_, width_, height_, params_);
 }
 
 std::string Camera::validate(const CameraModel& model, int width, int height,
