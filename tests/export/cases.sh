@@ -350,6 +350,16 @@ for label in a:
         sys.exit(f"FAIL: {label} moved by {d} between the drives")
 print("later drive: cam03 moved 6 cm, the other cameras where they were")
 PY
+  # A camera replaced by a new unit (later_drive replaced_by): its old label
+  # not seen, the new one new, and the update registers the new one.
+  sed 's/^name: small/name: small_replaced/' "$SHARE/scenarios/small.yaml" >replaced.yaml
+  printf 'later_drive:\n  noise_seed: 12\n  moved:\n    - {camera: cam01, replaced_by: cam01b, translate_m: [0.01, 0, 0], rotate_deg: [0, 0, 2]}\n' >>replaced.yaml
+  "$L" simulate --scenario replaced.yaml --detections-only --duration 28 --out drive4.rawlog >/dev/null
+  "$L" register drive4.rawlog --trajectory metric --update reg1 --out reg4 | tee replaced.log
+  grep -Eq "^  cam01 +not seen" replaced.log || fail "the replaced camera is not 'not seen'"
+  grep -Eq "^  cam01b +new" replaced.log || fail "the new unit is not 'new'"
+  grep -q "^update: against reg1: 0 moved and 1 new registered again, 5 unchanged held at the record, 1 not seen kept" replaced.log ||
+    fail "the update's line: $(grep '^update' replaced.log)"
   ;;
 
 studio)

@@ -376,7 +376,7 @@ void readLaterDrive(Parser& p, Section s, LaterDriveSpec& later) {
   if (const YAML::Node moved = s.get("moved"); moved.IsDefined()) {
     if (!moved.IsSequence()) {
       throw Error(p.at(moved, "later_drive.moved"),
-                  "expected a list of {camera, translate_m, rotate_deg}");
+                  "expected a list of {camera, translate_m, rotate_deg, replaced_by}");
     }
     for (size_t i = 0; i < moved.size(); ++i) {
       Section m(p, moved[i], "later_drive.moved[" + std::to_string(i) + "]");
@@ -385,6 +385,7 @@ void readLaterDrive(Parser& p, Section s, LaterDriveSpec& later) {
       m.text("camera", move.camera);
       m.vector3("translate_m", move.translate_m);
       m.vector3("rotate_deg", move.rotate_deg);
+      m.text("replaced_by", move.replaced_by);
       m.finish();
       later.moved.push_back(move);
     }

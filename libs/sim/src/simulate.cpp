@@ -231,13 +231,24 @@ void sharePassErrors(std::vector<Event>& events, std::size_t first, const Camera
 // ---------------------------------------------------------------------------
 // Building the run
 
-/// The cameras a later drive finds moved (LaterDriveSpec).
+/// The cameras a later drive finds moved or replaced (LaterDriveSpec).
 void moveCameras(const LaterDriveSpec& later, std::vector<EnvCameraPlacement>& placements) {
+  auto find = [&](const std::string& label) {
+    return std::find_if(placements.begin(), placements.end(),
+                        [&](const EnvCameraPlacement& p) { return p.label == label; });
+  };
   for (const CameraMove& move : later.moved) {
-    auto it = std::find_if(placements.begin(), placements.end(),
-                           [&](const EnvCameraPlacement& p) { return p.label == move.camera; });
+    const auto it = find(move.camera);
     if (it == placements.end()) {
       throw Error("later_drive.moved: no camera '" + move.camera + "' in the scenario");
+    }
+    if (!move.replaced_by.empty()) {
+      if (find(move.replaced_by) != placements.end() ||
+          move.replaced_by.find_first_of(",/\\ ") != std::string::npos) {
+        throw Error("later_drive.moved: '" + move.replaced_by +
+                    "' cannot label the new unit (taken, or not a usable label)");
+      }
+      it->label = move.replaced_by;
     }
     const Eigen::Vector3d rotation = move.rotate_deg * (M_PI / 180);
     it->world_from_camera =

@@ -123,6 +123,12 @@ TEST(Scenario, LaterDriveReadsItsSeedAndMoves) {
   EXPECT_EQ(s.later_drive.moved[0].camera, "cam01");
   EXPECT_EQ(s.later_drive.moved[0].translate_m, Eigen::Vector3d(0.03, 0, 0));
   EXPECT_EQ(s.later_drive.moved[0].rotate_deg, Eigen::Vector3d(0, 0, 1));
+  EXPECT_TRUE(s.later_drive.moved[0].replaced_by.empty());
+  EXPECT_EQ(parse(std::string(kMinimal) +
+                  "later_drive:\n  moved:\n    - {camera: cam01, replaced_by: cam01b}\n")
+                .later_drive.moved[0]
+                .replaced_by,
+            "cam01b");
   EXPECT_FALSE(parse(kMinimal).later_drive.active());
   EXPECT_NE(parseError(std::string(kMinimal) + "later_drive:\n  noise_seed: 0\n")
                 .find("later_drive.noise_seed"),

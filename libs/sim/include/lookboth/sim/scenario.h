@@ -137,6 +137,9 @@ struct CameraMove {
   std::string camera;                                     ///< Its label ("cam03").
   Eigen::Vector3d translate_m = Eigen::Vector3d::Zero();  ///< In the world frame [m].
   Eigen::Vector3d rotate_deg = Eigen::Vector3d::Zero();   ///< Rotation vector, camera frame [deg].
+  /// Not empty: the camera was replaced by a new unit with this label (at
+  /// the pose moved as above): its own label is gone from the later drive.
+  std::string replaced_by;
 };
 
 /// The same facility on a later drive (`lookboth check`'s second drive): the
