@@ -826,15 +826,12 @@ void MainFrame::exportFormats(const std::string& formats, const std::string& dir
   }
   try {
     const std::vector<ExportFormat> chosen = parseExportFormats(formats);
-    ExportSources sources;
-    const Manifest& manifest = index_->manifest();
-    for (const CameraSensor& sensor : manifest.cameras) {
-      if (sensor.camera) sources.intrinsics.emplace(sensor.label, *sensor.camera);
+    std::vector<MarkerObservation> detections;
+    for (const CameraSensor& sensor : index_->manifest().cameras) {
+      const std::vector<MarkerObservation>& markers = index_->markers(sensor.label);
+      detections.insert(detections.end(), markers.begin(), markers.end());
     }
-    for (const MarkerObservation& m : indexedMarkerDetections()) {
-      if (m.marker_id == manifest.marker.id) sources.marker_detections.push_back(m);
-    }
-    if (const CameraSensor* fisheye = manifest.fisheye()) sources.fisheye = fisheye->label;
+    const ExportSources sources = exportSources(index_->manifest(), detections);
     for (const std::string& line :
          exportRegistrationFormats(*registration_, sources, dir, chosen, ExportOptions{})) {
       log(wxString::FromUTF8(line));
@@ -843,16 +840,6 @@ void MainFrame::exportFormats(const std::string& formats, const std::string& dir
   } catch (const std::exception& e) {
     fail(wxString::FromUTF8(e.what()), "Not exported");
   }
-}
-
-std::vector<MarkerObservation> MainFrame::indexedMarkerDetections() const {
-  std::vector<MarkerObservation> all;
-  if (!index_) return all;
-  for (const CameraSensor& sensor : index_->manifest().cameras) {
-    const std::vector<MarkerObservation>& markers = index_->markers(sensor.label);
-    all.insert(all.end(), markers.begin(), markers.end());
-  }
-  return all;
 }
 
 void MainFrame::chooseAndExportFormats(const std::string& formats) {
@@ -981,10 +968,10 @@ void MainFrame::chooseAndAlign(bool floor, bool with_scale) {
     SiteAlignmentOptions options;
     options.with_scale = with_scale;
     // Fixed markers ("marker:<id>" points) located from the index's detections.
-    const LocatedPoints markers =
-        index_ ? locateFixedMarkers(*registration_, indexedMarkerDetections(),
-                                    index_->manifest().marker.id)
-               : LocatedPoints{};
+    const LocatedPoints markers = index_
+                                      ? locateFixedMarkers(*registration_, index_->fixedMarkers(),
+                                                           index_->manifest().marker.id)
+                                      : LocatedPoints{};
     writeAligned(alignRegistrationToControlPoints(*registration_, points, options, markers), dir);
   } catch (const std::exception& e) {
     fail(wxString::FromUTF8(e.what()), "Not aligned");

@@ -132,8 +132,6 @@ class MainFrame : public wxFrame, private studio::ScriptedStartup::Target {
   void startUpdate(const std::string& record, const std::string& out, Then then);
   void chooseAndUpdate();
   void exportFormats(const std::string& formats, const std::string& dir) override;
-  /// Every marker detection the dataset index holds, of every camera.
-  std::vector<MarkerObservation> indexedMarkerDetections() const;
   void writeAligned(const AlignedRegistration& aligned, const std::string& dir);
   void exportReport(const std::string& path) override;
   void finish(const std::string& screenshot, bool exit) override;

@@ -1,6 +1,7 @@
 // `lookboth export`: a registration in the formats the systems downstream
 // read (doc/formats.md, "Exports"), the intrinsics from the dataset that was
 // registered.
+#include <algorithm>
 #include <iostream>
 
 #include "commands.h"
@@ -40,7 +41,9 @@ int runExport(const ExportArgs& args) {
   const std::filesystem::path dataset =
       std::filesystem::path(args.dataset.empty() ? registration.dataset : args.dataset);
   checkOutputPath(args.out, {args.registration, dataset}, args.overwrite);
-  const ExportSources sources = readExportSources(dataset);
+  const bool graph =
+      std::find(formats.begin(), formats.end(), ExportFormat::kMrpt) != formats.end();
+  const ExportSources sources = readExportSources(dataset, graph);
 
   const std::vector<std::string> lines =
       exportRegistrationFormats(registration, sources, args.out, formats, options);

@@ -30,10 +30,7 @@ struct Sighting {
 };
 
 Eigen::Matrix3d detectionCovariance(const MarkerObservation& m, double default_sigma_m) {
-  if (!m.information.isZero(0)) {
-    const Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(m.information);
-    if (lu.isInvertible()) return lu.inverse().topLeftCorner<3, 3>();
-  }
+  if (const auto covariance = markerCovariance(m)) return covariance->topLeftCorner<3, 3>();
   return Eigen::Matrix3d::Identity() * default_sigma_m * default_sigma_m;
 }
 
@@ -111,10 +108,13 @@ LocatedPoints locateFixedMarkers(const Registration& registration,
     const CameraRegistration* camera = registration.findCamera(m.camera);
     if (camera == nullptr || camera->status == CameraStatus::kUnregistered) continue;
     const Eigen::Matrix3d r = camera->world_from_camera.rotation.toRotationMatrix();
-    const Eigen::Vector3d p = m.camera_from_marker.translation;
+    // Metres into the registration's units (a site frame aligned with its scale).
+    const double scale = registration.world_frame.scale_from_registration;
+    const Eigen::Vector3d p = scale * m.camera_from_marker.translation;
     by_marker[m.marker_id][m.camera].push_back(
         {camera->world_from_camera * p, p,
-         r * detectionCovariance(m, options.default_translation_sigma_m) * r.transpose()});
+         scale * scale * r * detectionCovariance(m, options.default_translation_sigma_m) *
+             r.transpose()});
   }
   LocatedPoints located;
   for (const auto& [id, cameras] : by_marker) {

@@ -77,27 +77,9 @@ void OptionFields::text(const char* key, std::string& target) {
   }
 }
 
-void OptionFields::integers(const char* key, std::map<std::string, std::int64_t>& target,
-                            const char* form) {
-  if (!wanted(key)) return;
-  if (!reader_) {
-    YAML::Node map(YAML::NodeType::Map);
-    for (const auto& [label, value] : target) map[label] = static_cast<long long>(value);
-    node_[key] = map;
-    return;
-  }
-  const YAML::Node entries = node(key);
-  if (entries.IsNull()) return;
-  if (!entries.IsMap())
-    throw Error(reader_->at(entries, path(key)), std::string("expected a mapping ") + form);
-  for (const auto& entry : entries) {
-    const std::string label = reader_->key(entry.first, path(key));
-    target[label] = reader_->integer(entry.second, path(key) + "." + label);
-  }
-}
-
-void OptionFields::numbersByLabel(const char* key, std::map<std::string, double>& target,
-                                  const char* form) {
+template <typename Value, typename Read>
+void OptionFields::byLabel(const char* key, std::map<std::string, Value>& target, const char* form,
+                           Read read) {
   if (!wanted(key)) return;
   if (!reader_) {
     YAML::Node map(YAML::NodeType::Map);
@@ -111,8 +93,22 @@ void OptionFields::numbersByLabel(const char* key, std::map<std::string, double>
     throw Error(reader_->at(entries, path(key)), std::string("expected a mapping ") + form);
   for (const auto& entry : entries) {
     const std::string label = reader_->key(entry.first, path(key));
-    target[label] = reader_->number(entry.second, path(key) + "." + label);
+    target[label] = read(entry.second, path(key) + "." + label);
   }
+}
+
+void OptionFields::integers(const char* key, std::map<std::string, std::int64_t>& target,
+                            const char* form) {
+  byLabel(key, target, form, [this](const YAML::Node& n, const std::string& field) {
+    return static_cast<std::int64_t>(reader_->integer(n, field));
+  });
+}
+
+void OptionFields::numbersByLabel(const char* key, std::map<std::string, double>& target,
+                                  const char* form) {
+  byLabel(key, target, form, [this](const YAML::Node& n, const std::string& field) {
+    return reader_->number(n, field);
+  });
 }
 
 bool OptionFields::numbers(const char* key, std::vector<double>& values, const char* expected,

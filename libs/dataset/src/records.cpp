@@ -1,6 +1,16 @@
 #include "lookboth/dataset/records.h"
 
+#include <Eigen/LU>
+
 namespace lookboth {
+
+std::optional<Eigen::Matrix<double, 6, 6>> markerCovariance(const MarkerObservation& detection) {
+  if (detection.information.isZero(0)) return std::nullopt;
+  const Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(detection.information);
+  if (!lu.isInvertible()) return std::nullopt;
+  const Eigen::Matrix<double, 6, 6> covariance = lu.inverse();
+  return Eigen::Matrix<double, 6, 6>(0.5 * (covariance + covariance.transpose()));
+}
 
 TimeNs recordTime(const Record& record) {
   return std::visit([](const auto& r) { return r.t; }, record);

@@ -445,6 +445,19 @@ JobResult runMarkerJob(const CameraWork& work, const Job& job, const DetectConfi
   return result;
 }
 
+/// The robot's marker is never a fixed one (its detections would be written
+/// under its id at the fixed marker's size).
+void checkFixedMarkers(const MarkerDetectorOptions& options, const Manifest& manifest,
+                       const std::string& source) {
+  for (const auto& [key, size] : options.fixed_marker_sizes_m) {
+    if (parseFixedMarkerId(key) == manifest.marker.id) {
+      throw Error({source, 0, "detect.markers.fixed_marker_sizes_m", key},
+                  "marker " + std::to_string(manifest.marker.id) +
+                      " is the robot's (the manifest's marker), not a fixed one");
+    }
+  }
+}
+
 JobResult runJob(const CameraWork& work, const Job& job, const DetectConfig& config,
                  const MarkerSpec& marker, std::atomic<std::int64_t>& done,
                  const std::atomic<bool>& stop) {
@@ -462,11 +475,7 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
   std::unique_ptr<DatasetReader> reader = DatasetReader::open(options.dataset, read_options);
   const Manifest& manifest = reader->manifest();
   const std::string source = options.dataset.string();
-  if (options.config.markers.fixed_marker_sizes_m.count(std::to_string(manifest.marker.id))) {
-    throw Error({source, 0, "detect.markers.fixed_marker_sizes_m", ""},
-                "marker " + std::to_string(manifest.marker.id) +
-                    " is the robot's (the manifest's marker), not a fixed one");
-  }
+  checkFixedMarkers(options.config.markers, manifest, source);
 
   // Which cameras.
   std::vector<CameraWork> work;

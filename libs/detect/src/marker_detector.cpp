@@ -11,6 +11,7 @@
 #include <opencv2/aruco.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <set>
 
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
@@ -174,9 +175,13 @@ std::string MarkerDetectorOptions::check() const {
     return "'coarse_period_s': must be between 0 (every frame) and 60 s";
   if (!(coarse_key_frames_max_s >= 0) || coarse_key_frames_max_s > 60)
     return "'coarse_key_frames_max_s': must be between 0 (never) and 60 s";
+  std::set<int> fixed_ids;
   for (const auto& [id, size] : fixed_marker_sizes_m) {
     const std::optional<int> number = parseFixedMarkerId(id);
     if (!number) return "'fixed_marker_sizes_m': '" + id + "' is not a marker id (0 or more)";
+    if (!fixed_ids.insert(*number).second) {
+      return "'fixed_marker_sizes_m': marker " + std::to_string(*number) + " is listed twice";
+    }
     if (!(size > 0) || size > 5) {
       return "'fixed_marker_sizes_m': marker " + id + "'s side must be in (0, 5] m";
     }

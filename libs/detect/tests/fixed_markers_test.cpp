@@ -99,6 +99,11 @@ TEST_F(FixedMarkersTest, TheRobotsIdIsNotAFixedMarker) {
   EXPECT_NE(options.check().find("'twenty' is not a marker id"), std::string::npos);
   options.fixed_marker_sizes_m = {{"20", -1}};
   EXPECT_NE(options.check().find("side"), std::string::npos);
+  options.fixed_marker_sizes_m = {{"20", 0.3}, {"020", 0.3}};
+  EXPECT_NE(options.check().find("listed twice"), std::string::npos);
+  // The robot's id written another way is still the robot's.
+  config.markers.fixed_marker_sizes_m = {{"0" + std::to_string(robot), 0.3}};
+  EXPECT_THROW(detect(config), Error);
 }
 
 }  // namespace

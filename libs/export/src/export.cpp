@@ -68,21 +68,31 @@ std::string ExportOptions::check() const {
   return "";
 }
 
-ExportSources readExportSources(const std::filesystem::path& dataset) {
+ExportSources exportSources(const Manifest& manifest,
+                            const std::vector<MarkerObservation>& detections) {
+  ExportSources sources;
+  for (const CameraSensor& sensor : manifest.cameras) {
+    if (sensor.camera) sources.intrinsics.emplace(sensor.label, *sensor.camera);
+  }
+  if (const CameraSensor* fisheye = manifest.fisheye()) sources.fisheye = fisheye->label;
+  for (const MarkerObservation& marker : detections) {
+    if (marker.marker_id == manifest.marker.id) sources.marker_detections.push_back(marker);
+  }
+  return sources;
+}
+
+ExportSources readExportSources(const std::filesystem::path& dataset, bool detections) {
   if (!std::filesystem::exists(dataset)) {
     throw Error({dataset.string(), 0, "", ""},
                 "the registered dataset is not there; name it with --dataset");
   }
-  ExportSources sources;
+  if (!detections) {
+    DatasetReadOptions options;
+    options.check_images = false;
+    return exportSources(DatasetReader::open(dataset, options)->manifest(), {});
+  }
   const MarkerDetections read = readMarkerDetections(dataset);
-  for (const CameraSensor& sensor : read.manifest.cameras) {
-    if (sensor.camera) sources.intrinsics.emplace(sensor.label, *sensor.camera);
-  }
-  if (const CameraSensor* fisheye = read.manifest.fisheye()) sources.fisheye = fisheye->label;
-  for (const MarkerObservation& marker : read.detections) {
-    if (marker.marker_id == read.manifest.marker.id) sources.marker_detections.push_back(marker);
-  }
-  return sources;
+  return exportSources(read.manifest, read.detections);
 }
 
 namespace export_detail {

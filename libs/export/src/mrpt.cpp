@@ -18,9 +18,11 @@
 #include <mrpt/obs/CObservationRobotPose.h>
 #include <mrpt/poses/CPose3DPDFGaussian.h>
 #include <mrpt/serialization/CArchive.h>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include "formats.h"
@@ -37,39 +39,50 @@ namespace {
 using mrpt::poses::CPose3D;
 using mrpt::poses::CPose3DPDFGaussian;
 
-/// What the joint adjustment weighted its inputs with, as the registration
-/// ran it (its configuration, the drift factors it estimated).
-struct GraphSigmas {
+/// What the registration weighted its inputs with, as it ran (its
+/// configuration, the drift factors it estimated).
+struct GraphSettings {
   double m_per_sqrt_m = 0.01, deg_per_sqrt_m = 0.2, min_m = 0.0005, min_deg = 0.005;
-  double blob_px = 1.0;
   double default_m = 0.01, default_deg = 2.0;  ///< A detection without an information matrix.
+  EdgeModel edges;
+  std::map<std::string, std::int64_t> configured_offsets_ns;  ///< associate.clock_offsets_ns
+  /// The share of a detection's (a blob's) error its pass shares, and the
+  /// gap that ends a pass (joint's pass_error_share, blob_pass_error_share,
+  /// pass_gap_s).
+  double pass_share = 0.15, blob_pass_share = 0.06;
+  TimeNs pass_gap_ns = 1'000'000'000;
 };
 
 double readDouble(const YAML::Node& section, const char* key, double fallback) {
-  return section[key] ? section[key].as<double>() : fallback;
+  return section && section[key] ? section[key].as<double>() : fallback;
 }
 
-GraphSigmas graphSigmas(const Registration& reg) {
-  GraphSigmas s;
-  try {
-    const YAML::Node joint = YAML::Load(reg.config_yaml)["joint"];
-    if (joint && joint.IsMap()) {
-      s.m_per_sqrt_m = readDouble(joint, "drift_m_per_sqrt_m", s.m_per_sqrt_m);
-      s.deg_per_sqrt_m = readDouble(joint, "drift_deg_per_sqrt_m", s.deg_per_sqrt_m);
-      s.min_m = readDouble(joint, "min_sigma_m", s.min_m);
-      s.min_deg = readDouble(joint, "min_sigma_deg", s.min_deg);
-      s.blob_px = readDouble(joint, "blob_sigma_px", s.blob_px);
-      s.default_m = readDouble(joint, "default_translation_sigma_m", s.default_m);
-      s.default_deg = readDouble(joint, "default_rotation_sigma_deg", s.default_deg);
+void readJoint(const YAML::Node& joint, GraphSettings& s) {
+  s.m_per_sqrt_m = readDouble(joint, "drift_m_per_sqrt_m", s.m_per_sqrt_m);
+  s.deg_per_sqrt_m = readDouble(joint, "drift_deg_per_sqrt_m", s.deg_per_sqrt_m);
+  s.min_m = readDouble(joint, "min_sigma_m", s.min_m);
+  s.min_deg = readDouble(joint, "min_sigma_deg", s.min_deg);
+  s.default_m = readDouble(joint, "default_translation_sigma_m", s.default_m);
+  s.default_deg = readDouble(joint, "default_rotation_sigma_deg", s.default_deg);
+  s.edges.blob_sigma_px = readDouble(joint, "blob_sigma_px", s.edges.blob_sigma_px);
+  s.pass_share = readDouble(joint, "pass_error_share", s.pass_share);
+  s.blob_pass_share = readDouble(joint, "blob_pass_error_share", s.blob_pass_share);
+  s.pass_gap_ns = static_cast<TimeNs>(std::llround(readDouble(joint, "pass_gap_s", 1.0) * 1e9));
+  if (joint && joint["blob_offset_in_camera_m"] && joint["blob_offset_in_camera_m"].size() == 3) {
+    for (int i = 0; i < 3; ++i) {
+      s.edges.blob_in_camera[i] = joint["blob_offset_in_camera_m"][i].as<double>();
     }
-  } catch (const YAML::Exception&) {
-    // The defaults above: the configuration is what register wrote.
   }
-  if (const auto& drift = reg.observability.drift_model) {
-    s.m_per_sqrt_m *= drift->horizontal;
-    s.deg_per_sqrt_m *= drift->yaw;
+}
+
+void readAssociate(const YAML::Node& associate, GraphSettings& s) {
+  s.edges.max_gap_ns =
+      static_cast<TimeNs>(std::llround(readDouble(associate, "max_gap_s", 0.5) * 1e9));
+  if (associate && associate["clock_offsets_ns"] && associate["clock_offsets_ns"].IsMap()) {
+    for (const auto& entry : associate["clock_offsets_ns"]) {
+      s.configured_offsets_ns[entry.first.as<std::string>()] = entry.second.as<std::int64_t>();
+    }
   }
-  return s;
 }
 
 Matrix6d diagonalCovariance(double sigma_m, double sigma_rad) {
@@ -79,7 +92,28 @@ Matrix6d diagonalCovariance(double sigma_m, double sigma_rad) {
   return covariance;
 }
 
-Matrix6d motionCovariance(const GraphSigmas& s, double distance_m) {
+GraphSettings graphSettings(const Registration& reg) {
+  GraphSettings s;
+  try {
+    const YAML::Node config = YAML::Load(reg.config_yaml);
+    if (config.IsMap()) {
+      readJoint(config["joint"], s);
+      readAssociate(config["associate"], s);
+    }
+  } catch (const YAML::Exception&) {
+    // The defaults above: the configuration is what register wrote.
+  }
+  if (const auto& drift = reg.observability.drift_model) {
+    s.m_per_sqrt_m *= drift->horizontal;
+    s.deg_per_sqrt_m *= drift->yaw;
+  }
+  s.edges.fisheye_from_marker = reg.fisheye_from_marker;
+  s.edges.default_detection_covariance =
+      diagonalCovariance(s.default_m, s.default_deg * M_PI / 180);
+  return s;
+}
+
+Matrix6d motionCovariance(const GraphSettings& s, double distance_m) {
   const double t = std::max(s.min_m, s.m_per_sqrt_m * std::sqrt(distance_m));
   const double r = std::max(s.min_deg, s.deg_per_sqrt_m * std::sqrt(distance_m)) * M_PI / 180;
   return diagonalCovariance(t, r);
@@ -90,13 +124,17 @@ Matrix6d motionCovariance(const GraphSigmas& s, double distance_m) {
 /// it aside; MRPT's graph optimisers have no robust loss to do so).
 constexpr double kMarkerEdgeGateChi2 = 100;
 
-/// Builds the graph step by step: the trajectory, the cameras, their edges.
+/// A pair of nodes: the camera's and the trajectory's.
+using NodePair = std::pair<std::size_t, std::size_t>;
+
+/// Builds the graph step by step: the trajectory, the cameras, the edges of
+/// their measurements, then one edge per pair of nodes (MRPT keeps one).
 class GraphBuilder {
  public:
   explicit GraphBuilder(const ExportContext& context)
       : context_(context),
         reg_(context.registration),
-        sigmas_(graphSigmas(reg_)),
+        settings_(graphSettings(reg_)),
         trajectory_(reg_.trajectory) {
     graph_.root = 0;
   }
@@ -109,7 +147,7 @@ class GraphBuilder {
           reg_.trajectory[k - 1].world_from_body.inverse() * reg_.trajectory[k].world_from_body;
       graph_.insertEdge(
           k - 1, k,
-          toMrptPosePdf(relative, motionCovariance(sigmas_, relative.translation.norm())));
+          toMrptPosePdf(relative, motionCovariance(settings_, relative.translation.norm())));
     }
   }
 
@@ -121,35 +159,61 @@ class GraphBuilder {
     }
   }
 
-  void addMarkerEdges() {
-    const Matrix6d fallback =
-        diagonalCovariance(sigmas_.default_m, sigmas_.default_deg * M_PI / 180);
-    for (const MarkerObservation& detection : context_.sources.marker_detections) {
-      const CameraRegistration* camera = exportedCamera(detection.camera);
-      if (camera == nullptr) continue;
-      const TimeNs offset = camera->clock_offset ? camera->clock_offset->offset_ns : 0;
-      const std::optional<PoseEdge> edge =
-          markerEdge(trajectory_, detection, offset, reg_.fisheye_from_marker, fallback);
-      if (!edge) continue;
-      if (edgeChi2(*edge, registeredRelative(*edge, *camera)) > kMarkerEdgeGateChi2) {
-        ++markers_left_out_;
-        continue;
+  void collectMarkerEdges() {
+    for (const auto& [label, detections] : byCamera(context_.sources.marker_detections)) {
+      const CameraRegistration& camera = *reg_.findCamera(label);
+      std::vector<TimeNs> times;
+      for (const MarkerObservation* d : detections) times.push_back(d->t);
+      const std::vector<int> passes = passSizes(times, settings_.pass_gap_ns);
+      for (std::size_t i = 0; i < detections.size(); ++i) {
+        std::optional<PoseEdge> edge =
+            markerEdge(trajectory_, *detections[i], clockOffset(camera), settings_.edges);
+        if (!edge) continue;
+        edge->covariance *= passInflation(passes[i], settings_.pass_share);
+        if (edgeChi2(*edge, registeredRelative(*edge, camera)) > kMarkerEdgeGateChi2) {
+          ++markers_left_out_;
+          continue;
+        }
+        marker_pairs_[{node_of_.at(label), edge->node}].push_back(*edge);
+        ++marker_detections_;
       }
-      insert(*edge, camera->label);
-      ++marker_edges_[camera->label];
     }
   }
 
-  void addBlobEdges() {
+  void collectBlobEdges() {
     const auto fisheye = context_.sources.intrinsics.find(context_.sources.fisheye);
     if (fisheye == context_.sources.intrinsics.end()) return;
+    std::map<std::string, std::vector<const BlobAssociation*>> by_camera;
     for (const BlobAssociation& blob : reg_.blob_associations) {
-      const CameraRegistration* camera = exportedCamera(blob.camera);
-      if (camera == nullptr) continue;
-      const std::optional<PoseEdge> edge =
-          blobEdge(trajectory_, blob, fisheye->second, camera->world_from_camera, sigmas_.blob_px);
-      if (!edge) continue;
-      insert(*edge, camera->label);
+      if (exportedCamera(blob.camera) != nullptr) by_camera[blob.camera].push_back(&blob);
+    }
+    for (auto& [label, blobs] : by_camera) {
+      std::stable_sort(
+          blobs.begin(), blobs.end(),
+          [](const BlobAssociation* a, const BlobAssociation* b) { return a->t < b->t; });
+      std::vector<TimeNs> times;
+      for (const BlobAssociation* b : blobs) times.push_back(b->t);
+      const std::vector<int> passes = passSizes(times, settings_.pass_gap_ns);
+      const Rigid3d& world_from_camera = reg_.findCamera(label)->world_from_camera;
+      for (std::size_t i = 0; i < blobs.size(); ++i) {
+        std::optional<PoseEdge> edge =
+            blobEdge(trajectory_, *blobs[i], fisheye->second, world_from_camera, settings_.edges);
+        if (!edge) continue;
+        edge->covariance.topLeftCorner<3, 3>() *=
+            passInflation(passes[i], settings_.blob_pass_share);
+        blob_pairs_[{node_of_.at(label), edge->node}].push_back(*edge);
+        ++blobs_;
+      }
+    }
+  }
+
+  /// One edge per pair: a pair's marker edges fused, its blob edges fused
+  /// where no marker edge holds it (a bearing adds little to a pose).
+  void insertMeasurementEdges() {
+    for (const auto& [pair, edges] : marker_pairs_) insert(pair.first, fuseEdges(edges));
+    for (const auto& [pair, edges] : blob_pairs_) {
+      if (marker_pairs_.count(pair) != 0) continue;
+      insert(pair.first, fuseEdges(edges));
       ++blob_edges_;
     }
   }
@@ -157,9 +221,11 @@ class GraphBuilder {
   /// A camera no detection reached: one edge from the trajectory pose
   /// nearest it, its registered covariance in that pose's frame.
   void addCovarianceEdges() {
+    std::set<std::size_t> with_markers;
+    for (const auto& [pair, edges] : marker_pairs_) with_markers.insert(pair.first);
     for (const ExportedCamera& c : context_.cameras) {
       const CameraRegistration& camera = *c.registration;
-      if (marker_edges_.count(camera.label) != 0) continue;
+      if (with_markers.count(node_of_.at(camera.label)) != 0) continue;
       const Matrix6d covariance = camera.covariance.value_or(Matrix6d::Identity() * 1e-4);
       const std::size_t k = nearestPose(camera.world_from_camera);
       const Rigid3d& node = reg_.trajectory[k].world_from_body;
@@ -167,9 +233,8 @@ class GraphBuilder {
       // rotation is unchanged.
       Matrix6d turn = Matrix6d::Identity();
       turn.topLeftCorner<3, 3>() = node.rotation.toRotationMatrix().transpose();
-      insert({k, false, node.inverse() * camera.world_from_camera,
-              turn * covariance * turn.transpose()},
-             camera.label);
+      insert(node_of_.at(camera.label), {k, false, node.inverse() * camera.world_from_camera,
+                                         turn * covariance * turn.transpose()});
       ++covariance_edges_;
     }
   }
@@ -177,10 +242,10 @@ class GraphBuilder {
   const mrpt::graphs::CNetworkOfPoses3DCov& graph() const { return graph_; }
 
   std::string summary() const {
-    int markers = 0;
-    for (const auto& [label, n] : marker_edges_) markers += n;
-    std::string text = "registration.graph: " + std::to_string(markers) + " marker detection, " +
-                       std::to_string(blob_edges_) + " blob and " +
+    std::string text = "registration.graph: " + std::to_string(marker_detections_) +
+                       " marker detections in " + std::to_string(marker_pairs_.size()) +
+                       " edges, " + std::to_string(blobs_) + " blobs in " +
+                       std::to_string(blob_edges_) + " (the others on a marker edge's nodes), " +
                        std::to_string(covariance_edges_) + " registered-covariance edges";
     if (markers_left_out_ > 0) {
       text += "; " + std::to_string(markers_left_out_) +
@@ -190,9 +255,31 @@ class GraphBuilder {
   }
 
  private:
+  /// The exported cameras' detections, each camera's in time order.
+  std::map<std::string, std::vector<const MarkerObservation*>> byCamera(
+      const std::vector<MarkerObservation>& detections) const {
+    std::map<std::string, std::vector<const MarkerObservation*>> result;
+    for (const MarkerObservation& d : detections) {
+      if (exportedCamera(d.camera) != nullptr) result[d.camera].push_back(&d);
+    }
+    for (auto& [label, list] : result) {
+      std::stable_sort(
+          list.begin(), list.end(),
+          [](const MarkerObservation* a, const MarkerObservation* b) { return a->t < b->t; });
+    }
+    return result;
+  }
+
   const CameraRegistration* exportedCamera(const std::string& label) const {
     if (node_of_.count(label) == 0) return nullptr;
     return reg_.findCamera(label);
+  }
+
+  /// The camera's clock offset (node - robot): joint's estimate, else the configured one.
+  TimeNs clockOffset(const CameraRegistration& camera) const {
+    if (camera.clock_offset) return camera.clock_offset->offset_ns;
+    const auto configured = settings_.configured_offsets_ns.find(camera.label);
+    return configured == settings_.configured_offsets_ns.end() ? 0 : configured->second;
   }
 
   Rigid3d registeredRelative(const PoseEdge& edge, const CameraRegistration& camera) const {
@@ -201,8 +288,7 @@ class GraphBuilder {
     return edge.from_camera ? node_from_camera.inverse() : node_from_camera;
   }
 
-  void insert(const PoseEdge& edge, const std::string& label) {
-    const std::size_t camera = node_of_.at(label);
+  void insert(std::size_t camera, const PoseEdge& edge) {
     graph_.insertEdge(edge.from_camera ? camera : edge.node, edge.from_camera ? edge.node : camera,
                       toMrptPosePdf(edge.first_from_second, edge.covariance));
   }
@@ -223,20 +309,22 @@ class GraphBuilder {
 
   const ExportContext& context_;
   const Registration& reg_;
-  GraphSigmas sigmas_;
+  GraphSettings settings_;
   Trajectory trajectory_;
   mrpt::graphs::CNetworkOfPoses3DCov graph_;
   std::map<std::string, std::size_t> node_of_;
-  std::map<std::string, int> marker_edges_;
-  int blob_edges_ = 0, covariance_edges_ = 0, markers_left_out_ = 0;
+  std::map<NodePair, std::vector<PoseEdge>> marker_pairs_, blob_pairs_;
+  int marker_detections_ = 0, blobs_ = 0, blob_edges_ = 0, covariance_edges_ = 0;
+  int markers_left_out_ = 0;
 };
 
 std::string graphText(const ExportContext& context, std::string* summary) {
   GraphBuilder builder(context);
   builder.addTrajectory();
   builder.addCameraNodes();
-  builder.addMarkerEdges();
-  builder.addBlobEdges();
+  builder.collectMarkerEdges();
+  builder.collectBlobEdges();
+  builder.insertMeasurementEdges();
   builder.addCovarianceEdges();
   *summary = builder.summary();
   std::ostringstream text;

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <mrpt/graphs/CNetworkOfPoses.h>
+#include <mrpt/graphslam/levmarq.h>
 #include <mrpt/io/CFileInputStream.h>
 #include <mrpt/obs/CObservationRobotPose.h>
 #include <mrpt/serialization/CArchive.h>
@@ -14,6 +15,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <regex>
+#include <set>
 #include <sstream>
 
 #include "../src/graph_edges.h"
@@ -307,40 +309,53 @@ TEST(Export, MrptGraphReadsBackAndIsConsistent) {
 }
 
 // A registration with exact detections of the robot's marker (one camera's
-// clock 25 ms ahead) and exact blobs through a fisheye.
+// clock 25 ms ahead), exact blobs through a fisheye (the housing 5 cm from
+// the optical centre), and what the graph should make of them.
 struct DetectedFixture : Fixture {
   int markers = 0, blobs = 0;
+  std::set<std::pair<std::string, std::size_t>> marker_nodes;  ///< (camera, trajectory node)
+  int blobs_on_marker_nodes = 0;
   DetectedFixture() {
     reg.fisheye_from_marker = pose(0.02, -0.01, 1.5, {0.0, -0.15, -0.05});
     reg.cameras[1].clock_offset = ClockOffsetEstimate{25000000, 1.0, true};
+    reg.config_yaml = "joint: {blob_offset_in_camera_m: [0.01, -0.02, 0.05]}\n";
     sources.fisheye = "fisheye";
     sources.intrinsics.emplace("fisheye", Camera(KannalaBrandtModel{}, 1280, 1024,
                                                  {300, 301, 640, 512, 0.01, -0.002, 0, 0}));
-    const Trajectory trajectory(reg.trajectory);
-    const Camera& fisheye = sources.intrinsics.at("fisheye");
-    for (int i = 0; i < 3; ++i) {  // cam_a, cam_b, the suspect cam_c
-      const CameraRegistration& c = reg.cameras[i];
-      const TimeNs offset = c.clock_offset ? c.clock_offset->offset_ns : 0;
-      for (TimeNs t = 150000000 + i * 7000000; t < 4800000000; t += 330000000) {
-        const Rigid3d world_from_fisheye = trajectory.interpolate(t, 0).world_from_body;
-        MarkerObservation m;
-        m.t = t + offset;
-        m.camera = c.label;
-        m.camera_from_marker =
-            c.world_from_camera.inverse() * world_from_fisheye * reg.fisheye_from_marker;
-        m.information.diagonal() << 1e6, 2e6, 3e5, 1e2, 2e2, 1e4;
-        sources.marker_detections.push_back(m);
-        ++markers;
-      }
-      for (std::size_t k = 0; k < reg.trajectory.size(); k += 7) {
-        const Rigid3d& world_from_fisheye = reg.trajectory[k].world_from_body;
-        const auto pixel =
-            fisheye.project(world_from_fisheye.inverse() * c.world_from_camera.translation);
-        if (!pixel) continue;
-        reg.blob_associations.push_back({reg.trajectory[k].t, c.label, pixel->x(), pixel->y()});
-        ++blobs;
-      }
+    for (int i = 0; i < 3; ++i) addCamera(reg.cameras[static_cast<std::size_t>(i)], i);
+  }
+  /// The exact detection of the robot's marker by `c` at robot time t.
+  MarkerObservation detectionAt(const CameraRegistration& c, TimeNs t) const {
+    const Rigid3d world_from_fisheye = Trajectory(reg.trajectory).interpolate(t, 0).world_from_body;
+    MarkerObservation m;
+    m.t = t + (c.clock_offset ? c.clock_offset->offset_ns : 0);
+    m.camera = c.label;
+    m.camera_from_marker =
+        c.world_from_camera.inverse() * world_from_fisheye * reg.fisheye_from_marker;
+    m.information.diagonal() << 1e6, 2e6, 3e5, 1e2, 2e2, 1e4;
+    return m;
+  }
+  void addCamera(const CameraRegistration& c, int i) {
+    for (TimeNs t = 150000000 + i * 7000000; t < 4800000000; t += 330000000) {
+      sources.marker_detections.push_back(detectionAt(c, t));
+      marker_nodes.insert({c.label, export_detail::nearestSample(reg.trajectory, t)});
+      ++markers;
     }
+    const Camera& fisheye = sources.intrinsics.at("fisheye");
+    const Eigen::Vector3d housing = c.world_from_camera * Eigen::Vector3d(0.01, -0.02, 0.05);
+    for (std::size_t k = 0; k < reg.trajectory.size(); k += 7) {
+      const auto pixel = fisheye.project(reg.trajectory[k].world_from_body.inverse() * housing);
+      if (!pixel) continue;
+      reg.blob_associations.push_back({reg.trajectory[k].t, c.label, pixel->x(), pixel->y()});
+      ++blobs;
+      blobs_on_marker_nodes += marker_nodes.count({c.label, k}) ? 1 : 0;
+    }
+  }
+  /// The edges the graph should hold: the odometry's, one per (camera,
+  /// node) pair of the detections, one per pair of the blobs without one.
+  std::size_t expectedEdges() const {
+    return reg.trajectory.size() - 1 + marker_nodes.size() +
+           static_cast<std::size_t>(blobs - blobs_on_marker_nodes);
   }
 };
 
@@ -348,37 +363,82 @@ double rotationError(const Rigid3d& a, const Rigid3d& b) {
   return so3Log(Eigen::Quaterniond(a.rotation.conjugate() * b.rotation)).norm();
 }
 
-TEST(Export, MrptGraphEdgesAreTheDetectionsAndBlobs) {
-  DetectedFixture f;
-  ASSERT_GT(f.blobs, 10);
-  // One detection half a metre off: left out, and said so.
-  MarkerObservation off = f.sources.marker_detections[3];
-  off.t += 1000;
-  off.camera_from_marker.translation.x() += 0.5;
-  f.sources.marker_detections.push_back(off);
-  const std::filesystem::path dir = freshFolder("mrpt_edges");
-  const ExportResult result = run(f, ExportFormat::kMrpt, dir, true);
-  ASSERT_EQ(result.notes.size(), 1u);
-  EXPECT_EQ(result.notes[0], "registration.graph: " + std::to_string(f.markers) +
-                                 " marker detection, " + std::to_string(f.blobs) +
-                                 " blob and 0 registered-covariance edges; 1 marker detections "
-                                 "left out, more than 10 sigmas from the registration");
-  // Every edge as written (MRPT's loader would fuse a marker's and a blob's
-  // edge between the same two nodes by default).
-  mrpt::graphs::CNetworkOfPoses3DCov graph;
-  graph.loadFromTextFile((dir / "registration.graph").string(), false);
-  const std::size_t n = f.reg.trajectory.size();
-  ASSERT_EQ(graph.edges.size(), n - 1 + f.markers + f.blobs);
-  int from_camera = 0;
+/// Every edge of the graph against its nodes' relative pose [m, rad].
+std::pair<double, double> worstEdge(const mrpt::graphs::CNetworkOfPoses3DCov& graph) {
+  std::pair<double, double> worst{0, 0};
   for (const auto& [ids, edge] : graph.edges) {
     const Rigid3d relative = fromMrptPose(graph.nodes.at(ids.first)).inverse() *
                              fromMrptPose(graph.nodes.at(ids.second));
     const Rigid3d measured = fromMrptPose(edge.mean);
-    EXPECT_LT((measured.translation - relative.translation).norm(), 1e-9) << ids.first;
-    EXPECT_LT(rotationError(measured, relative), 1e-9) << ids.first;
-    if (ids.first >= n) ++from_camera;  // a marker detection: camera -> trajectory
+    worst.first = std::max(worst.first, (measured.translation - relative.translation).norm());
+    worst.second = std::max(worst.second, rotationError(measured, relative));
   }
-  EXPECT_EQ(from_camera, f.markers);
+  return worst;
+}
+
+TEST(Export, MrptGraphEdgesAreTheDetectionsAndBlobs) {
+  DetectedFixture f;
+  ASSERT_GT(f.blobs - f.blobs_on_marker_nodes, 10);
+  ASSERT_GT(f.blobs_on_marker_nodes, 0);
+  // One detection half a metre off: left out, and said so. Another at the
+  // same node as one of cam_a's: fused with it into one edge.
+  MarkerObservation off = f.sources.marker_detections[3];
+  off.t += 1000;
+  off.camera_from_marker.translation.x() += 0.5;
+  MarkerObservation again = f.detectionAt(f.reg.cameras[0], 1830000000);  // cam_a's 1.80 s: node 18
+  again.information *= 3;
+  f.sources.marker_detections.push_back(off);
+  f.sources.marker_detections.push_back(again);
+  const std::filesystem::path dir = freshFolder("mrpt_edges");
+  const ExportResult result = run(f, ExportFormat::kMrpt, dir, true);
+  ASSERT_EQ(result.notes.size(), 1u);
+  EXPECT_EQ(result.notes[0],
+            "registration.graph: " + std::to_string(f.markers + 1) + " marker detections in " +
+                std::to_string(f.marker_nodes.size()) + " edges, " + std::to_string(f.blobs) +
+                " blobs in " + std::to_string(f.blobs - f.blobs_on_marker_nodes) +
+                " (the others on a marker edge's nodes), 0 registered-covariance edges; 1 "
+                "marker detections left out, more than 10 sigmas from the registration");
+  // Every edge as written: one per pair of nodes, which MRPT's loader keeps.
+  mrpt::graphs::CNetworkOfPoses3DCov graph;
+  graph.loadFromTextFile((dir / "registration.graph").string(), false);
+  ASSERT_EQ(graph.edges.size(), f.expectedEdges());
+  mrpt::graphs::CNetworkOfPoses3DCov collapsed;
+  collapsed.loadFromTextFile((dir / "registration.graph").string());
+  EXPECT_EQ(collapsed.edges.size(), graph.edges.size());
+  const auto [translation, rotation] = worstEdge(graph);
+  EXPECT_LT(translation, 1e-9);  // blob_offset_in_camera_m ignored: 5 cm
+  EXPECT_LT(rotation, 1e-9);
+  int from_camera = 0;
+  for (const auto& [ids, edge] : graph.edges) from_camera += ids.first >= f.reg.trajectory.size();
+  EXPECT_EQ(static_cast<std::size_t>(from_camera), f.marker_nodes.size());
+}
+
+// MRPT's own optimiser, given the graph's edges with their information,
+// brings cameras moved off their registered poses back to them.
+TEST(Export, MrptsOptimiserRecoversTheCamerasFromTheEdges) {
+  const DetectedFixture f;
+  const std::filesystem::path dir = freshFolder("mrpt_levmarq");
+  run(f, ExportFormat::kMrpt, dir, true);
+  mrpt::graphs::CNetworkOfPoses3DInf graph;
+  graph.loadFromTextFile((dir / "registration.graph").string());
+  const std::size_t n = f.reg.trajectory.size();
+  std::set<mrpt::graphs::TNodeID> cameras;
+  for (std::size_t id = n; id < graph.nodes.size(); ++id) {
+    cameras.insert(id);
+    const Rigid3d moved = fromMrptPose(graph.nodes.at(id)) *
+                          pose(0.01, -0.02, 0.015, Eigen::Vector3d(0.05, -0.03, 0.04));
+    graph.nodes.at(id) = toMrptPose(moved);
+  }
+  mrpt::graphslam::TResultInfoSpaLevMarq info;
+  mrpt::containers::yaml parameters;
+  parameters["max_iterations"] = 50;
+  mrpt::graphslam::optimize_graph_spa_levmarq(graph, info, &cameras, parameters);
+  for (std::size_t id = n; id < graph.nodes.size(); ++id) {
+    const Rigid3d& registered = f.reg.cameras[id - n].world_from_camera;
+    const Rigid3d recovered = fromMrptPose(graph.nodes.at(id));
+    EXPECT_LT((recovered.translation - registered.translation).norm(), 1e-6) << id;
+    EXPECT_LT(rotationError(recovered, registered), 1e-6) << id;
+  }
 }
 
 TEST(Export, MrptGraphKeepsTheCovarianceEdgeOfACameraWithoutDetections) {
@@ -386,9 +446,11 @@ TEST(Export, MrptGraphKeepsTheCovarianceEdgeOfACameraWithoutDetections) {
   f.sources.marker_detections.clear();
   const std::filesystem::path dir = freshFolder("mrpt_no_markers");
   const ExportResult result = run(f, ExportFormat::kMrpt, dir, true);
-  EXPECT_EQ(result.notes.at(0), "registration.graph: 0 marker detection, " +
+  EXPECT_EQ(result.notes.at(0), "registration.graph: 0 marker detections in 0 edges, " +
+                                    std::to_string(f.blobs) + " blobs in " +
                                     std::to_string(f.blobs) +
-                                    " blob and 3 registered-covariance edges");
+                                    " (the others on a marker edge's nodes), 3 "
+                                    "registered-covariance edges");
 }
 
 TEST(GraphEdges, ADetectionsCovarianceFollowsTheCompositionToFirstOrder) {
@@ -415,26 +477,60 @@ TEST(GraphEdges, ADetectionsCovarianceFollowsTheCompositionToFirstOrder) {
 }
 
 TEST(GraphEdges, ABlobIsABearingLooseAlongItsRayAndInRotation) {
-  // The fisheye at the origin, the camera 3 m straight above it: seen at the
-  // principal point, where the model's scale is f (300 px/rad).
+  // The fisheye at the origin, the camera's housing 3 m straight above it:
+  // seen at the principal point, where the model's scale is f (300 px/rad).
   const Trajectory trajectory({{0, Rigid3d()}, {100000000, Rigid3d()}});
   const Camera fisheye(KannalaBrandtModel{}, 1280, 1024, {300, 300, 640, 512, 0.01, 0, 0, 0});
-  const Rigid3d world_from_camera = pose(3.1, 0.0, 0.3, {0, 0, 3});
-  const BlobAssociation blob{50000000, "cam", 640, 512};
-  export_detail::BlobEdgeLooseness loose;
-  const auto edge =
-      export_detail::blobEdge(trajectory, blob, fisheye, world_from_camera, 2.0, loose);
+  export_detail::EdgeModel model;
+  model.blob_sigma_px = 2.0;
+  model.blob_in_camera = Eigen::Vector3d(0, 0, 0.05);
+  const Rigid3d world_from_camera = pose(3.1, 0.0, 0.3, {0.01, 0.02, 3});
+  const Eigen::Vector3d housing = world_from_camera * model.blob_in_camera;
+  const BlobAssociation blob{50000000, "cam", 640 + 300 * housing.x() / housing.z(),
+                             512 + 300 * housing.y() / housing.z()};
+  const auto edge = export_detail::blobEdge(trajectory, blob, fisheye, world_from_camera, model);
   ASSERT_TRUE(edge);
-  EXPECT_LT((edge->first_from_second.translation - Eigen::Vector3d(0, 0, 3)).norm(), 1e-9);
+  EXPECT_LT((edge->first_from_second.translation - world_from_camera.translation).norm(), 1e-4);
   EXPECT_LT(rotationError(edge->first_from_second, world_from_camera), 1e-12);
-  const double sideways = 3 * 2.0 / 300;  // range * sigma_px / f [m]
-  Matrix6d expected = Matrix6d::Zero();
-  expected.diagonal() << sideways * sideways, sideways * sideways, 100, 100, 100, 100;
-  EXPECT_LT((edge->covariance - expected).norm(), 1e-9) << edge->covariance;
+  // Across the ray range * sigma_px / f, along it loose.
+  const double sideways = housing.norm() * 2.0 / 300;
+  const Eigen::Vector3d ray = housing.normalized();
+  const Eigen::Matrix3d translation = edge->covariance.topLeftCorner<3, 3>();
+  for (const Eigen::Vector3d& across : {ray.cross(Eigen::Vector3d::UnitX()).normalized(),
+                                        ray.cross(Eigen::Vector3d::UnitY()).normalized()}) {
+    EXPECT_NEAR(across.dot(translation * across), sideways * sideways, 1e-3 * sideways * sideways);
+  }
+  EXPECT_NEAR(ray.dot(translation * ray), 100, 1e-6);
+  EXPECT_NEAR(edge->covariance(4, 4), 100, 1e-12);
   // A pixel that maps to no ray gives no edge.
   const Camera narrow(PinholeModel{}, 640, 480, {500, 500, 320, 240});
   const BlobAssociation behind{50000000, "cam", 1e9, 1e9};
-  EXPECT_FALSE(export_detail::blobEdge(trajectory, behind, narrow, world_from_camera, 1.0));
+  EXPECT_FALSE(export_detail::blobEdge(trajectory, behind, narrow, world_from_camera, model));
+}
+
+TEST(GraphEdges, PassesEndAtAGapAndInflateBySharedError) {
+  const TimeNs s = 1000000000;
+  EXPECT_EQ(export_detail::passSizes({0, s / 2, 2 * s, 2 * s + 4 * s / 10, 2 * s + 8 * s / 10}, s),
+            (std::vector<int>{2, 2, 3, 3, 3}));
+  EXPECT_TRUE(export_detail::passSizes({}, s).empty());
+  EXPECT_DOUBLE_EQ(export_detail::passInflation(1, 0.15), 1.0);
+  EXPECT_DOUBLE_EQ(export_detail::passInflation(21, 0.15), 4.0);
+}
+
+// Two edges of one pair as one: the information-weighted mean, the
+// information summed.
+TEST(GraphEdges, EdgesOfOnePairFuseByTheirInformation) {
+  export_detail::PoseEdge a, b;
+  a.first_from_second = pose(0.1, 0.2, 0.3, {1, 2, 3});
+  b.first_from_second = Rigid3d(a.first_from_second.rotation * so3Exp(Eigen::Vector3d(0, 0, 0.003)),
+                                a.first_from_second.translation + Eigen::Vector3d(0.03, 0, 0));
+  a.covariance = Matrix6d::Identity() * 1e-4;
+  b.covariance = Matrix6d::Identity() * 3e-4;
+  const export_detail::PoseEdge fused = export_detail::fuseEdges({a, b});
+  EXPECT_NEAR((fused.first_from_second.translation - a.first_from_second.translation).x(),
+              0.03 * 0.25, 1e-12);
+  EXPECT_NEAR(rotationError(a.first_from_second, fused.first_from_second), 0.003 * 0.25, 1e-9);
+  EXPECT_LT((fused.covariance - Matrix6d::Identity() * 0.75e-4).norm(), 1e-15);
 }
 
 TEST(Export, NothingToExportIsAnError) {

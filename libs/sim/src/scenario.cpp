@@ -456,6 +456,23 @@ bool FaultSpec::any() const {
 
 namespace {
 
+/// A label a camera can take: it names files and folders and starts CSV rows.
+bool usableLabel(const std::string& label) {
+  return !label.empty() && label.find_first_of(",/\\ ") == std::string::npos &&
+         label.front() != '.' && label.front() != '#';
+}
+
+std::optional<std::pair<std::string, std::string>> laterDriveProblem(const LaterDriveSpec& later) {
+  for (size_t i = 0; i < later.moved.size(); ++i) {
+    const std::string& label = later.moved[i].replaced_by;
+    if (!label.empty() && !usableLabel(label)) {
+      return std::make_pair("later_drive.moved[" + std::to_string(i) + "].replaced_by",
+                            "'" + label + "' is not a usable label");
+    }
+  }
+  return std::nullopt;
+}
+
 std::optional<std::pair<std::string, std::string>> floorMarkersProblem(const Scenario& sc) {
   std::set<int> ids = {sc.marker.id};
   const int dictionary_size = knownMarkerDictionaries().at(sc.marker.dictionary);
@@ -481,6 +498,7 @@ std::optional<std::pair<std::string, std::string>> Scenario::problem() const {
   if (name.empty()) return std::make_pair(std::string("name"), std::string("empty"));
   if (auto p = prefixed("marker", marker.check())) return p;
   if (auto p = floorMarkersProblem(*this)) return p;
+  if (auto p = laterDriveProblem(later_drive)) return p;
   {
     WorldSpec w = world;
     w.low_texture_region = faults.low_texture_region;
@@ -550,9 +568,7 @@ std::optional<std::pair<std::string, std::string>> Scenario::problem() const {
     return p;
   if (auto p = prefixed("marker", marker.check())) return p;
   if (auto p = range("cameras.count", cameras.count, 1, 1000)) return p;
-  if (cameras.label_prefix.empty() ||
-      cameras.label_prefix.find_first_of(",/\\ ") != std::string::npos ||
-      cameras.label_prefix.front() == '.' || cameras.label_prefix.front() == '#')
+  if (!usableLabel(cameras.label_prefix))
     return std::make_pair(std::string("cameras.label_prefix"),
                           "'" + cameras.label_prefix + "' cannot start a label");
   if (auto p = range("cameras.rate_hz", cameras.rate_hz, 0.1, 200)) return p;

@@ -243,10 +243,9 @@ void moveCameras(const LaterDriveSpec& later, std::vector<EnvCameraPlacement>& p
       throw Error("later_drive.moved: no camera '" + move.camera + "' in the scenario");
     }
     if (!move.replaced_by.empty()) {
-      if (find(move.replaced_by) != placements.end() ||
-          move.replaced_by.find_first_of(",/\\ ") != std::string::npos) {
+      if (find(move.replaced_by) != placements.end()) {
         throw Error("later_drive.moved: '" + move.replaced_by +
-                    "' cannot label the new unit (taken, or not a usable label)");
+                    "' cannot label the new unit: a camera of the scenario has it");
       }
       it->label = move.replaced_by;
     }
@@ -525,8 +524,8 @@ Rigid3d worldFromFloorMarker(const FloorMarkerSpec& floor) {
 }
 
 /// The floor markers camera c's frame k detects, each with noise drawn from
-/// a stream of its own (so that a scenario without floor markers draws what
-/// it drew before they existed).
+/// a stream of its own: adding floor markers to a scenario changes no other
+/// draw, so its other detections stay the same.
 std::vector<MarkerObservation> simulateFloorMarkers(const Setup& setup, std::size_t c,
                                                     std::int64_t k) {
   const Scenario& sc = setup.scenario;

@@ -129,6 +129,10 @@ TEST(Scenario, LaterDriveReadsItsSeedAndMoves) {
                 .later_drive.moved[0]
                 .replaced_by,
             "cam01b");
+  EXPECT_NE(parseError(std::string(kMinimal) +
+                       "later_drive:\n  moved:\n    - {camera: cam01, replaced_by: '#cam'}\n")
+                .find("later_drive.moved[0].replaced_by"),
+            std::string::npos);
   EXPECT_FALSE(parse(kMinimal).later_drive.active());
   EXPECT_NE(parseError(std::string(kMinimal) + "later_drive:\n  noise_seed: 0\n")
                 .find("later_drive.noise_seed"),

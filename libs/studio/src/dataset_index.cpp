@@ -38,7 +38,11 @@ DatasetIndex DatasetIndex::build(const std::filesystem::path& dataset,
         index.camera_frames_[ref.image.sensor].push_back(std::move(ref));
       }
     } else if (auto* marker = std::get_if<MarkerObservation>(&*record)) {
-      index.markers_[marker->camera].push_back(*marker);
+      if (marker->marker_id == index.manifest_.marker.id) {
+        index.markers_[marker->camera].push_back(*marker);
+      } else {
+        index.fixed_markers_.push_back(*marker);
+      }
     } else if (auto* blobs = std::get_if<BlobObservation>(&*record)) {
       index.blobs_.push_back(std::move(*blobs));
     } else if (auto* pose = std::get_if<PoseSample>(&*record)) {

@@ -5,9 +5,11 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <sstream>
 
 #include "lookboth/cameras/camera_io.h"
 #include "lookboth/core/error.h"
+#include "lookboth/core/paths.h"
 #include "lookboth/dataset/dataset_io.h"
 #include "lookboth/sim/simulate.h"
 #include "lookboth/studio/dataset_edit.h"
@@ -74,6 +76,35 @@ TEST(DatasetIndexTest, IndexesASimulatedDatasetByCameraAndTime) {
   EXPECT_EQ(index.blobsAt(some.t)->t, some.t);
   EXPECT_EQ(index.blobsAt(some.t + 1), nullptr);
   EXPECT_TRUE(index.markers("no such camera").empty());
+}
+
+// Markers fixed on the floor are kept apart: the camera table and the views
+// count and draw the robot's marker alone.
+TEST(DatasetIndexTest, KeepsFixedMarkersApartFromTheRobots) {
+  TempDir dir;
+  std::ifstream in(shareDirectory() / "scenarios" / "small.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::ofstream(dir.path() / "floor.yaml")
+      << text.str() << "\nfloor_markers:\n  - {id: 23, position_m: [2.9, 2.4, 0]}\n";
+  sim::SimulateOptions options;
+  options.scenario = (dir.path() / "floor.yaml").string();
+  options.out = dir.path() / "drive.rawlog";
+  options.detections_only = true;
+  options.max_duration_s = 10;
+  sim::simulate(options, ProgressReporter());
+  const DatasetIndex index = DatasetIndex::build(options.out);
+  ASSERT_FALSE(index.fixedMarkers().empty());
+  for (const MarkerObservation& m : index.fixedMarkers()) EXPECT_EQ(m.marker_id, 23);
+  std::int64_t robot = 0;
+  for (const auto& row : index.cameraSummaries()) {
+    for (const MarkerObservation& m : index.markers(row.label)) {
+      EXPECT_EQ(m.marker_id, index.manifest().marker.id);
+    }
+    robot += row.detections;
+  }
+  EXPECT_EQ(robot + static_cast<std::int64_t>(index.fixedMarkers().size()),
+            index.recordCounts().at("marker"));
 }
 
 TEST(DatasetIndexTest, MissingDatasetIsAnErrorNamingIt) {

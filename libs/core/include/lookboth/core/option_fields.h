@@ -60,6 +60,9 @@ class OptionFields {
   bool isReading() const { return reader_ != nullptr; }
 
  private:
+  /// A mapping label: value, each value read by `read(node, field)`.
+  template <typename Value, typename Read>
+  void byLabel(const char* key, std::map<std::string, Value>& target, const char* form, Read read);
   OptionFields(const YamlReader* reader, YAML::Node node, std::string field,
                std::set<std::string>* keys)
       : reader_(reader), node_(node), field_(std::move(field)), keys_(keys) {}

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <variant>
 #include <vector>
@@ -81,6 +82,10 @@ struct PoseSample {
 };
 
 using Record = std::variant<ImageFrame, MarkerObservation, BlobObservation, PoseSample>;
+
+/// A detection's covariance over [dt; dtheta] (its information inverted);
+/// nullopt when the source gave none or it cannot be inverted.
+std::optional<Eigen::Matrix<double, 6, 6>> markerCovariance(const MarkerObservation& detection);
 
 /// Time of any record.
 TimeNs recordTime(const Record& record);

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "lookboth/cameras/camera.h"
+#include "lookboth/dataset/manifest.h"
 #include "lookboth/dataset/records.h"
 #include "lookboth/registration/registration.h"
 
@@ -61,10 +62,15 @@ struct ExportSources {
   std::vector<MarkerObservation> marker_detections;
 };
 
-/// The sources of a dataset (its manifest's calibrations and fisheye, the
-/// detections of its robot's marker), read in one pass; lookboth::Error
-/// naming the dataset when it cannot be read.
-ExportSources readExportSources(const std::filesystem::path& dataset);
+/// The sources in a dataset's manifest and detections: its calibrations and
+/// fisheye, the detections of its robot's marker (the other ids left out).
+ExportSources exportSources(const Manifest& manifest,
+                            const std::vector<MarkerObservation>& detections);
+/// The same read from a dataset: its detections only when `detections` (the
+/// MRPT graph's edges; the other formats need the manifest alone, which is
+/// read without a pass over the records). lookboth::Error naming the
+/// dataset when it cannot be read.
+ExportSources readExportSources(const std::filesystem::path& dataset, bool detections);
 
 /// What an export wrote, and what it left out and why (a camera whose model
 /// the format cannot express, e.g. a ROS camera_info for a double sphere).

@@ -49,8 +49,11 @@ class DatasetIndex {
   const std::vector<FrameRef>& fisheyeFrames() const { return fisheye_frames_; }
   /// Frames of an environment camera in time order (empty when none or unknown).
   const std::vector<FrameRef>& cameraFrames(const std::string& label) const;
-  /// Marker observations of an environment camera in time order.
+  /// The robot marker's observations by an environment camera in time order.
   const std::vector<MarkerObservation>& markers(const std::string& label) const;
+  /// Observations of the other markers (fixed in the facility: control
+  /// points "marker:<id>"), of every camera, in the dataset's order.
+  const std::vector<MarkerObservation>& fixedMarkers() const { return fixed_markers_; }
   /// Blob observations (fisheye) in time order.
   const std::vector<BlobObservation>& blobs() const { return blobs_; }
   /// The blob observation stamped exactly t, or nullptr.
@@ -72,6 +75,7 @@ class DatasetIndex {
   std::vector<FrameRef> fisheye_frames_;
   std::map<std::string, std::vector<FrameRef>> camera_frames_;
   std::map<std::string, std::vector<MarkerObservation>> markers_;
+  std::vector<MarkerObservation> fixed_markers_;
   std::vector<BlobObservation> blobs_;
   std::map<std::string, Trajectory> trajectories_;
   std::map<std::string, std::int64_t> record_counts_;
