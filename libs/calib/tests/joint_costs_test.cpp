@@ -2,11 +2,13 @@
 // against the reference autodiff BlobCost: same residuals, same Jacobians.
 #include <gtest/gtest.h>
 
+#include <iostream>
 #include <random>
 
 #include "../src/joint_adjustment.h"
 #include "../src/joint_costs.h"
 #include "lookboth/cameras/camera_io.h"
+#include "lookboth/core/test_seed.h"
 #include "lookboth/geometry/random.h"
 
 namespace lookboth {
@@ -115,7 +117,7 @@ TEST(JointCosts, SmoothPositionsKeepsAQuadraticAndShrinksNoise) {
   auto at = [](double t) {
     return Eigen::Vector3d(0.8 * t + 0.15 * t * t, -0.3 * t * t, 0.01 * t);
   };
-  std::mt19937 rng(7);
+  std::mt19937 rng(testSeed(7));
   std::normal_distribution<double> noise(0.0, 0.002);
   std::vector<StampedPose> clean, noisy;
   for (int i = 0; i < 300; ++i) {
@@ -147,6 +149,7 @@ TEST(JointCosts, SmoothPositionsKeepsAQuadraticAndShrinksNoise) {
                  .squaredNorm();
   }
   // 13 samples, quadratic: the centre's variance is 0.175 of a sample's.
+  std::cout << "smoothed noise over the input's: " << std::sqrt(after / before) << "\n";
   EXPECT_LT(std::sqrt(after / before), 0.5);
   EXPECT_GT(std::sqrt(after / before), 0.3);
   // No smoothing asked: the input.
@@ -475,7 +478,7 @@ TEST(JointClockSearch, KeepsTheConfiguredOffsetUnlessAnotherIsClearlyBetter) {
 // the camera is good. Sharing the mean rotation removes what the rotation
 // noise does to the camera positions: noise-free positions come back.
 TEST(JointClockSearch, SharedRotationRemovesTheMarkersRotationNoise) {
-  std::mt19937 rng(5);
+  std::mt19937 rng(testSeed(5));
   std::normal_distribution<double> deg(0.0, 2.0 * M_PI / 180.0);
   const Rigid3d world_from_camera(so3Exp(Eigen::Vector3d(3.1, 0.05, -0.4)),
                                   Eigen::Vector3d(4.0, -2.0, 3.2));

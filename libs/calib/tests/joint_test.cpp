@@ -7,6 +7,7 @@
 
 #include "lookboth/calib/builtin_stages.h"
 #include "lookboth/core/error.h"
+#include "lookboth/core/test_seed.h"
 #include "lookboth/geometry/lie.h"
 #include "lookboth/geometry/random.h"
 #include "lookboth/sim/marker_corners.h"
@@ -171,11 +172,13 @@ JointOptions everySampleANode() {
   return joint;
 }
 
-// Solves the noisy synthetic scene of seeds 1..seeds, its trajectory drifted
-// with the drift model of `joint` itself, and hands each to visit(scene, problem).
+// Solves `seeds` noisy synthetic scenes (seeds 1..seeds, a block of its own
+// under a test seed offset), its trajectory drifted with the drift model of
+// `joint` itself, and hands each to visit(scene, problem).
 template <typename Visit>
 void solveDriftedScenes(const JointOptions& joint, std::uint32_t seeds, Visit visit) {
-  for (std::uint32_t seed = 1; seed <= seeds; ++seed) {
+  const std::uint32_t first = testSeedBlock(1, seeds);
+  for (std::uint32_t seed = first; seed < first + seeds; ++seed) {
     SyntheticScene scene = makeSyntheticScene(noisyOptions(seed));
     std::mt19937 rng(seed + 100);
     scene.input.trajectory = Trajectory(driftedTrajectory(scene.truth, joint, rng));
@@ -275,6 +278,16 @@ TEST(Joint, PredictsThePositionErrorAfterAlignment) {
 // NEES/dof over the seeds 1.18); given the trajectory it misses what the bias
 // does to the trajectory, which carries it to the other cameras (1.50); left
 // out, it is too small (3.1).
+//
+// The 24 cameras are 4 scenes of 6 that share their scene's drift and biases,
+// so their errors are correlated: at worst each scene's 6 err as one, and the
+// mean NEES/dof is chi2(24) / 24, within [0.33, 2.14] at 99.9 % each side
+// (over noise realisations it spreads 0.77-1.47, as only ~5 independent
+// cameras would). The three runs solve the same draws, so their ratios do not
+// carry how large this draw's errors are: given the trajectory 1.15-1.54
+// times the counted NEES, left out 2.2-3.4 times (seed offsets 0-20); the
+// bounds ask for the effect (given above counted, left out far above) with
+// a margin below those.
 TEST(Joint, CountsTheErrorsAPassShares) {
   JointOptions joint = everySampleANode();
   joint.pass_error_share = 1.0;
@@ -284,7 +297,8 @@ TEST(Joint, CountsTheErrorsAPassShares) {
   independent.pass_error_share = 0;
   double nees[3] = {0, 0, 0};
   int cameras = 0;
-  for (std::uint32_t seed = 1; seed <= 4; ++seed) {
+  const std::uint32_t first = testSeedBlock(1, 4);
+  for (std::uint32_t seed = first; seed < first + 4; ++seed) {
     SyntheticScene scene = makeSyntheticScene(noisyOptions(seed));
     std::map<std::string, std::vector<MarkerObservation*>> passes;
     for (MarkerObservation& m : scene.input.markers) passes[m.camera].push_back(&m);
@@ -305,10 +319,10 @@ TEST(Joint, CountsTheErrorsAPassShares) {
   std::cout << "mean NEES/dof over " << cameras << " cameras: shares counted through the "
             << "trajectory " << nees[0] / cameras << ", given it " << nees[1] / cameras
             << ", left out " << nees[2] / cameras << "\n";
-  EXPECT_GE(nees[0] / cameras, 0.7);
-  EXPECT_LE(nees[0] / cameras, 1.35);
-  EXPECT_GT(nees[1] / cameras, nees[0] / cameras + 0.15);
-  EXPECT_GT(nees[2] / cameras, 2.5);
+  EXPECT_GE(nees[0] / cameras, 0.33);
+  EXPECT_LE(nees[0] / cameras, 2.14);
+  EXPECT_GT(nees[1], 1.1 * nees[0]);
+  EXPECT_GT(nees[2], 2.0 * nees[0]);
 }
 
 // The drift model estimated from the data: the trajectory drifts with a
@@ -337,7 +351,8 @@ TEST(Joint, EstimatesTheDriftModelFromTheData) {
   const std::uint32_t seeds = 3;
   double squared[3] = {0, 0, 0}, nees = 0;
   int cameras = 0;
-  for (std::uint32_t seed = 1; seed <= seeds; ++seed) {
+  const std::uint32_t first = testSeedBlock(1, seeds);
+  for (std::uint32_t seed = first; seed < first + seeds; ++seed) {
     SyntheticScene scene = makeSyntheticScene(noisyOptions(seed));
     std::mt19937 rng(seed + 100);
     scene.input.trajectory = Trajectory(driftedTrajectory(scene.truth, truth, rng));
@@ -389,7 +404,7 @@ TEST(Joint, SmoothsAJitteryVisualTrajectoryOnly) {
   for (const double jitter_m : {0.0, 0.005}) {
     SyntheticScene scene = makeSyntheticScene(SyntheticOptions{});
     std::vector<StampedPose> samples = scene.truth;
-    std::mt19937 rng(11);
+    std::mt19937 rng(testSeed(11));
     std::normal_distribution<double> noise(0.0, jitter_m);
     for (StampedPose& p : samples) {
       p.world_from_body.translation += drawVector<3>([&] { return noise(rng); });
@@ -408,7 +423,7 @@ TEST(Joint, RecoversAClockOffsetOf150ms) {
   // against the detections (camera clock), i.e. to (position sigma / speed):
   // with the synthetic 640x360 fisheye at 0.6 m/s the offsets' sigma is
   // 2.5 ms; at 1.5 m/s, 4 laps, 0.3 px blobs and 1 mm detections, ~1 ms.
-  SyntheticOptions o = noisyOptions(3);
+  SyntheticOptions o = noisyOptions(testSeed(3));
   o.marker_translation_sigma_m = 0.001;
   o.blob_sigma_px = 0.3;
   o.speed_mps = 1.5;
@@ -457,7 +472,7 @@ TEST(Joint, RestartFindsALargeClockOffsetOnASinglePass) {
   // rendered `paper`), so joint restarts it with its offset search. (On the
   // rendered `paper` the search needed the blob score; in this synthetic
   // scene joint also converges from the spread-only start.)
-  SyntheticOptions o = noisyOptions(5);
+  SyntheticOptions o = noisyOptions(testSeed(5));
   o.laps = 1;
   SyntheticScene scene = makeSyntheticScene(o);
   const TimeNs offset = -400'000'000;
@@ -491,7 +506,7 @@ TEST(Joint, RestartFindsALargeClockOffsetOnASinglePass) {
 // out as accurate as when it keeps all of its detections (the same scene and
 // noise, compared over the same five cameras).
 TEST(Joint, CameraWithTooFewDetectionsStaysUnregistered) {
-  SyntheticScene scene = makeSyntheticScene(noisyOptions(4));
+  SyntheticScene scene = makeSyntheticScene(noisyOptions(testSeed(4)));
   std::map<std::string, Rigid3d> others = scene.world_from_camera;
   others.erase("cam01");
   const auto all_kept = accuracyAgainst(solve(scene, forExactTrajectory()).result, others);
@@ -521,8 +536,8 @@ TEST(Joint, CameraWithTooFewDetectionsStaysUnregistered) {
 }
 
 TEST(Joint, NoisyCornersAndPosesBothWork) {
-  SyntheticScene scene = makeSyntheticScene(noisyOptions(5));
-  addCorners(scene, 0.3, 9);  // corners of the true marker poses, 0.3 px noise
+  SyntheticScene scene = makeSyntheticScene(noisyOptions(testSeed(5)));
+  addCorners(scene, 0.3, testSeed(9));  // corners of the true marker poses, 0.3 px noise
   JointOptions corners = forExactTrajectory();
   JointOptions poses = forExactTrajectory();
   poses.use_corners = false;
@@ -545,7 +560,7 @@ TEST(Joint, NoisyCornersAndPosesBothWork) {
 // before (look_down's position on the input trajectory) and after the joint
 // estimate, with blob_associations.csv's rows from the same blobs.
 TEST(Joint, ReportsTheReprojectionOfItsOwnEstimate) {
-  const SyntheticScene scene = makeSyntheticScene(noisyOptions(6));
+  const SyntheticScene scene = makeSyntheticScene(noisyOptions(testSeed(6)));
   const RegistrationProblem problem = solve(scene, forExactTrajectory());
   const Registration& r = problem.result;
   ASSERT_TRUE(r.reprojection.has_value());

@@ -1,10 +1,12 @@
 // Each stage alone on synthetic problems: noise-free input recovered to
 // 1e-6, noisy input within bounds derived from the noise, faults reported.
 #include <algorithm>
+#include <iostream>
 
 #include <gtest/gtest.h>
 
 #include "lookboth/calib/builtin_stages.h"
+#include "lookboth/core/test_seed.h"
 #include "lookboth/geometry/lie.h"
 #include "lookboth/geometry/random.h"
 #include "synthetic.h"
@@ -251,11 +253,21 @@ TEST(MotionCalibration, NoisyWithinBounds) {
   o.loop_length_m = 40;
   o.marker_translation_sigma_m = 0.003;
   o.marker_rotation_sigma_deg = 1.0;
+  o.seed = testSeed(o.seed);
   SyntheticScene scene = makeSyntheticScene(o);
   useVisualOdometry(scene, 1.7);
   RegistrationProblem problem = problemFor(scene);
   runAssociate(problem, {}, ProgressReporter());
   runMotionCalibration(problem, exactPrior(scene), ProgressReporter());
+  std::cout
+      << "scale " << problem.scale << " (1.7, sigma " << problem.result.scale_sigma
+      << "), mount translation error "
+      << (problem.fisheye_from_marker->translation - scene.fisheye_from_marker.translation).norm() *
+             1e3
+      << " mm, rotation error "
+      << rotationError(problem.fisheye_from_marker->rotation, scene.fisheye_from_marker.rotation) /
+             kDeg
+      << " deg\n";
   EXPECT_NEAR(problem.scale, 1.7, 1.7 * 3e-3);
   EXPECT_LT(
       (problem.fisheye_from_marker->translation - scene.fisheye_from_marker.translation).norm(),
@@ -292,10 +304,20 @@ TEST(LookDown, NoiseFreeRecoversEveryCamera) {
   }
 }
 
+// The position RMSE the cameras' covariances predict: sqrt(mean trace).
+double predictedPositionRmse(const Registration& result) {
+  double trace = 0;
+  for (const CameraRegistration& c : result.cameras) {
+    trace += c.covariance->topLeftCorner<3, 3>().trace();
+  }
+  return std::sqrt(trace / static_cast<double>(result.cameras.size()));
+}
+
 TEST(LookDown, NoisyWithinBoundsAndCovarianceConsistent) {
   SyntheticOptions o;
   o.marker_translation_sigma_m = 0.005;
   o.marker_rotation_sigma_deg = 2.0;
+  o.seed = testSeed(o.seed);
   SyntheticScene scene = makeSyntheticScene(o);
   RegistrationProblem problem = calibrated(scene);
   LookDownOptions options;
@@ -304,7 +326,15 @@ TEST(LookDown, NoisyWithinBoundsAndCovarianceConsistent) {
   runLookDown(problem, options, ProgressReporter());
   const auto a = accuracyAgainst(problem.result, scene.world_from_camera);
   EXPECT_EQ(a.compared, 6);
-  EXPECT_LT(a.position_rmse_m, 0.01);
+  for (const CameraRegistration& c : problem.result.cameras) ASSERT_TRUE(c.covariance) << c.label;
+  // The position RMSE squared is a sum of 18 squared errors, over 6 cameras
+  // of comparable covariance: at least 6 degrees of freedom whatever each
+  // covariance's shape, so its 99.9 % point is at most chi2(6) 22.46 / 6 =
+  // 3.74 times the predicted square: the RMSE within 1.93 times the
+  // prediction. (A fixed 1 cm lies inside the RMSE's spread over noise
+  // realisations, 5.9-10.9 mm.)
+  const double predicted = predictedPositionRmse(problem.result);
+  EXPECT_LT(a.position_rmse_m, 1.93 * predicted);
   EXPECT_LT(a.rotation_rmse_deg, 0.5);
   // Normalised error: sum over cameras of e^T C^-1 e ~ chi2(36); bound it loosely.
   double nees = 0;
@@ -316,6 +346,9 @@ TEST(LookDown, NoisyWithinBoundsAndCovarianceConsistent) {
         so3Log(Eigen::Quaterniond(c.world_from_camera.rotation.conjugate() * truth.rotation));
     nees += e.dot(c.covariance->inverse() * e);
   }
+  std::cout << "look_down: position RMSE " << a.position_rmse_m * 1e3 << " mm (predicted "
+            << predicted * 1e3 << " mm), rotation RMSE " << a.rotation_rmse_deg << " deg, NEES "
+            << nees << " (36 dof)\n";
   EXPECT_LT(nees, 36 * 4.0);
   EXPECT_GT(nees, 36 / 4.0);
 }
@@ -396,10 +429,11 @@ TEST(LookUp, NoiseFreeRecoversPerturbedPositions) {
 TEST(LookUp, NoisyBlobsImprovePositions) {
   SyntheticOptions o;
   o.blob_sigma_px = 1.0;
+  o.seed = testSeed(o.seed);
   SyntheticScene scene = makeSyntheticScene(o);
   RegistrationProblem problem = calibrated(scene);
   runLookDown(problem, {}, ProgressReporter());
-  std::mt19937 rng(5);
+  std::mt19937 rng(testSeed(5));
   std::normal_distribution<double> n(0.0, 0.05);
   for (CameraRegistration& c : problem.result.cameras) {
     c.world_from_camera.translation += drawVector<3>([&] { return n(rng); });
@@ -407,6 +441,8 @@ TEST(LookUp, NoisyBlobsImprovePositions) {
   const double before = accuracyAgainst(problem.result, scene.world_from_camera).position_rmse_m;
   runLookUp(problem, {}, ProgressReporter());
   const auto a = accuracyAgainst(problem.result, scene.world_from_camera);
+  std::cout << "look_up: position RMSE " << before * 1e3 << " mm -> " << a.position_rmse_m * 1e3
+            << " mm\n";
   EXPECT_LT(a.position_rmse_m, 0.01);
   EXPECT_LT(a.position_rmse_m, before / 4);
   ASSERT_TRUE(problem.result.reprojection);
@@ -421,6 +457,7 @@ TEST(LookUp, PositionCovarianceFollowsTheBlobs) {
   auto run = [](double blob_sigma_px, double* mean_trace, double* nees_per_dof) {
     SyntheticOptions o;
     o.blob_sigma_px = blob_sigma_px;
+    o.seed = testSeed(o.seed);
     SyntheticScene scene = makeSyntheticScene(o);
     RegistrationProblem problem = calibrated(scene);
     runLookDown(problem, {}, ProgressReporter());
@@ -444,6 +481,8 @@ TEST(LookUp, PositionCovarianceFollowsTheBlobs) {
   double trace_1 = 0, nees_1 = 0, trace_025 = 0, nees_025 = 0;
   run(1.0, &trace_1, &nees_1);
   run(0.25, &trace_025, &nees_025);
+  std::cout << "look_up covariance: trace ratio " << trace_1 / trace_025 << ", NEES/dof " << nees_1
+            << " (1 px), " << nees_025 << " (0.25 px)\n";
   EXPECT_GT(trace_1 / trace_025, 8.0);
   EXPECT_LT(trace_1 / trace_025, 32.0);
   for (const double nees : {nees_1, nees_025}) {

@@ -21,6 +21,7 @@
 
 #include "lookboth/cameras/camera_io.h"
 #include "lookboth/core/error.h"
+#include "lookboth/core/test_seed.h"
 #include "lookboth/core/text.h"
 #include "lookboth/dataset/marker_dictionary.h"
 #include "lookboth/detect/detection_evaluation.h"
@@ -120,15 +121,18 @@ TEST(MarkerPose, CovarianceMatchesTheErrorsOfNoisyCorners) {
   // Corners with Gaussian noise of the sigma the detector assumes: the
   // normalised error squared e^T I e is chi-square with 6 degrees of freedom
   // (mean 6, variance 12) to first order; over 400 trials its mean has a
-  // standard deviation of sqrt(12 / 400) = 0.17: [5, 7] is a 6-sigma bound
-  // (the pose is non-linear in the corners: the bound holds at this noise).
+  // standard deviation of sqrt(12 / 400) = 0.17. Beyond first order the pose
+  // is non-linear in the corners (the tilt most: sim/marker_corners), which
+  // lifts the mean to about 6.5 at this noise, with a spread of about 0.25
+  // over noise realisations (6.20-7.10 over seed offsets 0-10): [5, 7.5] is
+  // at least 4 of those sigmas from 6.5 on either side.
   // The hypothesis closest to the truth is scored (the ambiguity is a
   // separate question: see AmbiguityIsResolvedByTheTrack).
   const Camera camera = envCamera();
   MarkerDetectorOptions options;
   options.corner_sigma_px = 0.1;
   MarkerDetector detector(kMarker, camera, options);
-  std::mt19937 rng(11);
+  std::mt19937 rng(testSeed(11));
   std::normal_distribution<double> noise(0.0, options.corner_sigma_px);
   double sum = 0;
   int n = 0;
@@ -150,7 +154,7 @@ TEST(MarkerPose, CovarianceMatchesTheErrorsOfNoisyCorners) {
   std::printf("synthetic corners, sigma %.2f px: mean NEES %.2f over %d trials (6 expected)\n",
               options.corner_sigma_px, mean_nees, n);
   EXPECT_GT(mean_nees, 5.0);
-  EXPECT_LT(mean_nees, 7.0);
+  EXPECT_LT(mean_nees, 7.5);
 }
 
 TEST(MarkerPose, AmbiguityIsResolvedByTheTrack) {
@@ -160,7 +164,7 @@ TEST(MarkerPose, AmbiguityIsResolvedByTheTrack) {
   // is the same in every frame) chooses right.
   const Camera camera = envCamera();
   MarkerDetector detector(kMarker, camera);
-  std::mt19937 rng(3);
+  std::mt19937 rng(testSeed(3));
   std::normal_distribution<double> noise(0.0, 0.3);
   std::uniform_real_distribution<double> u(-1, 1);
   const Eigen::Quaterniond facing(Eigen::Matrix3d(Eigen::Vector3d(1, -1, -1).asDiagonal()));
@@ -292,7 +296,8 @@ TEST(MarkerDetector, RenderedFramesAccuracyAndCorners) {
   const Camera camera = envCamera();
   std::vector<double> corner_error, position_error, nees;
   int detected = 0, total = 0;
-  for (std::uint32_t pass = 1; pass <= 2; ++pass) {
+  const std::uint32_t first = testSeedBlock(1, 2);
+  for (std::uint32_t pass = first; pass < first + 2; ++pass) {
     MarkerDetector detector(kMarker, camera);
     for (const RenderedFrame& f : renderPass(camera, 5, pass)) {
       bool in_view = true;  // the whole marker inside the image
@@ -306,11 +311,13 @@ TEST(MarkerDetector, RenderedFramesAccuracyAndCorners) {
       const auto truth_px = projectCorners(camera, f.camera_from_marker, 0.2);
       for (size_t k = 0; k < 4; ++k)
         corner_error.push_back((found[0].corners_px[k] - truth_px[k]).norm());
-      // The hypothesis nearest the truth (the ambiguity is the track's job).
-      double best = 1e300, best_nees = 0;
+      // The hypothesis nearest the truth (the ambiguity is the track's job),
+      // by NEES: the two hypotheses' positions can be a millimetre apart
+      // while their tilts are not, and the flipped one's NEES is thousands.
+      double best = 0, best_nees = 1e300;
       for (const MarkerPoseHypothesis& h : found[0].hypotheses) {
         const Eigen::Matrix<double, 6, 1> e = poseError(h.camera_from_marker, f.camera_from_marker);
-        if (e.head<3>().norm() < best) {
+        if (e.dot(h.information * e) < best_nees) {
           best = e.head<3>().norm();
           best_nees = e.dot(h.information * e);
         }
@@ -345,7 +352,7 @@ TEST(MarkerDetector, FisheyeEnvironmentCamera) {
   MarkerDetector detector(kMarker, camera);
   std::vector<double> position_error;
   int detected = 0, total = 0;
-  for (const RenderedFrame& f : renderPass(camera, 4, 21)) {
+  for (const RenderedFrame& f : renderPass(camera, 4, testSeed(21))) {
     ++total;
     const auto found = detector.detect(f.image);
     if (found.size() != 1) continue;

@@ -7,11 +7,15 @@
 #include <mrpt/opengl/COpenGLScene.h>
 
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include "lookboth/calib/builtin_stages.h"
 #include "lookboth/core/error.h"
+#include "lookboth/core/test_seed.h"
 #include "lookboth/pipeline/full_pipeline.h"
 #include "lookboth/pipeline/registration_controller.h"
+#include "lookboth/sim/scenario.h"
 #include "lookboth/sim/simulate.h"
 #include "synthetic.h"
 
@@ -19,6 +23,29 @@ namespace lookboth {
 namespace {
 
 namespace fs = std::filesystem;
+
+// The built-in scenario `name` with its seed (world, cameras, path) and its
+// noise drawn from testSeed(seed) (later_drive.noise_seed): under a test seed
+// offset, the same facility with another realisation of every random error.
+// Without an offset, the built-in scenario itself.
+std::string scenarioWithTestNoise(const std::string& name, std::uint32_t seed,
+                                  const fs::path& dir) {
+  if (testSeed(seed) == seed) return name;
+  std::ifstream in(sim::builtinScenarioDirectory() / (name + ".yaml"));
+  std::stringstream yaml;
+  yaml << in.rdbuf();
+  std::string text = yaml.str();
+  // `faults`' clock jump on a random camera would follow the noise seed: the
+  // tests expect it on cam00, where the scenario's seed (13) puts it.
+  const std::string random_node = "node: random";
+  if (const auto at = text.find(random_node); at != std::string::npos) {
+    text.replace(at, random_node.size(), "node: cam00");
+  }
+  text += "\nlater_drive:\n  noise_seed: " + std::to_string(testSeed(seed)) + "\n";
+  const fs::path file = dir / (name + "_noise_" + std::to_string(seed) + ".yaml");
+  std::ofstream(file) << text;
+  return file.string();
+}
 
 class PipelineTest : public ::testing::Test {
  protected:
@@ -29,12 +56,11 @@ class PipelineTest : public ::testing::Test {
     fs::create_directories(*dir_);
     for (const char* scenario : {"small", "faults", "revisit", "faults6"}) {
       sim::SimulateOptions options;
-      options.scenario = scenario;
+      const std::string name = std::string(scenario) == "faults6" ? "faults" : scenario;
+      if (std::string(scenario) == "faults6") options.seed = 6;  // `faults` with seed 6
+      options.scenario =
+          scenarioWithTestNoise(name, options.seed.value_or(sim::loadScenario(name).seed), *dir_);
       options.detections_only = true;
-      if (std::string(scenario) == "faults6") {  // `faults` with seed 6
-        options.scenario = "faults";
-        options.seed = 6;
-      }
       options.out = *dir_ / scenario / (std::string(scenario) + ".rawlog");
       fs::create_directories(options.out.parent_path());
       sim::simulate(options, ProgressReporter());
@@ -80,7 +106,7 @@ class PipelineTest : public ::testing::Test {
     options.trajectory_label = "ground_truth";
     RegistrationInput input = loadRegistrationInput(options, ProgressReporter());
     std::vector<StampedPose> vo = input.trajectory.samples();
-    *world_from_vo = testing::makeVisualOdometry(vo, 0.45, 0.001, 0.02, 3);
+    *world_from_vo = testing::makeVisualOdometry(vo, 0.45, 0.001, 0.02, testSeed(3));
     input.trajectory = Trajectory(vo);
     input.mode = TrajectoryMode::kVisual;
     return input;
@@ -119,7 +145,7 @@ TEST_F(PipelineTest, SmallMetricGroundTruthTrajectory) {
   ASSERT_TRUE(r.reprojection);
   EXPECT_LT(r.reprojection->rms_px_after, r.reprojection->rms_px_before);
   EXPECT_LT(r.reprojection->rms_px_after, 2.5);  // blob noise 1.2 px per axis
-  EXPECT_FALSE(r.fisheye_from_marker_determined[2]);
+  EXPECT_FALSE(r.fisheye_from_marker_determined[2]) << r.observability.message;
   EXPECT_FALSE(run.rays.empty());
 }
 
@@ -300,7 +326,11 @@ TEST_F(PipelineTest, FaultsCompleteWithFaultsReported) {
     const CameraRegistration* jumped = r.findCamera("cam00");
     ASSERT_NE(jumped, nullptr);
     if (paper) {
-      EXPECT_EQ(jumped->status, CameraStatus::kSuspect) << jumped->reason;
+      // Suspect, or unregistered when too few of its detections agree on one
+      // pose (on some noise realisations 2 of its 73 do): which of the two
+      // depends on the noise; the disagreement is said either way.
+      EXPECT_NE(jumped->status, CameraStatus::kRegistered) << jumped->reason;
+      EXPECT_NE(jumped->reason.find("disagree"), std::string::npos) << jumped->reason;
       EXPECT_GT(jumped->detections.rejected, 0);
     } else {
       EXPECT_EQ(jumped->status, CameraStatus::kRegistered) << jumped->reason;
@@ -314,7 +344,7 @@ TEST_F(PipelineTest, FaultsCompleteWithFaultsReported) {
       // Its clock is the one thing to act on: the only camera with a warning.
       for (const CameraRegistration& c : r.cameras) {
         if (c.label == "cam00") {
-          ASSERT_EQ(c.warnings.size(), 1u);
+          ASSERT_EQ(c.warnings.size(), 1u) << ::testing::PrintToString(c.warnings);
           EXPECT_NE(c.warnings[0].find("clock offset"), std::string::npos) << c.warnings[0];
         } else {
           EXPECT_TRUE(c.warnings.empty()) << c.label << ": " << c.warnings.front();
@@ -323,7 +353,7 @@ TEST_F(PipelineTest, FaultsCompleteWithFaultsReported) {
     }
     // The others are registered and near the truth.
     const auto a = testing::accuracyAgainst(r, input.manifest.ground_truth.world_from_camera);
-    EXPECT_EQ(a.compared, 6);
+    EXPECT_EQ(a.compared, jumped->status == CameraStatus::kUnregistered ? 5 : 6);
     EXPECT_LT(a.position_rmse_m, paper ? 0.1 : 0.03);
     EXPECT_FALSE(r.notes.empty());
   }
