@@ -884,7 +884,7 @@ void MainFrame::checkAgainst(const std::string& record) {
   }
   try {
     auto check = std::make_shared<const FacilityCheck>(
-        checkFacility(*registration_, loadRegistration(record)));
+        checkFacility(*registration_, loadRegistration(record, {false})));
     log(wxString::Format("check against %s: %d moved, %d unchanged, %d not seen, %d new",
                          wxString::FromUTF8(record), check->moved, check->unchanged,
                          check->not_seen, check->added));

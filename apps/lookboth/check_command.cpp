@@ -40,8 +40,10 @@ int runCheck(const CheckArgs& args) {
   if (!args.update_out.empty()) {
     checkOutputPath(args.update_out, {args.registration, args.against}, args.overwrite);
   }
-  const Registration fresh = loadRegistration(args.registration);
-  const Registration record = loadRegistration(args.against);
+  // The cameras are compared; the record's blobs are read only to be written
+  // again with it (--update-out).
+  const Registration fresh = loadRegistration(args.registration, {false});
+  const Registration record = loadRegistration(args.against, {!args.update_out.empty()});
   const FacilityCheck check = checkFacility(fresh, record, args.options);
   std::cout << args.registration << " against " << args.against << "\n";
   printFacilityCheck(check, args.options);

@@ -377,7 +377,8 @@ RegistrationPipeline::RegistrationPipeline(FullPipelineOptions options)
                   "unchanged cameras at the record)");
     }
     checkOutsideRecord(options_.out, options_.update_record);
-    state_->record = loadRegistration(options_.update_record);
+    // Its cameras are what the update holds to; its blobs it does not read.
+    state_->record = loadRegistration(options_.update_record, {false});
     steps_.push_back("update");
   }
   steps_.push_back("output");
@@ -572,7 +573,7 @@ FacilityCheck RegistrationPipeline::updateRecord(const std::filesystem::path& re
   checkOutsideRecord(out, record);
   checkRegistrationOutput(out, false, {record, dataset()});
   const FacilityCheck check =
-      state_->session->updateRecord(loadRegistration(record), options, progress);
+      state_->session->updateRecord(loadRegistration(record, {false}), options, progress);
   RegistrationRun run = currentRun();
   writeRegistrationOutput(run, out, false);
   state_->written = std::move(run);

@@ -570,7 +570,8 @@ void saveRegistration(const Registration& reg, const std::filesystem::path& dir)
   }
 }
 
-Registration loadRegistration(const std::filesystem::path& dir) {
+Registration loadRegistration(const std::filesystem::path& dir,
+                              const RegistrationLoadOptions& options) {
   const std::filesystem::path yaml_path = dir / "registration.yaml";
   const Reader r(yaml_path.string());
   const YAML::Node root = r.parse(readFile(yaml_path));
@@ -753,7 +754,9 @@ Registration loadRegistration(const std::filesystem::path& dir) {
   const std::filesystem::path tum = dir / "trajectory.tum";
   if (std::filesystem::exists(tum)) reg.trajectory = readTumFile(tum).samples();
   const std::filesystem::path blobs = dir / "blob_associations.csv";
-  if (std::filesystem::exists(blobs)) reg.blob_associations = readBlobAssociations(blobs);
+  if (options.blob_associations && std::filesystem::exists(blobs)) {
+    reg.blob_associations = readBlobAssociations(blobs);
+  }
   return reg;
 }
 

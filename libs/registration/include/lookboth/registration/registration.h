@@ -216,9 +216,17 @@ struct Registration {
 /// Other files in `dir` (scene.3Dscene) are left alone.
 void saveRegistration(const Registration& registration, const std::filesystem::path& dir);
 
+/// What loadRegistration reads besides registration.yaml and the trajectory.
+struct RegistrationLoadOptions {
+  /// blob_associations.csv (a large facility's runs to 100,000 rows): a
+  /// record that a check or an update compares cameras with needs none.
+  bool blob_associations = true;
+};
+
 /// Reads a directory written by saveRegistration. Errors (lookboth::Error)
 /// name the file, line and field.
-Registration loadRegistration(const std::filesystem::path& dir);
+Registration loadRegistration(const std::filesystem::path& dir,
+                              const RegistrationLoadOptions& options = {});
 
 /// The YAML text of registration.yaml.
 std::string registrationToYaml(const Registration& registration);
