@@ -332,6 +332,20 @@ void readClocks(Parser& p, Section s, ClockSpec& c) {
   s.finish();
 }
 
+/// A list of mappings at `field` (absent: nothing), each read by
+/// `item(section)` and then checked for unknown keys.
+template <typename Item>
+void readList(Parser& p, const YAML::Node& list, const std::string& field, const char* form,
+              Item item) {
+  if (!list.IsDefined()) return;
+  if (!list.IsSequence()) throw Error(p.at(list, field), std::string("expected a list of ") + form);
+  for (size_t i = 0; i < list.size(); ++i) {
+    Section m(p, list[i], field + "[" + std::to_string(i) + "]");
+    item(m);
+    m.finish();
+  }
+}
+
 void readFaults(Parser& p, Section s, FaultSpec& f) {
   s.number("drop_probability", f.drop_probability);
   {
@@ -344,22 +358,17 @@ void readFaults(Parser& p, Section s, FaultSpec& f) {
   s.number("occlusion_probability", f.occlusion_probability);
   s.boolean("unvisited_camera", f.unvisited_camera);
   s.integer("duplicated_timestamps", f.duplicated_timestamps);
-  if (const YAML::Node blur = s.get("motion_blur"); blur.IsDefined()) {
-    if (!blur.IsSequence())
-      throw Error(p.at(blur, "faults.motion_blur"), "expected a list of {start_s, end_s, blur_px}");
-    for (size_t i = 0; i < blur.size(); ++i) {
-      Section b(p, blur[i], "faults.motion_blur[" + std::to_string(i) + "]");
-      MotionBlurBurst burst;
-      b.require("start_s");
-      b.require("end_s");
-      b.require("blur_px");
-      b.number("start_s", burst.start_s);
-      b.number("end_s", burst.end_s);
-      b.number("blur_px", burst.blur_px);
-      b.finish();
-      f.motion_blur.push_back(burst);
-    }
-  }
+  readList(p, s.get("motion_blur"), "faults.motion_blur", "{start_s, end_s, blur_px}",
+           [&](Section& b) {
+             MotionBlurBurst burst;
+             b.require("start_s");
+             b.require("end_s");
+             b.require("blur_px");
+             b.number("start_s", burst.start_s);
+             b.number("end_s", burst.end_s);
+             b.number("blur_px", burst.blur_px);
+             f.motion_blur.push_back(burst);
+           });
   if (const YAML::Node region = s.get("low_texture_region"); region.IsDefined())
     f.low_texture_region = p.numbers(region, "faults.low_texture_region", 4);
   s.finish();
@@ -373,34 +382,21 @@ void readLaterDrive(Parser& p, Section s, LaterDriveSpec& later) {
     }
     later.noise_seed = static_cast<std::uint32_t>(value);
   }
-  if (const YAML::Node moved = s.get("moved"); moved.IsDefined()) {
-    if (!moved.IsSequence()) {
-      throw Error(p.at(moved, "later_drive.moved"),
-                  "expected a list of {camera, translate_m, rotate_deg, replaced_by}");
-    }
-    for (size_t i = 0; i < moved.size(); ++i) {
-      Section m(p, moved[i], "later_drive.moved[" + std::to_string(i) + "]");
-      CameraMove move;
-      m.require("camera");
-      m.text("camera", move.camera);
-      m.vector3("translate_m", move.translate_m);
-      m.vector3("rotate_deg", move.rotate_deg);
-      m.text("replaced_by", move.replaced_by);
-      m.finish();
-      later.moved.push_back(move);
-    }
-  }
+  readList(p, s.get("moved"), "later_drive.moved", "{camera, translate_m, rotate_deg, replaced_by}",
+           [&](Section& m) {
+             CameraMove move;
+             m.require("camera");
+             m.text("camera", move.camera);
+             m.vector3("translate_m", move.translate_m);
+             m.vector3("rotate_deg", move.rotate_deg);
+             m.text("replaced_by", move.replaced_by);
+             later.moved.push_back(move);
+           });
   s.finish();
 }
 
 void readFloorMarkers(Parser& p, const YAML::Node& list, std::vector<FloorMarkerSpec>& markers) {
-  if (!list.IsDefined()) return;
-  if (!list.IsSequence()) {
-    throw Error(p.at(list, "floor_markers"),
-                "expected a list of {id, position_m, yaw_deg, size_m}");
-  }
-  for (size_t i = 0; i < list.size(); ++i) {
-    Section m(p, list[i], "floor_markers[" + std::to_string(i) + "]");
+  readList(p, list, "floor_markers", "{id, position_m, yaw_deg, size_m}", [&](Section& m) {
     FloorMarkerSpec marker;
     m.require("id");
     m.require("position_m");
@@ -408,9 +404,8 @@ void readFloorMarkers(Parser& p, const YAML::Node& list, std::vector<FloorMarker
     m.vector3("position_m", marker.position_m);
     m.number("yaw_deg", marker.yaw_deg);
     m.number("size_m", marker.size_m);
-    m.finish();
     markers.push_back(marker);
-  }
+  });
 }
 
 std::optional<std::pair<std::string, std::string>> prefixed(const std::string& prefix,
