@@ -6,6 +6,7 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <functional>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -14,6 +15,7 @@
 #include "lookboth/dataset/dataset_io.h"
 #include "lookboth/dataset/frame_decoder.h"
 #include "lookboth/dataset/video.h"
+#include "lookboth/dataset/video_writer.h"
 
 namespace lookboth {
 namespace {
@@ -450,6 +452,96 @@ TEST(Video, FrameTimingCountsGapsAndRepeats) {
   EXPECT_EQ(timing.longest_gap_ns, 300);
   EXPECT_EQ(timing.longest_gap_at, 200);
   EXPECT_TRUE(analyseFrameTimes({0, 100, 200}).describeGaps().empty());
+}
+
+// The encoder, read back by the decoder and by the probe: every frame in
+// place and on time, the key frames where asked, the grey levels kept.
+TEST(VideoEncoder, FramesComeBackInOrderOnTimeWithKeyFramesAtTheInterval) {
+  const fs::path file = scratch("encode") / "video.mp4";
+  VideoEncodeOptions options;
+  options.crf = 10;
+  options.key_frame_interval = 8;
+  {
+    VideoEncoder encoder(file, kWidth, kHeight, options);
+    for (int i = 0; i < 40; ++i) encoder.write(barCode(i), 1000 + i * 33'333 + (i == 20 ? 5 : 0));
+    EXPECT_FALSE(fs::exists(file));  // only the partial file until finished
+    encoder.finish();
+    EXPECT_EQ(encoder.frames(), 40);
+  }
+  ASSERT_TRUE(fs::exists(file));
+  EXPECT_FALSE(fs::exists(file.string() + ".partial"));
+  const VideoProbe probe = probeVideo(file, true);
+  EXPECT_EQ(probe.codec, "h264");
+  EXPECT_EQ(probe.frame_count, 40);
+  ASSERT_EQ(probe.frame_offsets_ns.size(), 40u);
+  for (int i = 0; i < 40; ++i) {
+    EXPECT_EQ(probe.frame_offsets_ns[static_cast<size_t>(i)],
+              (i * 33'333 + (i == 20 ? 5 : 0)) * 1000)
+        << i;
+  }
+  VideoDecoder decoder(file);
+  const std::vector<std::int64_t> expected_keys = {0, 8, 16, 24, 32};
+  EXPECT_EQ(decoder.keyFrames(), expected_keys);
+  for (const int i : {0, 1, 17, 39, 8, 3}) EXPECT_EQ(readBarCode(decoder.frame(i, false)), i);
+}
+
+TEST(VideoEncoder, GreyLevelsSurviveTheVideoRange) {
+  const fs::path file = scratch("encode_grey") / "video.mkv";
+  cv::Mat ramp(kHeight, kWidth, CV_8UC1);
+  for (int v = 0; v < kHeight; ++v) {
+    for (int u = 0; u < kWidth; ++u)
+      ramp.at<std::uint8_t>(v, u) = static_cast<std::uint8_t>(v * 2 + (u > 80 ? 10 : 0));
+  }
+  VideoEncodeOptions options;
+  options.crf = 0;  // lossless: what is left is the range's rounding
+  VideoEncoder encoder(file, kWidth, kHeight, options);
+  encoder.write(ramp, 0);
+  encoder.write(ramp, 40'000);
+  encoder.finish();
+  VideoDecoder decoder(file);
+  const cv::Mat back = decoder.frame(1, false);
+  ASSERT_FALSE(back.empty());
+  EXPECT_LE(cv::norm(back, ramp, cv::NORM_INF), 1.0);
+}
+
+TEST(VideoEncoder, BadInputNamesTheFileAndLeavesNothingBehind) {
+  const fs::path dir = scratch("encode_bad");
+  auto message = [](const std::function<void()>& action) {
+    try {
+      action();
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  VideoEncodeOptions options;
+  EXPECT_NE(message([&] { VideoEncoder(dir / "odd.mp4", 161, 120, options); }).find("even width"),
+            std::string::npos);
+  EXPECT_NE(message([&] {
+              VideoEncoder(dir / "v.nosuchformat", kWidth, kHeight, options);
+            }).find("v.nosuchformat"),
+            std::string::npos);
+  options.codec = "nosuchcodec";
+  EXPECT_NE(
+      message([&] { VideoEncoder(dir / "v.mp4", kWidth, kHeight, options); }).find("nosuchcodec"),
+      std::string::npos);
+  options = VideoEncodeOptions();
+  options.key_frame_interval = 0;
+  EXPECT_NE(message([&] {
+              VideoEncoder(dir / "v.mp4", kWidth, kHeight, options);
+            }).find("key_frame_interval"),
+            std::string::npos);
+  options = VideoEncodeOptions();
+  {
+    VideoEncoder encoder(dir / "late.mp4", kWidth, kHeight, options);
+    encoder.write(barCode(0), 100);
+    const std::string late = message([&] { encoder.write(barCode(1), 100); });
+    EXPECT_NE(late.find("does not follow"), std::string::npos) << late;
+    EXPECT_NE(late.find("late.mp4"), std::string::npos) << late;
+    const std::string small = message([&] { encoder.write(cv::Mat(10, 10, CV_8UC1), 200); });
+    EXPECT_NE(small.find("not 8-bit grey of 160x120"), std::string::npos) << small;
+  }  // never finished: nothing left
+  EXPECT_TRUE(fs::is_empty(dir));
 }
 
 }  // namespace
