@@ -294,7 +294,8 @@ void expectSameMarkers(const Searched& every, const Searched& coarse, const std:
 /// too, on a full recording (every frame of the drive, most without the
 /// robot): `small`'s first 6 s, 6 cameras at 10 Hz, searched one frame in 5;
 /// then its cameras as H.264 videos with a key frame a second, searched at
-/// their key frames.
+/// their key frames, made from the PNG files by ffmpeg and written by the
+/// simulator.
 TEST(CoarseSearch, FindsWhatEveryFrameFindsOnAFullRecording) {
   const fs::path dir = fs::temp_directory_path() / "lookboth_coarse_search_test";
   fs::remove_all(dir);
@@ -327,6 +328,26 @@ TEST(CoarseSearch, FindsWhatEveryFrameFindsOnAFullRecording) {
   const Searched keys = searchMarkers(simulate.out, 0.5);
   EXPECT_TRUE(keys.key_frames);
   expectSameMarkers(every, keys, "H.264, a key frame a second");
+
+  // The simulator writing each camera's video itself (cameras.video).
+  const std::string cameras = "  store_radius_m: all\n";
+  ASSERT_NE(yaml.find(cameras), std::string::npos);
+  yaml.replace(yaml.find(cameras), cameras.size(),
+               cameras + "  video: {crf: 18, key_frame_interval_s: 1}\n");
+  std::ofstream(dir / "full_recording.yaml") << yaml;
+  simulate.out = dir / "site_video";
+  sim::simulate(simulate, ProgressReporter());
+  EXPECT_TRUE(fs::exists(simulate.out / "cameras/cam00/video.mp4"));
+  EXPECT_FALSE(fs::exists(simulate.out / "cameras/cam00/frames.csv"));
+  EXPECT_FALSE(fs::exists(dir / "site_video-videos.partial"));  // the scratch folder is gone
+  const Searched every_video = searchMarkers(simulate.out, 0);
+  const Searched keys_video = searchMarkers(simulate.out, 0.5);
+  EXPECT_TRUE(keys_video.key_frames);
+  EXPECT_EQ(every_video.frames, every.frames);  // every frame of the drive, as from the PNG files
+  expectSameMarkers(every_video, keys_video, "H.264 written by the simulator");
+  std::size_t shared = 0;
+  for (const auto& [key, position] : every.markers) shared += every_video.markers.count(key);
+  EXPECT_GE(shared, every.markers.size() * 98 / 100);  // the same frames, compressed alike
   fs::remove_all(dir);
 }
 

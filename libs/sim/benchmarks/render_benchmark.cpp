@@ -1,5 +1,6 @@
 // Render throughput at 1920x1080: the upward fisheye (the share OCamCalib
-// calibration), an environment camera with the robot in view, and, as the
+// calibration), an environment camera with the robot in view, whole or
+// from its static view (a full recording's frames), and, as the
 // cost floor of any per-pixel warp, a plain cv::remap with a precomputed map.
 #include <benchmark/benchmark.h>
 
@@ -75,6 +76,35 @@ void BM_RenderEnvCamera1080p(benchmark::State& state) {
   setRate(state);
 }
 BENCHMARK(BM_RenderEnvCamera1080p)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+/// A full recording's frame made from the camera's static view: the robot
+/// in view (arg 1: its box cast again) or away (arg 0: exposure, blur and
+/// noise only), supersampling 2.
+void BM_RenderEnvCameraFromBackground1080p(benchmark::State& state) {
+  const Camera camera = shareCamera("ceiling_camera_ros.yaml");
+  const World world = benchmarkWorld();
+  const Eigen::Quaterniond down(Eigen::Matrix3d(Eigen::Vector3d(1, -1, -1).asDiagonal()));
+  const Rigid3d world_from_camera(down, Eigen::Vector3d(20.0, 10.0, 3.5));
+  RenderOptions options;
+  const EnvBackground background = renderEnvBackground(world, camera, world_from_camera, options);
+  std::mt19937 rng(1);
+  double x = state.range(0) ? 19.0 : 35.0;
+  for (auto _ : state) {
+    RobotAppearance robot;
+    robot.world_from_base = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(x, 10.3, 0.0));
+    robot.world_from_marker =
+        Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(x, 10.3, 0.25));
+    benchmark::DoNotOptimize(
+        renderEnvCamera(world, camera, world_from_camera, robot, options, rng, &background).data);
+    x += 0.03;
+  }
+  setRate(state);
+}
+BENCHMARK(BM_RenderEnvCameraFromBackground1080p)
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 /// The floor: one bilinear lookup per pixel through a precomputed map (here
 /// the fisheye's pixels -> a pinhole view), no ray casting at all.

@@ -131,6 +131,22 @@ bool bearingAt(const RayTable& table, const Camera& camera, double u, double v,
 
 // ---------------------------------------------------------------- casting and finishing
 
+/// Mean radiance of an s x s grid of rays over pixel (u, v).
+template <typename Radiance>
+float gridRadiance(const Camera& camera, const RayTable& table, int u, int v, int s,
+                   const Radiance& radiance) {
+  Eigen::Vector3d bearing;
+  double sum = 0.0;
+  for (int b = 0; b < s; ++b) {
+    const double dv = (b + 0.5) / s - 0.5;
+    for (int a = 0; a < s; ++a) {
+      const double du = (a + 0.5) / s - 0.5;
+      if (bearingAt(table, camera, u + du, v + dv, &bearing)) sum += radiance(bearing);
+    }
+  }
+  return static_cast<float>(sum / (s * s));
+}
+
 /// Supersampled radiance of every pixel; `valid` is 255 where the pixel
 /// centre has a ray. `radiance(bearing)` is called concurrently.
 ///
@@ -169,7 +185,6 @@ cv::Mat1f castRays(const Camera& camera, const RayTable& table, int ss, int ss_h
   cv::parallel_for_(
       cv::Range(0, h),
       [&](const cv::Range& rows) {
-        Eigen::Vector3d bearing;
         for (int v = rows.start; v < rows.end; ++v) {
           float* out = image.ptr<float>(v);
           std::uint8_t* ok = valid->ptr<std::uint8_t>(v);
@@ -189,20 +204,26 @@ cv::Mat1f castRays(const Camera& camera, const RayTable& table, int ss, int ss_h
                 continue;
               }
             }
-            double sum = 0.0;
-            for (int b = 0; b < s; ++b) {
-              const double dv = (b + 0.5) / s - 0.5;
-              for (int a = 0; a < s; ++a) {
-                const double du = (a + 0.5) / s - 0.5;
-                if (bearingAt(table, camera, u + du, v + dv, &bearing)) sum += radiance(bearing);
-              }
-            }
-            out[u] = static_cast<float>(sum / (s * s));
+            out[u] = gridRadiance(camera, table, u, v, s, radiance);
           }
         }
       },
       std::max(1.0, h / 8.0));
   return image;
+}
+
+/// Recasts the pixels of `region` of `image` on a regular s x s grid each,
+/// as castRays does in its `high` rectangle.
+template <typename Radiance>
+void castRegion(const Camera& camera, const RayTable& table, int s, const cv::Rect& region,
+                cv::Mat1f& image, const Radiance& radiance) {
+  cv::parallel_for_(cv::Range(region.y, region.y + region.height), [&](const cv::Range& rows) {
+    for (int v = rows.start; v < rows.end; ++v) {
+      float* out = image.ptr<float>(v);
+      for (int u = region.x; u < region.x + region.width; ++u)
+        out[u] = gridRadiance(camera, table, u, v, s, radiance);
+    }
+  });
 }
 
 /// Radiance difference below which corner samples are trusted: 5 grey
@@ -367,9 +388,58 @@ cv::Mat renderFisheye(const World& world, const Camera& fisheye, const Rigid3d& 
 
 // ---------------------------------------------------------------- environment camera
 
+namespace {
+
+/// Where the robot can appear in an environment camera's image: the
+/// bounding rectangle of the projections of points on its body and its
+/// marker panel, with a margin for the blur (empty when out of view). Rays
+/// there are supersampled more finely; a frame made from a background
+/// recasts only these pixels.
+cv::Rect robotImageBox(const Camera& camera, const Rigid3d& world_from_camera,
+                       const RobotAppearance& robot, const Eigen::AlignedBox3d& body,
+                       double half_panel, const RenderOptions& options) {
+  cv::Rect high;
+  const Rigid3d camera_from_world = world_from_camera.inverse();
+  double u0 = kInf, v0 = kInf, u1 = -kInf, v1 = -kInf;
+  const auto addPoint = [&](const Eigen::Vector3d& p_in_world) {
+    const std::optional<Eigen::Vector2d> px = camera.project(camera_from_world * p_in_world);
+    if (!px || !px->allFinite()) return;
+    u0 = std::min(u0, px->x());
+    v0 = std::min(v0, px->y());
+    u1 = std::max(u1, px->x());
+    v1 = std::max(v1, px->y());
+  };
+  constexpr int kSteps = 4;
+  for (int a = 0; a <= kSteps; ++a) {
+    for (int b = 0; b <= kSteps; ++b) {
+      for (int c = 0; c <= 1; ++c) {
+        const Eigen::Vector3d f(static_cast<double>(a) / kSteps, static_cast<double>(b) / kSteps,
+                                c);
+        const Eigen::Vector3d p = body.min() + f.cwiseProduct(body.max() - body.min());
+        addPoint(robot.world_from_base * p);
+      }
+      const double x = (2.0 * a / kSteps - 1.0) * half_panel,
+                   y = (2.0 * b / kSteps - 1.0) * half_panel;
+      addPoint(robot.world_from_marker * Eigen::Vector3d(x, y, 0.0));
+    }
+  }
+  if (u0 <= u1) {
+    const int margin =
+        3 + static_cast<int>(std::ceil(3.0 * options.blur_sigma_px + options.motion_blur_px));
+    high = cv::Rect(cv::Point(static_cast<int>(std::floor(std::max(u0, -1e6))) - margin,
+                              static_cast<int>(std::floor(std::max(v0, -1e6))) - margin),
+                    cv::Point(static_cast<int>(std::ceil(std::min(u1, 1e6))) + margin + 1,
+                              static_cast<int>(std::ceil(std::min(v1, 1e6))) + margin + 1)) &
+           cv::Rect(0, 0, camera.width(), camera.height());
+  }
+  return high;
+}
+
+}  // namespace
+
 cv::Mat renderEnvCamera(const World& world, const Camera& camera, const Rigid3d& world_from_camera,
                         const RobotAppearance& robot, const RenderOptions& options,
-                        std::mt19937& rng) {
+                        std::mt19937& rng, const EnvBackground* background) {
   checkInputs(options);
   if (!(robot.marker_margin >= 0.0 && robot.marker_margin <= 10.0)) {
     throw Error(ErrorContext{"", 0, "marker_margin", ""},
@@ -449,49 +519,35 @@ cv::Mat renderEnvCamera(const World& world, const Camera& camera, const Rigid3d&
     return world.shade(hit) * vignette(options, bearing);
   };
 
-  // Supersample more finely where the robot can appear: the bounding
-  // rectangle of the projections of points on the body and the panel.
-  cv::Rect high;
-  {
-    const Rigid3d camera_from_world = world_from_camera.inverse();
-    double u0 = kInf, v0 = kInf, u1 = -kInf, v1 = -kInf;
-    const auto addPoint = [&](const Eigen::Vector3d& p_in_world) {
-      const std::optional<Eigen::Vector2d> px = camera.project(camera_from_world * p_in_world);
-      if (!px || !px->allFinite()) return;
-      u0 = std::min(u0, px->x());
-      v0 = std::min(v0, px->y());
-      u1 = std::max(u1, px->x());
-      v1 = std::max(v1, px->y());
-    };
-    constexpr int kSteps = 4;
-    for (int a = 0; a <= kSteps; ++a) {
-      for (int b = 0; b <= kSteps; ++b) {
-        for (int c = 0; c <= 1; ++c) {
-          const Eigen::Vector3d f(static_cast<double>(a) / kSteps, static_cast<double>(b) / kSteps,
-                                  c);
-          const Eigen::Vector3d p = body.min() + f.cwiseProduct(body.max() - body.min());
-          addPoint(robot.world_from_base * p);
-        }
-        const double x = (2.0 * a / kSteps - 1.0) * half_panel,
-                     y = (2.0 * b / kSteps - 1.0) * half_panel;
-        addPoint(robot.world_from_marker * Eigen::Vector3d(x, y, 0.0));
-      }
-    }
-    if (u0 <= u1) {
-      const int margin =
-          3 + static_cast<int>(std::ceil(3.0 * options.blur_sigma_px + options.motion_blur_px));
-      high = cv::Rect(cv::Point(static_cast<int>(std::floor(std::max(u0, -1e6))) - margin,
-                                static_cast<int>(std::floor(std::max(v0, -1e6))) - margin),
-                      cv::Point(static_cast<int>(std::ceil(std::min(u1, 1e6))) + margin + 1,
-                                static_cast<int>(std::ceil(std::min(v1, 1e6))) + margin + 1)) &
-             cv::Rect(0, 0, camera.width(), camera.height());
-    }
-  }
+  const cv::Rect high = robotImageBox(camera, world_from_camera, robot, body, half_panel, options);
+  const int ss_high = std::max(options.supersampling, options.marker_supersampling);
   cv::Mat1b valid;
-  cv::Mat1f image = castRays(camera, *table, options.supersampling,
-                             std::max(options.supersampling, options.marker_supersampling), high,
-                             adaptiveTolerance(options), &valid, radiance);
+  cv::Mat1f image;
+  if (background) {
+    image = background->radiance.clone();
+    valid = background->valid;
+    if (!high.empty()) castRegion(camera, *table, ss_high, high, image, radiance);
+  } else {
+    image = castRays(camera, *table, options.supersampling, ss_high, high,
+                     adaptiveTolerance(options), &valid, radiance);
+  }
   return finish(image, valid, options, seed);
+}
+
+EnvBackground renderEnvBackground(const World& world, const Camera& camera,
+                                  const Rigid3d& world_from_camera, const RenderOptions& options) {
+  checkInputs(options);
+  const std::shared_ptr<const RayTable> table = rayTable(camera);
+  const Eigen::Matrix3d rotation = world_from_camera.rotation.toRotationMatrix();
+  const Eigen::Vector3d origin = world_from_camera.translation;
+  const auto radiance = [&](const Eigen::Vector3d& bearing) {
+    return world.shade(world.intersect(origin, rotation * bearing)) * vignette(options, bearing);
+  };
+  EnvBackground background;
+  background.radiance =
+      castRays(camera, *table, options.supersampling, options.supersampling, cv::Rect(),
+               adaptiveTolerance(options), &background.valid, radiance);
+  return background;
 }
 
 }  // namespace lookboth::sim

@@ -317,6 +317,16 @@ void readCameras(Parser& p, Section s, EnvCamerasSpec& c) {
   s.number("min_spacing_m", c.min_spacing_m);
   s.number("housing_radius_m", c.housing_radius_m);
   s.number("housing_height_m", c.housing_height_m);
+  if (s.has("video")) {
+    Section v = s.sub("video");
+    CameraVideoSpec video;
+    v.text("codec", video.codec);
+    v.integer("crf", video.crf);
+    v.text("preset", video.preset);
+    v.number("key_frame_interval_s", video.key_frame_interval_s);
+    v.finish();
+    c.video = video;
+  }
   s.finish();
 }
 
@@ -582,6 +592,14 @@ std::optional<std::pair<std::string, std::string>> Scenario::problem() const {
   if (auto p = range("cameras.min_spacing_m", cameras.min_spacing_m, 0, 1000)) return p;
   if (auto p = range("cameras.housing_radius_m", cameras.housing_radius_m, 0.01, 1)) return p;
   if (auto p = range("cameras.housing_height_m", cameras.housing_height_m, 0.01, 1)) return p;
+  if (cameras.video) {
+    if (cameras.video->codec.empty())
+      return std::make_pair(std::string("cameras.video.codec"), std::string("empty"));
+    if (auto p = range("cameras.video.crf", cameras.video->crf, 0, 51)) return p;
+    if (auto p = range("cameras.video.key_frame_interval_s", cameras.video->key_frame_interval_s,
+                       1 / cameras.rate_hz, 3600))
+      return p;
+  }
   if (auto p = range("clocks.offset_min_ms", clocks.offset_min_ms, 0, 1e6)) return p;
   if (auto p = range("clocks.offset_max_ms", clocks.offset_max_ms, clocks.offset_min_ms, 1e6))
     return p;

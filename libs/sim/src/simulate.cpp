@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cmath>
 #include <exception>
+#include <functional>
 #include <limits>
 #include <mutex>
 #include <opencv2/aruco.hpp>
@@ -16,6 +17,7 @@
 #include "lookboth/cameras/camera_io.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
+#include "lookboth/dataset/video_writer.h"
 #include "lookboth/geometry/lie.h"
 #include "lookboth/geometry/time.h"
 #include "lookboth/sim/marker_corners.h"
@@ -105,6 +107,8 @@ struct Setup {
   double fisheye_phase = 0, odometry_phase = 0;
   double duration = 0;  ///< Simulated time [s].
   std::vector<std::string> fault_notes;
+  /// Each environment camera's static view, for full recordings (empty otherwise).
+  std::vector<EnvBackground> backgrounds;
 
   TimeNs stamp(double t, TimeNs offset) const {
     const TimeNs step =
@@ -820,10 +824,35 @@ void drawFloorMarker(cv::Mat& image, const Camera& camera, const Rigid3d& camera
   }
 }
 
-/// The rendered frame of one event, PNG-encoded (called from several
-/// threads); `decoys` counts the false markers drawn.
-std::shared_ptr<const std::vector<std::uint8_t>> renderEventImage(
-    const Setup& setup, const Event& e, std::atomic<std::int64_t>& decoys) {
+/// How the environment cameras' frames are rendered at `exposure`.
+RenderOptions envRenderOptions(const Scenario& sc, double exposure) {
+  RenderOptions render;
+  render.noise_sigma = sc.render.noise_sigma;
+  render.exposure = exposure;
+  render.supersampling = sc.render.env_supersampling;
+  return render;
+}
+
+/// A full recording's frames mostly show no robot: each camera's static
+/// view is rendered once, at the camera's mean gain, and its frames recast
+/// only where the robot can appear.
+void renderBackgrounds(Setup& setup, const SimulateOptions& options,
+                       const ProgressReporter& progress) {
+  const Scenario& sc = setup.scenario;
+  if (options.detections_only || !std::isinf(sc.cameras.store_radius_m)) return;
+  for (size_t c = 0; c < setup.placements.size(); ++c) {
+    progress.checkStop();
+    progress.report("simulate: backgrounds", static_cast<std::int64_t>(c),
+                    static_cast<std::int64_t>(setup.placements.size()), "");
+    setup.backgrounds.push_back(renderEnvBackground(*setup.world, *setup.env_camera,
+                                                    setup.placements[c].world_from_camera,
+                                                    envRenderOptions(sc, setup.camera_gain[c])));
+  }
+}
+
+/// The rendered frame of one event (called from several threads); `decoys`
+/// counts the false markers drawn.
+cv::Mat renderEventImage(const Setup& setup, const Event& e, std::atomic<std::int64_t>& decoys) {
   const Scenario& sc = setup.scenario;
   const std::uint32_t seed = setup.noise_seed;
   const Camera& fisheye = *setup.fisheye;
@@ -842,7 +871,7 @@ std::shared_ptr<const std::vector<std::uint8_t>> renderEventImage(
   } else {
     const EnvCameraPlacement& placement = setup.placements[static_cast<size_t>(e.camera)];
     std::mt19937 rng(itemSeed(seed, "render/" + placement.label, e.index));
-    render.supersampling = sc.render.env_supersampling;
+    render = envRenderOptions(sc, e.exposure);
     RobotAppearance robot;
     robot.world_from_base = setup.motion->worldFromBase(e.t);
     robot.world_from_marker =
@@ -852,7 +881,10 @@ std::shared_ptr<const std::vector<std::uint8_t>> renderEventImage(
     robot.body_height_m = sc.robot.body_height_m;
     robot.marker = sc.marker;
     robot.marker_brightness = e.occluded ? 0.0 : 1.0;
-    image = renderEnvCamera(world, env, placement.world_from_camera, robot, render, rng);
+    const EnvBackground* background =
+        setup.backgrounds.empty() ? nullptr : &setup.backgrounds[static_cast<size_t>(e.camera)];
+    image =
+        renderEnvCamera(world, env, placement.world_from_camera, robot, render, rng, background);
     if (e.false_marker) {
       std::mt19937 decoy_rng(itemSeed(seed, "detect/" + placement.label, e.index));
       if (const auto decoy = decoyWorldFromMarker(env, placement.world_from_camera, decoy_rng)) {
@@ -874,7 +906,7 @@ std::shared_ptr<const std::vector<std::uint8_t>> renderEventImage(
       }
     }
   }
-  return encodePng(image, sc.render.png_compression);
+  return image;
 }
 
 /// What the fisheye's blob detector finds in one frame: every housing in
@@ -919,11 +951,88 @@ BlobObservation simulatedBlobs(const Setup& setup, const Event& e) {
   return obs;
 }
 
+/// The environment cameras' frames as one video per camera (cameras.video),
+/// as a recorder keeps them: encoded as they are rendered into a scratch
+/// folder beside the output, then handed to the dataset's writer, which
+/// links them into the dataset. The scratch folder goes when this does.
+class CameraVideos {
+ public:
+  CameraVideos(const Setup& setup, const fs::path& out) : setup_(setup) {
+    const CameraVideoSpec& spec = *setup.scenario.cameras.video;
+    options_.codec = spec.codec;
+    options_.crf = spec.crf;
+    options_.preset = spec.preset;
+    options_.key_frame_interval = std::max(
+        1,
+        static_cast<int>(std::lround(spec.key_frame_interval_s * setup.scenario.cameras.rate_hz)));
+    scratch_ = out.parent_path() / (out.filename().string() + "-videos.partial");
+    fs::remove_all(scratch_);
+    fs::create_directories(scratch_);
+    encoders_.resize(setup.placements.size());
+    frames_.resize(setup.placements.size());
+  }
+  ~CameraVideos() {
+    encoders_.clear();
+    std::error_code ec;
+    fs::remove_all(scratch_, ec);
+  }
+  CameraVideos(const CameraVideos&) = delete;
+  CameraVideos& operator=(const CameraVideos&) = delete;
+
+  /// Encodes `image` as the next frame of the camera's video and returns
+  /// its index. Safe from several threads for different cameras.
+  std::int64_t add(int camera, const cv::Mat& image, double t) {
+    std::unique_ptr<VideoEncoder>& encoder = encoders_[static_cast<size_t>(camera)];
+    if (!encoder) {
+      encoder = std::make_unique<VideoEncoder>(file(camera), image.cols, image.rows, options_);
+    }
+    const std::int64_t index = encoder->frames();
+    encoder->write(image, std::llround(t * 1e6));
+    return index;
+  }
+  /// Notes that frame `index` of the camera's video was taken at `stamp`.
+  void note(int camera, TimeNs stamp, std::int64_t index) {
+    frames_[static_cast<size_t>(camera)].emplace_back(stamp, index);
+  }
+  /// Finishes the videos and writes their frames' records.
+  void finish(const std::function<void(const Record&)>& write) {
+    for (size_t c = 0; c < encoders_.size(); ++c) {
+      if (!encoders_[c]) continue;
+      encoders_[c]->finish();
+      for (const auto& [stamp, index] : frames_[c]) {
+        ImageFrame frame;
+        frame.t = stamp;
+        frame.sensor = setup_.placements[c].label;
+        frame.video_file = fs::absolute(file(static_cast<int>(c)));
+        frame.video_frame = index;
+        write(frame);
+      }
+    }
+  }
+
+ private:
+  fs::path file(int camera) const {
+    return scratch_ / (setup_.placements[static_cast<size_t>(camera)].label + ".mp4");
+  }
+
+  const Setup& setup_;
+  VideoEncodeOptions options_;
+  fs::path scratch_;
+  std::vector<std::unique_ptr<VideoEncoder>> encoders_;
+  std::vector<std::vector<std::pair<TimeNs, std::int64_t>>> frames_;  ///< (stamp, index).
+};
+
+/// What becomes of a rendered frame: its PNG bytes, or null when it went
+/// elsewhere (a camera's video).
+using FrameSink =
+    std::function<std::shared_ptr<const std::vector<std::uint8_t>>(size_t event, const cv::Mat&)>;
+
 /// The frames of `jobs` (indices into `events`) rendered on up to `threads`
-/// threads, by event index.
+/// threads and given to `sink`, by event index.
 std::map<size_t, std::shared_ptr<const std::vector<std::uint8_t>>> renderFrames(
     const Setup& setup, const std::vector<Event>& events, const std::vector<size_t>& jobs,
-    int threads, const ProgressReporter& progress, std::atomic<std::int64_t>& decoys) {
+    int threads, const ProgressReporter& progress, std::atomic<std::int64_t>& decoys,
+    const FrameSink& sink) {
   std::map<size_t, std::shared_ptr<const std::vector<std::uint8_t>>> images;
   if (jobs.empty()) return images;
   std::vector<std::shared_ptr<const std::vector<std::uint8_t>>> results(jobs.size());
@@ -934,7 +1043,7 @@ std::map<size_t, std::shared_ptr<const std::vector<std::uint8_t>>> renderFrames(
     for (size_t j = next_job++; j < jobs.size(); j = next_job++) {
       try {
         if (progress.stopRequested()) return;
-        results[j] = renderEventImage(setup, events[jobs[j]], decoys);
+        results[j] = sink(jobs[j], renderEventImage(setup, events[jobs[j]], decoys));
       } catch (...) {
         const std::lock_guard<std::mutex> lock(failure_mutex);
         if (!failure) failure = std::current_exception();
@@ -951,6 +1060,62 @@ std::map<size_t, std::shared_ptr<const std::vector<std::uint8_t>>> renderFrames(
   progress.checkStop();
   for (size_t j = 0; j < jobs.size(); ++j) images[jobs[j]] = results[j];
   return images;
+}
+
+/// The next batch of events from `first`: up to the one that completes
+/// `max_jobs` render jobs (their indices in `jobs`), and, when the cameras
+/// write videos, before a second frame of one camera (a camera's frames are
+/// encoded in order). Returns the end of the batch.
+size_t nextBatch(const std::vector<Event>& events, size_t first, int max_jobs, bool detections_only,
+                 bool videos, std::vector<size_t>& jobs) {
+  std::set<int> cameras;
+  size_t end = first;
+  while (end < events.size() && static_cast<int>(jobs.size()) < max_jobs) {
+    const Event& e = events[end];
+    if (!detections_only && (e.kind == EventKind::kFisheye || e.kind == EventKind::kEnv)) {
+      if (videos && e.kind == EventKind::kEnv && !cameras.insert(e.camera).second) break;
+      jobs.push_back(end);
+    }
+    ++end;
+  }
+  return end;
+}
+
+/// Writes the records of one event; `image` is its rendered frame's PNG bytes.
+void writeEvent(const Setup& setup, const SimulateOptions& options, const Event& e,
+                const std::shared_ptr<const std::vector<std::uint8_t>>& image,
+                const std::function<void(const Record&)>& count) {
+  const auto frame = [&](const std::string& sensor) {
+    ImageFrame f;
+    f.t = e.stamp;
+    f.sensor = sensor;
+    f.encoded = image;
+    f.extension = ".png";
+    count(f);
+  };
+  switch (e.kind) {
+    case EventKind::kGroundTruth:
+      count(PoseSample{e.stamp, "ground_truth", e.pose});
+      break;
+    case EventKind::kOdometry:
+      count(PoseSample{e.stamp, "odometry", e.pose});
+      break;
+    case EventKind::kFisheye:
+      if (options.detections_only) {
+        count(simulatedBlobs(setup, e));
+      } else {
+        frame(setup.scenario.robot.fisheye.label);
+      }
+      break;
+    case EventKind::kEnv:
+      if (options.detections_only) {
+        if (e.marker) count(*e.marker);
+        for (const MarkerObservation& m : e.floor_markers) count(m);
+      } else {
+        frame(setup.placements[static_cast<size_t>(e.camera)].label);
+      }
+      break;
+  }
 }
 
 }  // namespace
@@ -974,8 +1139,15 @@ std::int64_t SimulateSummary::total() const {
 SimulateSummary simulate(const SimulateOptions& options, const ProgressReporter& progress) {
   if (const std::string why = options.check(); !why.empty()) throw Error(why);
   progress.report("simulate: setup", 0, 0, options.scenario);
-  const Setup setup = buildSetup(options);
-  const Scenario& sc = setup.scenario;
+  Setup mutable_setup = buildSetup(options);
+  const Scenario& sc = mutable_setup.scenario;
+  const bool videos = sc.cameras.video && !options.detections_only;
+  if (videos && options.kind != DatasetKind::kFolder) {
+    throw Error(ErrorContext{options.scenario, 0, "cameras.video", ""},
+                "videos are written in folder datasets only (--format folder)");
+  }
+  renderBackgrounds(mutable_setup, options, progress);
+  const Setup& setup = mutable_setup;
   progress.checkStop();
   std::map<std::string, std::int64_t> fault_counts;
   std::vector<Event> events = buildEvents(setup, options, fault_counts);
@@ -984,8 +1156,11 @@ SimulateSummary simulate(const SimulateOptions& options, const ProgressReporter&
   const Manifest manifest = buildManifest(setup, options);
   DatasetWriteOptions write_options;
   write_options.overwrite = options.overwrite;
+  write_options.link_images = true;  // the videos: linked from the scratch folder, not copied
   std::unique_ptr<DatasetWriter> writer =
       DatasetWriter::create(options.out, options.kind, manifest, write_options);
+  std::optional<CameraVideos> camera_videos;
+  if (videos) camera_videos.emplace(setup, options.out);
 
   SimulateSummary summary;
   summary.cameras = static_cast<int>(setup.placements.size());
@@ -993,11 +1168,19 @@ SimulateSummary simulate(const SimulateOptions& options, const ProgressReporter&
   summary.path_length_m = setup.motion->arcLengthAt(setup.duration);
   summary.seed = setup.seed;
   summary.scenario = sc.name;
-  const std::string& fisheye_label = sc.robot.fisheye.label;
   std::atomic<std::int64_t> decoys{0};  // false markers drawn into frames
   auto count = [&](const Record& record) {
     writer->write(record);
     ++summary.records[recordKindName(record)];
+  };
+  std::vector<std::int64_t> video_frame(events.size(), -1);  // by event
+  const FrameSink sink = [&](size_t i, const cv::Mat& image) {
+    const Event& e = events[i];
+    if (camera_videos && e.kind == EventKind::kEnv) {
+      video_frame[i] = camera_videos->add(e.camera, image, e.t);
+      return std::shared_ptr<const std::vector<std::uint8_t>>();
+    }
+    return encodePng(image, sc.render.png_compression);
   };
 
   const int threads = options.threads > 0
@@ -1007,56 +1190,24 @@ SimulateSummary simulate(const SimulateOptions& options, const ProgressReporter&
   size_t next_event = 0;
   while (next_event < events.size()) {
     progress.checkStop();
-    // A batch: events up to the one that completes 2 * threads render jobs.
     std::vector<size_t> jobs;
-    size_t end = next_event;
-    while (end < events.size() && static_cast<int>(jobs.size()) < 2 * threads) {
-      const Event& e = events[end];
-      if (!options.detections_only && (e.kind == EventKind::kFisheye || e.kind == EventKind::kEnv))
-        jobs.push_back(end);
-      ++end;
-    }
-    const auto images = renderFrames(setup, events, jobs, threads, progress, decoys);
+    const size_t end = nextBatch(events, next_event, 2 * threads, options.detections_only,
+                                 camera_videos.has_value(), jobs);
+    const auto images = renderFrames(setup, events, jobs, threads, progress, decoys, sink);
     for (size_t i = next_event; i < end; ++i) {
       const Event& e = events[i];
-      switch (e.kind) {
-        case EventKind::kGroundTruth:
-          count(PoseSample{e.stamp, "ground_truth", e.pose});
-          break;
-        case EventKind::kOdometry:
-          count(PoseSample{e.stamp, "odometry", e.pose});
-          break;
-        case EventKind::kFisheye:
-          if (options.detections_only) {
-            count(simulatedBlobs(setup, e));
-          } else {
-            ImageFrame frame;
-            frame.t = e.stamp;
-            frame.sensor = fisheye_label;
-            frame.encoded = images.at(i);
-            frame.extension = ".png";
-            count(frame);
-          }
-          break;
-        case EventKind::kEnv:
-          if (options.detections_only) {
-            if (e.marker) count(*e.marker);
-            for (const MarkerObservation& m : e.floor_markers) count(m);
-          } else {
-            ImageFrame frame;
-            frame.t = e.stamp;
-            frame.sensor = setup.placements[static_cast<size_t>(e.camera)].label;
-            frame.encoded = images.at(i);
-            frame.extension = ".png";
-            count(frame);
-          }
-          break;
+      if (video_frame[i] >= 0) {
+        camera_videos->note(e.camera, e.stamp, video_frame[i]);
+        continue;
       }
+      const auto image = images.find(i);
+      writeEvent(setup, options, e, image == images.end() ? nullptr : image->second, count);
     }
     next_event = end;
     progress.report("simulate", static_cast<std::int64_t>(end), total,
                     options.detections_only ? "detections" : "rendering");
   }
+  if (camera_videos) camera_videos->finish(count);
   progress.checkStop();
   writer->finish(manifest);
 

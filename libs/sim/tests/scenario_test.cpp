@@ -111,6 +111,24 @@ TEST(Scenario, StoreRadiusAllKeepsEveryFrame) {
             "");
 }
 
+TEST(Scenario, CameraVideoIsReadAndChecked) {
+  EXPECT_FALSE(parse(kMinimal).cameras.video.has_value());
+  const Scenario s = parse(replace(kMinimal, "  count: 4\n",
+                                   "  count: 4\n  video: {crf: 28, key_frame_interval_s: 2}\n"));
+  ASSERT_TRUE(s.cameras.video.has_value());
+  EXPECT_EQ(s.cameras.video->codec, "libx264");
+  EXPECT_EQ(s.cameras.video->crf, 28);
+  EXPECT_EQ(s.cameras.video->preset, "veryfast");
+  EXPECT_EQ(s.cameras.video->key_frame_interval_s, 2);
+  EXPECT_EQ(s.check(), "");
+  EXPECT_NE(parseError(replace(kMinimal, "  count: 4\n", "  count: 4\n  video: {crf: 60}\n"))
+                .find("'cameras.video.crf': must be in [0, 51]"),
+            std::string::npos);
+  EXPECT_NE(parseError(replace(kMinimal, "  count: 4\n", "  count: 4\n  video: {crfs: 20}\n"))
+                .find("'cameras.video.crfs': unknown key"),
+            std::string::npos);
+}
+
 // A later drive of the same facility: another noise seed, moved cameras.
 TEST(Scenario, LaterDriveReadsItsSeedAndMoves) {
   const Scenario s =

@@ -59,13 +59,32 @@ struct RenderOptions {
 cv::Mat renderFisheye(const World& world, const Camera& fisheye, const Rigid3d& world_from_fisheye,
                       const RenderOptions& options, std::mt19937& rng);
 
+/// What an environment camera sees of the static world (no robot), before
+/// exposure, blur and noise: rendered once, it makes the frames of a full
+/// recording, most of which do not show the robot, cost no rays outside the
+/// robot's image box.
+struct EnvBackground {
+  cv::Mat1f radiance;  ///< Supersampled radiance of each pixel.
+  cv::Mat1b valid;     ///< 255 where the pixel centre has a ray.
+};
+
+/// The static view at `options`' supersampling; the adaptive supersampling's
+/// tolerance follows `options.exposure`, as in renderEnvCamera.
+EnvBackground renderEnvBackground(const World& world, const Camera& camera,
+                                  const Rigid3d& world_from_camera, const RenderOptions& options);
+
 /// Renders a greyscale frame of an environment camera looking down: the
 /// floor, the robot's body and its backlit marker (drawn from the real
 /// dictionary bitmap, cv::aruco::drawMarker with a one-cell border), and
-/// whatever of the static world is in view (walls, low fixtures).
+/// whatever of the static world is in view (walls, low fixtures). With a
+/// `background` of this camera, only the pixels where the robot can appear
+/// are cast again: the same frame when the background was rendered at this
+/// frame's exposure; at another, the adaptive supersampling decides some
+/// pixels the other way (1920x1080 at 0.9 against 1.1: 0.02 grey levels on
+/// average, 186 pixels by more than 2, where the corners miss a fine feature).
 cv::Mat renderEnvCamera(const World& world, const Camera& camera, const Rigid3d& world_from_camera,
                         const RobotAppearance& robot, const RenderOptions& options,
-                        std::mt19937& rng);
+                        std::mt19937& rng, const EnvBackground* background = nullptr);
 
 /// The marker's cells, one pixel per cell including the one-cell black
 /// border (6 x 6 for a 4x4 dictionary): 0 black, 255 white, row 0 at the

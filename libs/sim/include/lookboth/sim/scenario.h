@@ -60,6 +60,16 @@ struct RobotSpec {
 };
 
 /// The environment cameras, placed along the robot's loop.
+/// How the environment cameras' rendered frames are stored: one video file
+/// per camera (as a recorder keeps them; folder datasets only) instead of a
+/// PNG file per frame.
+struct CameraVideoSpec {
+  std::string codec = "libx264";      ///< An FFmpeg encoder.
+  int crf = 23;                       ///< libx264's quality (lower: better, larger).
+  std::string preset = "veryfast";    ///< libx264's speed preset.
+  double key_frame_interval_s = 1.0;  ///< [s] between key frames (network cameras: 1-2 s).
+};
+
 struct EnvCamerasSpec {
   int count = 6;
   std::string label_prefix = "cam";   ///< Labels cam00, cam01...
@@ -74,6 +84,7 @@ struct EnvCamerasSpec {
   double lateral_offset_max_m = 0.5;  ///< Offset of the nadir from the path, uniform in +-max [m].
   double min_spacing_m = 0;  ///< Along the path between cameras [m]; 0 = loop length / count.
   double housing_radius_m = 0.06, housing_height_m = 0.10;  ///< The housing the fisheye sees.
+  std::optional<CameraVideoSpec> video;                     ///< Absent: a PNG file per frame.
 };
 
 struct ClockSpec {
