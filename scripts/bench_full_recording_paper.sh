@@ -1,0 +1,85 @@
+#!/usr/bin/env bash
+# Full-recording benchmark at the paper's scale (doc/benchmarks.md, "Full
+# recordings: 43 cameras"): the `paper` facility's first 60 s as its cameras
+# record it: 43 cameras at 1920x1080 and 30 Hz, every frame of the drive
+# (`store_radius_m: all`), each camera one H.264 video written by the
+# simulator (`cameras.video`: libx264 crf 23, a key frame a second); the
+# fisheye at 1920x1080, 30 Hz, PNG. In one run, on the same files:
+#   - the whole `lookboth register` on 2 cores (detection with the coarse
+#     search beside the fisheye's odometry, then the stages), against the
+#     drive's 60 s;
+#   - `lookboth detect` of the 43 cameras alone, 2 threads, coarse search
+#     (the default) and every frame examined (coarse_period_s: 0): time and
+#     the markers each finds (the coarse search's recall against every frame);
+#   - the peer: `ffmpeg -threads 1 -f null` decoding every frame of the 43
+#     videos, two at a time (2 cores), the floor of anything reading every frame;
+#   - the registration's accuracy (`lookboth evaluate`) from each detection.
+# Usage: LOOKBOTH_BENCH_DIR=/tmp/fr43 scripts/bench_full_recording_paper.sh
+# (keeps the simulated recording, about an hour on 2 cores and 4 GB, for
+# the next run).
+set -euo pipefail
+
+here="$(cd "$(dirname "$0")" && pwd)"
+lookboth="${LOOKBOTH:-$here/../build/apps/lookboth/lookboth}"
+# shellcheck source=bench_common.sh
+source "$here/bench_common.sh"
+bench_work_dir
+rm -f "$work"/t_*
+drive_s=60
+
+sed -e 's/^name: paper/name: paper_full_recording/' \
+    -e 's/^  store_radius_m: 2.5$/  store_radius_m: all\n  video: {crf: 23, key_frame_interval_s: 1}/' \
+    "$here/../share/lookboth/scenarios/paper.yaml" >"$work/scenario.yaml"
+grep -q "video:" "$work/scenario.yaml" || { echo "paper.yaml changed: no store_radius_m: 2.5" >&2; exit 1; }
+if [[ ! -d $work/site ]]; then
+  "$lookboth" simulate --scenario "$work/scenario.yaml" --duration "$drive_s" --format folder \
+    --threads 2 --out "$work/site" >"$work/simulate.txt"
+fi
+printf 'detect:\n  markers:\n    coarse_period_s: 0\n' >"$work/every.yaml"
+mapfile -t videos < <(ls "$work"/site/cameras/*/video.mp4)
+
+wait_for_quiet_machine
+
+run() {  # run NAME CMD...: wall ms of CMD
+  local name=$1; shift
+  local t0 t1
+  t0=$(date +%s%N)
+  "$@" >"$work/out_$name.txt" 2>"$work/stderr.txt" || { cat "$work/stderr.txt" >&2; exit 1; }
+  t1=$(date +%s%N)
+  echo $(( (t1 - t0) / 1000000 )) >>"$work/t_$name"
+}
+rm -rf "$work"/reg_* "$work"/det_*
+run register "$lookboth" register "$work/site" --no-write-back --overwrite --out "$work/reg_coarse"
+run detect_coarse "$lookboth" detect "$work/site" --threads 2 --no-blobs --detections-only \
+  --out "$work/det_coarse"
+run ffmpeg_videos bash -c 'printf "%s\n" "$@" |
+  xargs -P 2 -I{} ffmpeg -v error -threads 1 -i {} -f null -' _ "${videos[@]}"
+run detect_every "$lookboth" detect "$work/site" --threads 2 --no-blobs --detections-only \
+  --config "$work/every.yaml" --out "$work/det_every"
+run register_every "$lookboth" register "$work/site" --no-write-back --overwrite \
+  --config "$work/every.yaml" --out "$work/reg_every"
+
+frames=0
+for v in "$work"/site/cameras/*/video.csv; do frames=$((frames + $(tail -n +2 "$v" | grep -c .))); done
+echo "full recording: ${#videos[@]} cameras, $frames frames at 1920x1080 (${drive_s} s at 30 Hz), H.264"
+printf '%-36s %8s %10s %12s\n' run "wall s" "x drive" "ms/frame"
+for name in register detect_coarse ffmpeg_videos detect_every register_every; do
+  ms=$(cat "$work/t_$name")
+  awk -v l="$name" -v ms="$ms" -v f="$frames" -v d="$drive_s" \
+    'BEGIN { printf "%-36s %8.1f %10.2f %12.2f\n", l, ms / 1000, ms / 1000 / d, ms / f }'
+done
+grep -h "run time\|examined" "$work/out_register.txt" "$work/out_detect_coarse.txt" | head -20 || true
+python3 - "$work/det_every" "$work/det_coarse" <<'PY'
+import csv, sys
+def load(d):
+    with open(d + "/detections/markers.csv") as f:
+        return {(r["camera"], r["timestamp_ns"]) for r in csv.DictReader(f)}
+every, coarse = load(sys.argv[1]), load(sys.argv[2])
+found = len(every & coarse)
+print(f"recall: the coarse search finds {found} of the {len(every)} markers examining every "
+      f"frame finds ({100.0 * found / max(1, len(every)):.2f} %), and {len(coarse - every)} more")
+PY
+for reg in reg_coarse reg_every; do
+  echo "$reg:"
+  "$lookboth" evaluate "$work/$reg" --truth "$work/site" | grep -iE "position|rotation|registered" | head -6
+done
