@@ -13,6 +13,8 @@ std::string BlobDetectorOptions::check() const {
   if (!(min_threshold >= 0 && min_threshold < max_threshold && max_threshold <= 255))
     return "'min_threshold', 'max_threshold': need 0 <= min < max <= 255";
   if (!(threshold_step > 0)) return "'threshold_step': must be positive";
+  if (!(max_rate_hz >= 0 && max_rate_hz <= 1000))
+    return "'max_rate_hz': must be between 0 (every frame) and 1000";
   if (min_repeatability < 1) return "'min_repeatability': must be at least 1";
   if (!(min_dist_between_blobs_px >= 0)) return "'min_dist_between_blobs_px': must be >= 0";
   if (!(min_area_px > 0 && min_area_px < max_area_px))

@@ -70,6 +70,7 @@ static void fields(BlobDetectorOptions& o, OptionFields& f) {
   f.number("min_housing_height_m", o.min_housing_height_m);
   f.number("max_housing_height_m", o.max_housing_height_m);
   f.number("housing_size_tolerance", o.housing_size_tolerance);
+  f.number("max_rate_hz", o.max_rate_hz);
 }
 
 namespace {
@@ -333,7 +334,9 @@ JobResult runFisheyeJob(const CameraWork& work, const Job& job, const DetectConf
   JobResult result;
   BlobDetector detector(config.blobs, work.sensor->camera ? &*work.sensor->camera : nullptr);
   JobFrames frames(work, job, result, done, 0);
+  RateLimiter rate(config.blobs.max_rate_hz);
   for (size_t i = job.begin; i < job.end && !stop.load(); ++i) {
+    if (!rate.keep(work.frames[i].t)) continue;
     const cv::Mat grey = frames.grey(i);
     if (grey.empty()) continue;
     BlobObservation obs;

@@ -130,6 +130,34 @@ TEST_F(DetectDatasetTest, AccuracyOnSmallAndThreadIndependence) {
   EXPECT_EQ(be.bands[0].matched + be.bands[1].matched, be.matched);
 }
 
+// blobs.max_rate_hz: the 10 Hz fisheye at 5 Hz is searched every other
+// frame, the same blobs in the frames searched; 2 threads split its frames
+// into jobs, each thinned from its own first frame.
+TEST_F(DetectDatasetTest, BlobsAtMostTheRate) {
+  DetectOptions options;
+  options.dataset = dir_ / "small.rawlog";
+  options.config = defaultDetectConfig();
+  options.markers = false;
+  options.threads = 1;
+  std::map<TimeNs, std::size_t> every;
+  for (const Record& r : runDetection(options, ProgressReporter(), nullptr))
+    every[std::get<BlobObservation>(r).t] = std::get<BlobObservation>(r).blobs.size();
+  options.config.blobs.max_rate_hz = 5;
+  for (const int threads : {1, 2}) {
+    options.threads = threads;
+    std::size_t searched = 0;
+    for (const Record& r : runDetection(options, ProgressReporter(), nullptr)) {
+      const auto& obs = std::get<BlobObservation>(r);
+      ASSERT_TRUE(every.count(obs.t));
+      EXPECT_EQ(obs.blobs.size(), every[obs.t]);
+      ++searched;
+    }
+    EXPECT_GE(searched, every.size() / 2) << threads << " threads";
+    EXPECT_LE(searched, every.size() / 2 + static_cast<std::size_t>(threads))
+        << threads << " threads";
+  }
+}
+
 // The stored corners are the marker's true corners projected through the
 // camera's model (sim ground truth), within the noise the detector stores.
 TEST_F(DetectDatasetTest, StoresCornersWithinTheirNoiseOfTheTrueProjections) {

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <limits>
 #include <random>
+#include <vector>
 
 #include "lookboth/core/error.h"
 
@@ -85,6 +86,26 @@ TEST(Time, RunsWithinGapSplitAtLongerGapsOnly) {
   EXPECT_EQ(runsWithinGap({5}, 10), (Runs{{0, 1}}));
   // A gap of exactly max_gap stays inside the run; one more nanosecond splits it.
   EXPECT_EQ(runsWithinGap({0, 10, 20, 31, 41, 100}, 10), (Runs{{0, 3}, {3, 5}, {5, 6}}));
+}
+
+TEST(RateLimiter, ThinsAStreamToAtMostTheRate) {
+  // Which of `count` frames at `rate_hz` (stamps jittered by up to 0.2 ms)
+  // a limiter at `max_hz` keeps.
+  auto kept = [](double rate_hz, double max_hz, int count) {
+    RateLimiter limiter(max_hz);
+    std::vector<int> out;
+    for (int k = 0; k < count; ++k) {
+      const TimeNs jitter = (k % 3 - 1) * 200'000;
+      if (limiter.keep(1'700'000'000'000'000'000 + static_cast<TimeNs>(k * 1e9 / rate_hz) + jitter))
+        out.push_back(k);
+    }
+    return out;
+  };
+  EXPECT_EQ(kept(30, 15, 9), (std::vector<int>{0, 2, 4, 6, 8}));
+  EXPECT_EQ(kept(30, 10, 10), (std::vector<int>{0, 3, 6, 9}));
+  EXPECT_EQ(kept(10, 15, 5), (std::vector<int>{0, 1, 2, 3, 4}));
+  EXPECT_EQ(kept(10, 10, 5), (std::vector<int>{0, 1, 2, 3, 4}));  // the jitter within 1 %
+  EXPECT_EQ(kept(30, 0, 4), (std::vector<int>{0, 1, 2, 3}));      // 0: every frame
 }
 
 }  // namespace

@@ -61,6 +61,8 @@ std::string OdometryOptions::check() const {
     if (std::string why = positive(name, value); !why.empty()) return why;
   }
   if (border_px < 0) return "'border_px': must not be negative";
+  if (!(max_rate_hz >= 0 && max_rate_hz <= 1000))
+    return "'max_rate_hz': must be between 0 (every frame) and 1000";
   if (klt_levels < 0) return "'klt_levels': must not be negative";
   if (global_max_observations < 0) return "'global_max_observations': must not be negative";
   if (global_min_observations_per_keyframe < 10)
@@ -81,6 +83,7 @@ std::string OdometryOptions::check() const {
 // through argument-dependent lookup).
 static void fields(OdometryOptions& o, OptionFields& f) {
   f.integer("working_width", o.working_width);
+  f.number("max_rate_hz", o.max_rate_hz);
   f.number("max_incidence_deg", o.max_incidence_deg);
   f.number("border_px", o.border_px);
   f.integer("max_features", o.max_features);

@@ -192,6 +192,7 @@ OdometryRunSummary runOdometry(const OdometryRunOptions& options,
     try {
       std::optional<TimeNs> first;
       FrameDecoder decoder;
+      RateLimiter rate(options.odometry.max_rate_hz);
       while (auto record = reader->next()) {
         ++records_read;
         if (progress.stopRequested()) break;
@@ -205,6 +206,7 @@ OdometryRunSummary runOdometry(const OdometryRunOptions& options,
         if (!first) first = frame->t;
         if (options.max_duration_s > 0 && frame->t - *first > secondsToNs(options.max_duration_s))
           continue;
+        if (!rate.keep(frame->t)) continue;
         const double t0 = threadCpuSeconds();
         DecodedFrame decoded{frame->t,
                              VisualOdometry::prepareImage(decode(decoder, *frame, camera), factor)};

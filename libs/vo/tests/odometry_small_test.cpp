@@ -149,6 +149,25 @@ TEST_F(OdometrySmallTest, BlankFramesLoseTrackingWhichIsRecovered) {
   EXPECT_TRUE(reported);
 }
 
+// At most max_rate_hz: the 10 Hz clip at 5 Hz tracks every other frame
+// (the others are not decoded) and still follows the path.
+TEST_F(OdometrySmallTest, AtMostTheRateEveryOtherFrame) {
+  OdometryRunOptions options;
+  options.dataset = *dataset_;
+  options.write_dataset = false;
+  options.odometry.max_rate_hz = 5;
+  const OdometryRunSummary half = runOdometry(options, ProgressReporter());
+  const OdometryRunSummary& every = firstRun();
+  const std::int64_t n = every.result.statistics.frames;
+  EXPECT_NEAR(static_cast<double>(half.result.statistics.frames), (n + 1) / 2.0, 1.0);
+  ASSERT_TRUE(half.ate.has_value());
+  ASSERT_TRUE(every.ate.has_value());
+  std::printf("every frame: %lld frames, ATE %.2f %%; at 5 Hz: %lld frames, ATE %.2f %%\n",
+              static_cast<long long>(n), every.ate->percent(),
+              static_cast<long long>(half.result.statistics.frames), half.ate->percent());
+  EXPECT_LT(half.ate->percent(), 2.0);
+}
+
 // A stop request (Ctrl-C) leaves no output and the dataset as it was.
 TEST_F(OdometrySmallTest, StopLeavesNothingWritten) {
   OdometryRunOptions options;

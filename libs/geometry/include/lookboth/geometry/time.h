@@ -47,6 +47,28 @@ std::string formatSeconds(TimeNs t);
 std::vector<std::pair<std::size_t, std::size_t>> runsWithinGap(const std::vector<TimeNs>& sorted,
                                                                TimeNs max_gap);
 
+/// Thins a stream of frames to at most `max_rate_hz` (0: keeps every
+/// frame): a frame is kept when it comes at least 0.99 / max_rate_hz after
+/// the last one kept (the first always; 1 % for the jitter of the stamps).
+/// A 30 Hz stream at 15 keeps every other frame, at 10 every third; a 10
+/// Hz stream at 15 keeps every frame.
+class RateLimiter {
+ public:
+  explicit RateLimiter(double max_rate_hz)
+      : min_gap_(max_rate_hz > 0 ? static_cast<TimeNs>(0.99e9 / max_rate_hz) : 0) {}
+  bool keep(TimeNs t) {
+    if (any_ && t - last_ < min_gap_) return false;
+    any_ = true;
+    last_ = t;
+    return true;
+  }
+
+ private:
+  TimeNs min_gap_;
+  bool any_ = false;  ///< A frame was kept (last_ is its time).
+  TimeNs last_ = 0;
+};
+
 /// True when t is a whole number of MRPT ticks (a multiple of 100 ns).
 constexpr bool isExactMrptTime(TimeNs t) { return t % kNanosecondsPerMrptTick == 0; }
 
