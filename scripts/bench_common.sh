@@ -24,3 +24,14 @@ bench_work_dir() {
     trap 'rm -rf "$work"' EXIT
   fi
 }
+
+# timed_run NAME CMD...: runs CMD (its output in $work/out_NAME.txt) and
+# appends its wall time in ms to $work/t_NAME; stops the script when it fails.
+timed_run() {
+  local name=$1; shift
+  local t0 t1
+  t0=$(date +%s%N)
+  "$@" >"$work/out_$name.txt" 2>"$work/stderr.txt" || { cat "$work/stderr.txt" >&2; exit 1; }
+  t1=$(date +%s%N)
+  echo $(( (t1 - t0) / 1000000 )) >>"$work/t_$name"
+}

@@ -51,14 +51,7 @@ printf 'detect:\n  markers:\n    coarse_key_frames_max_s: 0\n' >"$work/no_keys.y
 
 wait_for_quiet_machine
 
-run() {  # run NAME CMD...: wall ms of CMD
-  local name=$1; shift
-  local t0 t1
-  t0=$(date +%s%N)
-  "$@" >"$work/out_$name.txt" 2>"$work/stderr.txt" || { cat "$work/stderr.txt" >&2; exit 1; }
-  t1=$(date +%s%N)
-  echo $(( (t1 - t0) / 1000000 )) >>"$work/t_$name"
-}
+run() { timed_run "$@"; }
 detect() {  # detect NAME DATASET CONFIG
   rm -rf "$work/det_$1"
   run "$1" taskset -c 0 "$lookboth" detect "$2" --threads 1 --no-blobs --detections-only \

@@ -42,14 +42,7 @@ mapfile -t videos < <(ls "$work"/site/cameras/*/video.mp4)
 
 wait_for_quiet_machine
 
-run() {  # run NAME CMD...: wall ms of CMD
-  local name=$1; shift
-  local t0 t1
-  t0=$(date +%s%N)
-  "$@" >"$work/out_$name.txt" 2>"$work/stderr.txt" || { cat "$work/stderr.txt" >&2; exit 1; }
-  t1=$(date +%s%N)
-  echo $(( (t1 - t0) / 1000000 )) >>"$work/t_$name"
-}
+run() { timed_run "$@"; }
 rm -rf "$work"/reg_* "$work"/det_*
 run register "$lookboth" register "$work/site" --no-write-back --overwrite --out "$work/reg_coarse"
 run detect_coarse "$lookboth" detect "$work/site" --threads 2 --no-blobs --detections-only \

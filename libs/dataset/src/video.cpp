@@ -16,6 +16,7 @@ extern "C" {
 #include <mutex>
 #include <opencv2/core.hpp>
 
+#include "ffmpeg_util.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/text.h"
 
@@ -24,21 +25,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string averror(int code) {
-  char text[AV_ERROR_MAX_STRING_SIZE] = {};
-  av_strerror(code, text, sizeof text);
-  return text;
-}
-
-/// FFmpeg prints its own diagnostics on stderr; ours name the file instead.
-void quietFfmpeg() {
-  static std::once_flag once;
-  std::call_once(once, [] { av_log_set_level(AV_LOG_FATAL); });
-}
-
-Error videoError(const fs::path& file, const std::string& message) {
-  return Error({file.string(), 0, "", ""}, message);
-}
+using internal::averror;
+using internal::quietFfmpeg;
+using internal::videoError;
 
 struct FormatCloser {
   void operator()(AVFormatContext* format) const { avformat_close_input(&format); }
@@ -424,5 +413,24 @@ cv::Mat VideoDecoder::frame(std::int64_t index, bool colour) {
   d.open();
   return d.decodeTo(index, passed) ? d.take(index, colour) : cv::Mat();
 }
+
+namespace internal {
+
+std::string averror(int code) {
+  char text[AV_ERROR_MAX_STRING_SIZE] = {};
+  av_strerror(code, text, sizeof text);
+  return text;
+}
+
+void quietFfmpeg() {
+  static std::once_flag once;
+  std::call_once(once, [] { av_log_set_level(AV_LOG_FATAL); });
+}
+
+Error videoError(const fs::path& file, const std::string& message) {
+  return Error({file.string(), 0, "", ""}, message);
+}
+
+}  // namespace internal
 
 }  // namespace lookboth

@@ -11,6 +11,7 @@ extern "C" {
 
 #include <opencv2/core.hpp>
 
+#include "ffmpeg_util.h"
 #include "lookboth/core/error.h"
 
 namespace lookboth {
@@ -18,15 +19,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string averror(int code) {
-  char text[AV_ERROR_MAX_STRING_SIZE] = {};
-  av_strerror(code, text, sizeof text);
-  return text;
-}
-
-Error encodeError(const fs::path& file, const std::string& message) {
-  return Error({file.string(), 0, "", ""}, message);
-}
+using internal::averror;
+using internal::videoError;
 
 /// Full-range grey to video-range luma (16-235), rounded.
 const cv::Mat& videoRangeTable() {
@@ -81,13 +75,13 @@ struct VideoEncoder::Impl {
   void open(int width, int height, const VideoEncodeOptions& options) {
     const AVOutputFormat* container = av_guess_format(nullptr, file.c_str(), nullptr);
     if (!container) {
-      throw encodeError(file, "no container for the extension '" + file.extension().string() +
-                                  "' (use .mp4 or .mkv)");
+      throw videoError(file, "no container for the extension '" + file.extension().string() +
+                                 "' (use .mp4 or .mkv)");
     }
     const AVCodec* encoder = avcodec_find_encoder_by_name(options.codec.c_str());
-    if (!encoder) throw encodeError(file, "FFmpeg has no encoder '" + options.codec + "'");
+    if (!encoder) throw videoError(file, "FFmpeg has no encoder '" + options.codec + "'");
     int rc = avformat_alloc_output_context2(&format, container, nullptr, partial.c_str());
-    if (rc < 0) throw encodeError(file, "cannot set up the container (" + averror(rc) + ")");
+    if (rc < 0) throw videoError(file, "cannot set up the container (" + averror(rc) + ")");
     codec = avcodec_alloc_context3(encoder);
     codec->width = width;
     codec->height = height;
@@ -107,17 +101,16 @@ struct VideoEncoder::Impl {
     }
     rc = avcodec_open2(codec, encoder, nullptr);
     if (rc < 0)
-      throw encodeError(file,
-                        "cannot open the encoder '" + options.codec + "' (" + averror(rc) + ")");
+      throw videoError(file,
+                       "cannot open the encoder '" + options.codec + "' (" + averror(rc) + ")");
     stream = avformat_new_stream(format, nullptr);
-    if (!stream) throw encodeError(file, "cannot add a stream");
+    if (!stream) throw videoError(file, "cannot add a stream");
     stream->time_base = codec->time_base;
     avcodec_parameters_from_context(stream->codecpar, codec);
     rc = avio_open(&format->pb, partial.c_str(), AVIO_FLAG_WRITE);
-    if (rc < 0) throw encodeError(partial, "cannot create the file (" + averror(rc) + ")");
+    if (rc < 0) throw videoError(partial, "cannot create the file (" + averror(rc) + ")");
     rc = avformat_write_header(format, nullptr);
-    if (rc < 0)
-      throw encodeError(file, "cannot write the container's header (" + averror(rc) + ")");
+    if (rc < 0) throw videoError(file, "cannot write the container's header (" + averror(rc) + ")");
     header_written = true;
     frame = av_frame_alloc();
     packet = av_packet_alloc();
@@ -126,33 +119,33 @@ struct VideoEncoder::Impl {
     frame->height = height;
     frame->color_range = AVCOL_RANGE_MPEG;
     rc = av_frame_get_buffer(frame, 0);
-    if (rc < 0) throw encodeError(file, "cannot allocate a frame (" + averror(rc) + ")");
+    if (rc < 0) throw videoError(file, "cannot allocate a frame (" + averror(rc) + ")");
   }
 
   /// Sends `input` (null: the end) and writes every packet the encoder gives back.
   void send(const AVFrame* input) {
     int rc = avcodec_send_frame(codec, input);
-    if (rc < 0) throw encodeError(file, "encoding failed (" + averror(rc) + ")");
+    if (rc < 0) throw videoError(file, "encoding failed (" + averror(rc) + ")");
     while ((rc = avcodec_receive_packet(codec, packet)) >= 0) {
       av_packet_rescale_ts(packet, codec->time_base, stream->time_base);
       packet->stream_index = stream->index;
       rc = av_interleaved_write_frame(format, packet);
-      if (rc < 0) throw encodeError(partial, "cannot write (disk full?) (" + averror(rc) + ")");
+      if (rc < 0) throw videoError(partial, "cannot write (disk full?) (" + averror(rc) + ")");
     }
     if (rc != AVERROR(EAGAIN) && rc != AVERROR_EOF)
-      throw encodeError(file, "encoding failed (" + averror(rc) + ")");
+      throw videoError(file, "encoding failed (" + averror(rc) + ")");
   }
 };
 
 VideoEncoder::VideoEncoder(const fs::path& file, int width, int height,
                            const VideoEncodeOptions& options)
     : impl_(std::make_unique<Impl>()) {
-  if (const std::string why = options.check(); !why.empty()) throw encodeError(file, why);
+  if (const std::string why = options.check(); !why.empty()) throw videoError(file, why);
   if (width < 2 || height < 2 || width % 2 || height % 2) {
-    throw encodeError(file, "frames of " + std::to_string(width) + "x" + std::to_string(height) +
-                                ": the encoder needs an even width and height");
+    throw videoError(file, "frames of " + std::to_string(width) + "x" + std::to_string(height) +
+                               ": the encoder needs an even width and height");
   }
-  av_log_set_level(AV_LOG_FATAL);
+  internal::quietFfmpeg();
   impl_->file = file;
   impl_->partial = file.string() + ".partial";
   impl_->open(width, height, options);
@@ -162,20 +155,20 @@ VideoEncoder::~VideoEncoder() = default;
 
 void VideoEncoder::write(const cv::Mat& grey, std::int64_t time_us) {
   Impl& m = *impl_;
-  if (m.finished) throw encodeError(m.file, "frame written after the video was finished");
+  if (m.finished) throw videoError(m.file, "frame written after the video was finished");
   if (grey.type() != CV_8UC1 || grey.cols != m.codec->width || grey.rows != m.codec->height) {
-    throw encodeError(m.file, "frame " + std::to_string(m.frames) + " is not 8-bit grey of " +
-                                  std::to_string(m.codec->width) + "x" +
-                                  std::to_string(m.codec->height));
+    throw videoError(m.file, "frame " + std::to_string(m.frames) + " is not 8-bit grey of " +
+                                 std::to_string(m.codec->width) + "x" +
+                                 std::to_string(m.codec->height));
   }
   if (m.frames > 0 && time_us <= m.last_time_us) {
-    throw encodeError(m.file, "frame " + std::to_string(m.frames) + " at " +
-                                  std::to_string(time_us) +
-                                  " us does not follow the previous one at " +
-                                  std::to_string(m.last_time_us) + " us");
+    throw videoError(m.file, "frame " + std::to_string(m.frames) + " at " +
+                                 std::to_string(time_us) +
+                                 " us does not follow the previous one at " +
+                                 std::to_string(m.last_time_us) + " us");
   }
   const int rc = av_frame_make_writable(m.frame);
-  if (rc < 0) throw encodeError(m.file, "cannot reuse the frame (" + averror(rc) + ")");
+  if (rc < 0) throw videoError(m.file, "cannot reuse the frame (" + averror(rc) + ")");
   const cv::Mat luma(grey.rows, grey.cols, CV_8UC1, m.frame->data[0],
                      static_cast<std::size_t>(m.frame->linesize[0]));
   cv::LUT(grey, videoRangeTable(), luma);
@@ -196,12 +189,12 @@ void VideoEncoder::finish() {
   m.send(nullptr);
   int rc = av_write_trailer(m.format);
   m.finished = true;
-  if (rc < 0) throw encodeError(m.partial, "cannot finish the file (" + averror(rc) + ")");
+  if (rc < 0) throw videoError(m.partial, "cannot finish the file (" + averror(rc) + ")");
   rc = avio_closep(&m.format->pb);
-  if (rc < 0) throw encodeError(m.partial, "cannot close the file (" + averror(rc) + ")");
+  if (rc < 0) throw videoError(m.partial, "cannot close the file (" + averror(rc) + ")");
   std::error_code ec;
   fs::rename(m.partial, m.file, ec);
-  if (ec) throw encodeError(m.file, "cannot rename the finished video into place: " + ec.message());
+  if (ec) throw videoError(m.file, "cannot rename the finished video into place: " + ec.message());
   m.renamed = true;
 }
 

@@ -604,6 +604,14 @@ TEST(MarkerDetector, DictionaryFromAFile) {
 // over the tutorial images with every dictionary. singlemarkersbrokenthresh.png
 // is left out: it is a binary threshold map, not a picture of markers, in
 // which plain OpenCV reads four outlines as ARUCO_ORIGINAL id 1023.
+/// A photo whose calibration is unknown: a pinhole of plausible focal
+/// length (the corners do not depend on it; no pose is checked).
+Camera plausiblePinhole(const cv::Mat& grey) {
+  const double f = 0.9 * grey.cols;
+  return Camera(PinholeModel{}, grey.cols, grey.rows,
+                {f, f, 0.5 * grey.cols - 0.5, 0.5 * grey.rows - 0.5});
+}
+
 TEST(MarkerDetector, FindsEveryMarkerPlainOpenCvFindsInRealPhotos) {
   const std::filesystem::path html = "/usr/share/doc/opencv-doc/opencv4/html";
   if (!std::filesystem::exists(html / "singlemarkersoriginal.jpg"))
@@ -615,11 +623,7 @@ TEST(MarkerDetector, FindsEveryMarkerPlainOpenCvFindsInRealPhotos) {
     const cv::Mat grey = cv::imread((html / name).string(), cv::IMREAD_GRAYSCALE);
     if (grey.empty()) continue;
     ++photos;
-    // The photos' calibrations are unknown: a pinhole of plausible focal
-    // length (the corners do not depend on it), no pose check.
-    const double f = 0.9 * grey.cols;
-    const Camera camera(PinholeModel{}, grey.cols, grey.rows,
-                        {f, f, 0.5 * grey.cols - 0.5, 0.5 * grey.rows - 0.5});
+    const Camera camera = plausiblePinhole(grey);
     MarkerDetectorOptions options;
     options.max_reprojection_px = 100;
     options.detect_scale = 1;
@@ -704,9 +708,7 @@ TEST(MarkerDetector, FindsEveryTagPlainOpenCvFindsInRealAprilTagPhotos) {
     ASSERT_FALSE(grey.empty()) << name;
     const std::vector<ListedTag> listed = readListedTags(dir / (std::string(name) + ".txt"));
     ASSERT_GE(listed.size(), 10u) << name;
-    const double f = 0.9 * grey.cols;
-    const Camera camera(PinholeModel{}, grey.cols, grey.rows,
-                        {f, f, 0.5 * grey.cols - 0.5, 0.5 * grey.rows - 0.5});
+    const Camera camera = plausiblePinhole(grey);
     MarkerDetectorOptions options;
     options.max_reprojection_px = 100;
     options.detect_scale = 1;

@@ -28,6 +28,22 @@ World benchmarkWorld() {
   return world;
 }
 
+/// The share's 1920x1080 ceiling camera 3.5 m up, looking straight down.
+struct DownCamera {
+  Camera camera = shareCamera("ceiling_camera_ros.yaml");
+  Rigid3d world_from_camera{
+      Eigen::Quaterniond(Eigen::Matrix3d(Eigen::Vector3d(1, -1, -1).asDiagonal())),
+      Eigen::Vector3d(20.0, 10.0, 3.5)};
+};
+
+/// The robot at x along the camera's row.
+RobotAppearance robotAt(double x) {
+  RobotAppearance robot;
+  robot.world_from_base = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(x, 10.3, 0.0));
+  robot.world_from_marker = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(x, 10.3, 0.25));
+  return robot;
+}
+
 void setRate(benchmark::State& state) {
   state.counters["frames/s"] =
       benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
@@ -52,25 +68,17 @@ void BM_RenderFisheye1080p(benchmark::State& state) {
 BENCHMARK(BM_RenderFisheye1080p)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_RenderEnvCamera1080p(benchmark::State& state) {
-  const Camera camera = shareCamera("ceiling_camera_ros.yaml");
+  const DownCamera down;
   const World world = benchmarkWorld();
-  const Eigen::Quaterniond down(Eigen::Matrix3d(Eigen::Vector3d(1, -1, -1).asDiagonal()));
-  const Rigid3d world_from_camera(down, Eigen::Vector3d(20.0, 10.0, 3.5));
   RenderOptions options;
   options.supersampling = static_cast<int>(state.range(0));
   std::mt19937 rng(1);
   double x = 19.0;
-  {
-    RobotAppearance robot;  // builds the camera's bearing table
-    renderEnvCamera(world, camera, world_from_camera, robot, options, rng);
-  }
+  // Builds the camera's bearing table.
+  renderEnvCamera(world, down.camera, down.world_from_camera, RobotAppearance(), options, rng);
   for (auto _ : state) {
-    RobotAppearance robot;
-    robot.world_from_base = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(x, 10.3, 0.0));
-    robot.world_from_marker =
-        Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(x, 10.3, 0.25));
     benchmark::DoNotOptimize(
-        renderEnvCamera(world, camera, world_from_camera, robot, options, rng).data);
+        renderEnvCamera(world, down.camera, down.world_from_camera, robotAt(x), options, rng).data);
     x += 0.03;
   }
   setRate(state);
@@ -81,21 +89,17 @@ BENCHMARK(BM_RenderEnvCamera1080p)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond
 /// in view (arg 1: its box cast again) or away (arg 0: exposure, blur and
 /// noise only), supersampling 2.
 void BM_RenderEnvCameraFromBackground1080p(benchmark::State& state) {
-  const Camera camera = shareCamera("ceiling_camera_ros.yaml");
+  const DownCamera down;
   const World world = benchmarkWorld();
-  const Eigen::Quaterniond down(Eigen::Matrix3d(Eigen::Vector3d(1, -1, -1).asDiagonal()));
-  const Rigid3d world_from_camera(down, Eigen::Vector3d(20.0, 10.0, 3.5));
   RenderOptions options;
-  const EnvBackground background = renderEnvBackground(world, camera, world_from_camera, options);
+  const EnvBackground background =
+      renderEnvBackground(world, down.camera, down.world_from_camera, options);
   std::mt19937 rng(1);
   double x = state.range(0) ? 19.0 : 35.0;
   for (auto _ : state) {
-    RobotAppearance robot;
-    robot.world_from_base = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(x, 10.3, 0.0));
-    robot.world_from_marker =
-        Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(x, 10.3, 0.25));
-    benchmark::DoNotOptimize(
-        renderEnvCamera(world, camera, world_from_camera, robot, options, rng, &background).data);
+    benchmark::DoNotOptimize(renderEnvCamera(world, down.camera, down.world_from_camera, robotAt(x),
+                                             options, rng, &background)
+                                 .data);
     x += 0.03;
   }
   setRate(state);
