@@ -9,6 +9,8 @@ extern "C" {
 #include <libavutil/opt.h>
 }
 
+#include <algorithm>
+#include <cmath>
 #include <opencv2/core.hpp>
 
 #include "ffmpeg_util.h"
@@ -41,6 +43,7 @@ std::string VideoEncodeOptions::check() const {
   if (key_frame_interval < 1 || key_frame_interval > 100000)
     return "'key_frame_interval': must be in [1, 100000], got " +
            std::to_string(key_frame_interval);
+  if (!(frame_rate_hz > 0 && frame_rate_hz <= 1000)) return "'frame_rate_hz': must be in (0, 1000]";
   if (threads < 1 || threads > 64)
     return "'threads': must be in [1, 64], got " + std::to_string(threads);
   return "";
@@ -55,6 +58,7 @@ struct VideoEncoder::Impl {
   AVPacket* packet = nullptr;
   std::int64_t frames = 0;
   std::int64_t last_time_us = 0;
+  std::int64_t last_pts = 0;  ///< On the codec's 90 kHz clock.
   bool header_written = false;
   bool finished = false;  ///< The trailer written, or tried: nothing more goes in.
   bool renamed = false;   ///< The file is in place under its name.
@@ -87,7 +91,15 @@ struct VideoEncoder::Impl {
     codec->height = height;
     codec->pix_fmt = AV_PIX_FMT_YUV420P;
     codec->color_range = AVCOL_RANGE_MPEG;
-    codec->time_base = AVRational{1, 1000000};
+    // Microseconds, the frames' own times, where the encoder takes them
+    // (libx264, libx265); else a thousandth of a frame (MPEG-4 part 2 takes
+    // no finer than 1/65535 s), to which the times given are rounded.
+    const bool microseconds = options.codec == "libx264" || options.codec == "libx265";
+    codec->time_base = AVRational{
+        1, microseconds
+               ? 1000000
+               : static_cast<int>(std::min(65535.0, std::round(1000 * options.frame_rate_hz)))};
+    codec->framerate = av_d2q(options.frame_rate_hz, 100000);
     codec->gop_size = options.key_frame_interval;
     codec->keyint_min = options.key_frame_interval;
     codec->max_b_frames = 0;  // as network cameras: every frame decodes in order
@@ -161,7 +173,8 @@ void VideoEncoder::write(const cv::Mat& grey, std::int64_t time_us) {
                                  std::to_string(m.codec->width) + "x" +
                                  std::to_string(m.codec->height));
   }
-  if (m.frames > 0 && time_us <= m.last_time_us) {
+  const std::int64_t pts = av_rescale_q(time_us, AVRational{1, 1000000}, m.codec->time_base);
+  if (m.frames > 0 && (time_us <= m.last_time_us || pts <= m.last_pts)) {
     throw videoError(m.file, "frame " + std::to_string(m.frames) + " at " +
                                  std::to_string(time_us) +
                                  " us does not follow the previous one at " +
@@ -177,9 +190,10 @@ void VideoEncoder::write(const cv::Mat& grey, std::int64_t time_us) {
             static_cast<std::size_t>(m.frame->linesize[plane]))
         .setTo(128);
   }
-  m.frame->pts = time_us;
+  m.frame->pts = pts;
   m.send(m.frame);
   m.last_time_us = time_us;
+  m.last_pts = pts;
   ++m.frames;
 }
 

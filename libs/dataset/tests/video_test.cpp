@@ -504,6 +504,21 @@ TEST(VideoEncoder, GreyLevelsSurviveTheVideoRange) {
   EXPECT_LE(cv::norm(back, ramp, cv::NORM_INF), 1.0);
 }
 
+TEST(VideoEncoder, OtherEncodersWriteWhatTheDecoderReads) {
+  const fs::path file = scratch("encode_mpeg4") / "video.mkv";
+  VideoEncodeOptions options;
+  options.codec = "mpeg4";
+  options.key_frame_interval = 5;
+  {
+    VideoEncoder encoder(file, kWidth, kHeight, options);
+    for (int i = 0; i < 12; ++i) encoder.write(barCode(i), i * 40'000);
+    encoder.finish();
+  }
+  EXPECT_EQ(probeVideo(file, false).codec, "mpeg4");
+  VideoDecoder decoder(file);
+  for (int i = 0; i < 12; ++i) EXPECT_EQ(readBarCode(decoder.frame(i, false)), i);
+}
+
 TEST(VideoEncoder, BadInputNamesTheFileAndLeavesNothingBehind) {
   const fs::path dir = scratch("encode_bad");
   auto message = [](const std::function<void()>& action) {

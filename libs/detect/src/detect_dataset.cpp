@@ -153,6 +153,9 @@ struct CameraWork {
   const CameraSensor* sensor = nullptr;
   bool fisheye = false;
   std::vector<ImageFrame> frames;
+  /// The fisheye's frames searched for blobs (blobs.max_rate_hz), chosen
+  /// over the whole recording: the same whatever its jobs.
+  std::vector<bool> searched;
 };
 
 /// One job: a camera's frames [begin, end).
@@ -334,9 +337,8 @@ JobResult runFisheyeJob(const CameraWork& work, const Job& job, const DetectConf
   JobResult result;
   BlobDetector detector(config.blobs, work.sensor->camera ? &*work.sensor->camera : nullptr);
   JobFrames frames(work, job, result, done, 0);
-  RateLimiter rate(config.blobs.max_rate_hz);
   for (size_t i = job.begin; i < job.end && !stop.load(); ++i) {
-    if (!rate.keep(work.frames[i].t)) continue;
+    if (!work.searched[i]) continue;
     const cv::Mat grey = frames.grey(i);
     if (grey.empty()) continue;
     BlobObservation obs;
@@ -501,7 +503,7 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
       continue;
     }
     index[sensor.label] = work.size();
-    work.push_back({&sensor, fisheye, {}});
+    work.push_back({&sensor, fisheye, {}, {}});
   }
 
   // Read sequentially: the frames of the chosen cameras.
@@ -532,6 +534,8 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
                      [](const ImageFrame& a, const ImageFrame& b) { return a.t < b.t; });
     total += static_cast<std::int64_t>(work[c].frames.size());
     const size_t n = work[c].frames.size();
+    RateLimiter rate(work[c].fisheye ? options.config.blobs.max_rate_hz : 0);
+    for (const ImageFrame& frame : work[c].frames) work[c].searched.push_back(rate.keep(frame.t));
     // A chunk of a video starts with a seek and decodes from the key frame
     // before it: a video's chunks are as long as the threads allow.
     const bool video = n > 0 && isVideoFrame(work[c].frames.front());

@@ -597,13 +597,6 @@ TEST(MarkerDetector, DictionaryFromAFile) {
   EXPECT_THROW(MarkerDetector::withDictionaryFile(file, 7, 0.0, camera), Error);
 }
 
-// The ArUco photographs and pictures of Debian's opencv-doc (OpenCV's
-// tutorials): each marker plain OpenCV finds (cv::aruco::detectMarkers,
-// default parameters) in each dictionary, lookboth's detector finds too, as
-// often. Which photo holds which dictionary was found by running plain OpenCV
-// over the tutorial images with every dictionary. singlemarkersbrokenthresh.png
-// is left out: it is a binary threshold map, not a picture of markers, in
-// which plain OpenCV reads four outlines as ARUCO_ORIGINAL id 1023.
 /// A photo whose calibration is unknown: a pinhole of plausible focal
 /// length (the corners do not depend on it; no pose is checked).
 Camera plausiblePinhole(const cv::Mat& grey) {
@@ -612,6 +605,13 @@ Camera plausiblePinhole(const cv::Mat& grey) {
                 {f, f, 0.5 * grey.cols - 0.5, 0.5 * grey.rows - 0.5});
 }
 
+// The ArUco photographs and pictures of Debian's opencv-doc (OpenCV's
+// tutorials): each marker plain OpenCV finds (cv::aruco::detectMarkers,
+// default parameters) in each dictionary, lookboth's detector finds too, as
+// often. Which photo holds which dictionary was found by running plain OpenCV
+// over the tutorial images with every dictionary. singlemarkersbrokenthresh.png
+// is left out: it is a binary threshold map, not a picture of markers, in
+// which plain OpenCV reads four outlines as ARUCO_ORIGINAL id 1023.
 TEST(MarkerDetector, FindsEveryMarkerPlainOpenCvFindsInRealPhotos) {
   const std::filesystem::path html = "/usr/share/doc/opencv-doc/opencv4/html";
   if (!std::filesystem::exists(html / "singlemarkersoriginal.jpg"))
@@ -692,7 +692,7 @@ double quadDistance(const std::array<Eigen::Vector2d, 4>& a,
   return best;
 }
 
-// Printed (not backlit) tags photographed outdoors, 18-40 px wide
+// Printed (not backlit) tags photographed outdoors, 10-47 px on a side
 // (tests/data/markers/apriltag_swarmathon/SOURCE.md): every tag plain
 // OpenCV finds, ours finds too; against the AprilTag library's own list, the
 // recall and the corners' agreement are measured.
@@ -741,6 +741,12 @@ TEST(MarkerDetector, FindsEveryTagPlainOpenCvFindsInRealAprilTagPhotos) {
       ours_total += std::min(static_cast<int>(found.size()), by_id[id]);
       for (const MarkerDetection& d : found) ours.push_back(d.corners_px);
     }
+    // The same tags, not only as many: each of OpenCV's is one of ours.
+    for (const auto& theirs : opencv) {
+      double nearest = std::numeric_limits<double>::infinity();
+      for (const auto& quad : ours) nearest = std::min(nearest, quadDistance(quad, theirs));
+      EXPECT_LT(nearest, 3.0) << name << ": a tag plain OpenCV finds is not among ours";
+    }
     for (const ListedTag& tag : listed) {
       ++listed_total;
       double nearest = std::numeric_limits<double>::infinity();
@@ -760,6 +766,8 @@ TEST(MarkerDetector, FindsEveryTagPlainOpenCvFindsInRealAprilTagPhotos) {
       "lookboth %d (corners %.2f px from its, median), plain OpenCV %d\n",
       opencv_total, ours_total, listed_total, ours_listed, median, opencv_listed);
   EXPECT_GE(opencv_total, 20);
+  EXPECT_GT(opencv_listed, 0);
+  EXPECT_GE(ours_listed, opencv_listed);
   EXPECT_LE(median, 1.0);
 }
 

@@ -401,9 +401,13 @@ cv::Rect robotImageBox(const Camera& camera, const Rigid3d& world_from_camera,
   cv::Rect high;
   const Rigid3d camera_from_world = world_from_camera.inverse();
   double u0 = kInf, v0 = kInf, u1 = -kInf, v1 = -kInf;
+  bool unprojected = false;  // a point beyond the model's field of view
   const auto addPoint = [&](const Eigen::Vector3d& p_in_world) {
     const std::optional<Eigen::Vector2d> px = camera.project(camera_from_world * p_in_world);
-    if (!px || !px->allFinite()) return;
+    if (!px || !px->allFinite()) {
+      unprojected = true;
+      return;
+    }
     u0 = std::min(u0, px->x());
     v0 = std::min(v0, px->y());
     u1 = std::max(u1, px->x());
@@ -424,8 +428,13 @@ cv::Rect robotImageBox(const Camera& camera, const Rigid3d& world_from_camera,
     }
   }
   if (u0 <= u1) {
-    const int margin =
+    int margin =
         3 + static_cast<int>(std::ceil(3.0 * options.blur_sigma_px + options.motion_blur_px));
+    // Part of the robot beyond the model's field of view (at the image's
+    // edge): between the last point that projects and the first that does
+    // not, the robot can still be in the image, within about one step of
+    // the sampling grid (a frame made from a background would clip it).
+    if (unprojected) margin += static_cast<int>(std::ceil(std::max(u1 - u0, v1 - v0) / kSteps));
     high = cv::Rect(cv::Point(static_cast<int>(std::floor(std::max(u0, -1e6))) - margin,
                               static_cast<int>(std::floor(std::max(v0, -1e6))) - margin),
                     cv::Point(static_cast<int>(std::ceil(std::min(u1, 1e6))) + margin + 1,

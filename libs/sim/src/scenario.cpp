@@ -593,9 +593,7 @@ std::optional<std::pair<std::string, std::string>> Scenario::problem() const {
   if (auto p = range("cameras.housing_radius_m", cameras.housing_radius_m, 0.01, 1)) return p;
   if (auto p = range("cameras.housing_height_m", cameras.housing_height_m, 0.01, 1)) return p;
   if (cameras.video) {
-    if (cameras.video->codec.empty())
-      return std::make_pair(std::string("cameras.video.codec"), std::string("empty"));
-    if (auto p = range("cameras.video.crf", cameras.video->crf, 0, 51)) return p;
+    if (auto p = prefixed("cameras.video", cameraVideoOptions(cameras).check())) return p;
     if (auto p = range("cameras.video.key_frame_interval_s", cameras.video->key_frame_interval_s,
                        1 / cameras.rate_hz, 3600))
       return p;
@@ -896,6 +894,18 @@ std::vector<EnvCameraPlacement> placeEnvCameras(
     placements.push_back(placement);
   }
   return placements;
+}
+
+VideoEncodeOptions cameraVideoOptions(const EnvCamerasSpec& cameras) {
+  VideoEncodeOptions options;
+  if (!cameras.video) return options;
+  options.codec = cameras.video->codec;
+  options.crf = cameras.video->crf;
+  options.preset = cameras.video->preset;
+  options.frame_rate_hz = cameras.rate_hz;
+  options.key_frame_interval = std::max(
+      1, static_cast<int>(std::lround(cameras.video->key_frame_interval_s * cameras.rate_hz)));
+  return options;
 }
 
 }  // namespace lookboth::sim

@@ -1,5 +1,6 @@
 #include "lookboth/sim/simulate.h"
 
+#include <unistd.h>
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -957,18 +958,19 @@ BlobObservation simulatedBlobs(const Setup& setup, const Event& e) {
 /// links them into the dataset. The scratch folder goes when this does.
 class CameraVideos {
  public:
+  /// Opens every camera's encoder (a bad codec or preset fails here, before
+  /// anything is rendered), in a scratch folder of this process beside `out`.
   CameraVideos(const Setup& setup, const fs::path& out) : setup_(setup) {
-    const CameraVideoSpec& spec = *setup.scenario.cameras.video;
-    options_.codec = spec.codec;
-    options_.crf = spec.crf;
-    options_.preset = spec.preset;
-    options_.key_frame_interval = std::max(
-        1,
-        static_cast<int>(std::lround(spec.key_frame_interval_s * setup.scenario.cameras.rate_hz)));
-    scratch_ = out.parent_path() / (out.filename().string() + "-videos.partial");
+    const VideoEncodeOptions options = cameraVideoOptions(setup.scenario.cameras);
+    scratch_ = out.parent_path() / ("." + out.filename().string() + ".videos-" +
+                                    std::to_string(static_cast<long long>(::getpid())));
     fs::remove_all(scratch_);
     fs::create_directories(scratch_);
-    encoders_.resize(setup.placements.size());
+    for (size_t c = 0; c < setup.placements.size(); ++c) {
+      encoders_.push_back(std::make_unique<VideoEncoder>(file(static_cast<int>(c)),
+                                                         setup.env_camera->width(),
+                                                         setup.env_camera->height(), options));
+    }
     frames_.resize(setup.placements.size());
   }
   ~CameraVideos() {
@@ -982,12 +984,9 @@ class CameraVideos {
   /// Encodes `image` as the next frame of the camera's video and returns
   /// its index. Safe from several threads for different cameras.
   std::int64_t add(int camera, const cv::Mat& image, double t) {
-    std::unique_ptr<VideoEncoder>& encoder = encoders_[static_cast<size_t>(camera)];
-    if (!encoder) {
-      encoder = std::make_unique<VideoEncoder>(file(camera), image.cols, image.rows, options_);
-    }
-    const std::int64_t index = encoder->frames();
-    encoder->write(image, std::llround(t * 1e6));
+    VideoEncoder& encoder = *encoders_[static_cast<size_t>(camera)];
+    const std::int64_t index = encoder.frames();
+    encoder.write(image, std::llround(t * 1e6));
     return index;
   }
   /// Notes that frame `index` of the camera's video was taken at `stamp`.
@@ -997,7 +996,7 @@ class CameraVideos {
   /// Finishes the videos and writes their frames' records.
   void finish(const std::function<void(const Record&)>& write) {
     for (size_t c = 0; c < encoders_.size(); ++c) {
-      if (!encoders_[c]) continue;
+      if (frames_[c].empty()) continue;  // never in view of the drive: no video
       encoders_[c]->finish();
       for (const auto& [stamp, index] : frames_[c]) {
         ImageFrame frame;
@@ -1016,7 +1015,6 @@ class CameraVideos {
   }
 
   const Setup& setup_;
-  VideoEncodeOptions options_;
   fs::path scratch_;
   std::vector<std::unique_ptr<VideoEncoder>> encoders_;
   std::vector<std::vector<std::pair<TimeNs, std::int64_t>>> frames_;  ///< (stamp, index).
@@ -1146,6 +1144,8 @@ SimulateSummary simulate(const SimulateOptions& options, const ProgressReporter&
     throw Error(ErrorContext{options.scenario, 0, "cameras.video", ""},
                 "videos are written in folder datasets only (--format folder)");
   }
+  std::optional<CameraVideos> camera_videos;
+  if (videos) camera_videos.emplace(mutable_setup, options.out);
   renderBackgrounds(mutable_setup, options, progress);
   const Setup& setup = mutable_setup;
   progress.checkStop();
@@ -1159,8 +1159,6 @@ SimulateSummary simulate(const SimulateOptions& options, const ProgressReporter&
   write_options.link_images = true;  // the videos: linked from the scratch folder, not copied
   std::unique_ptr<DatasetWriter> writer =
       DatasetWriter::create(options.out, options.kind, manifest, write_options);
-  std::optional<CameraVideos> camera_videos;
-  if (videos) camera_videos.emplace(setup, options.out);
 
   SimulateSummary summary;
   summary.cameras = static_cast<int>(setup.placements.size());

@@ -14,12 +14,16 @@
 namespace lookboth {
 
 struct VideoEncodeOptions {
-  std::string codec = "libx264";  ///< An FFmpeg encoder ("libx264", "mpeg4", "mjpeg", ...).
+  /// An FFmpeg encoder that takes video-range YUV 4:2:0: "libx264" (H.264,
+  /// what network cameras record), "libx265", "mpeg4", ... (not "mjpeg":
+  /// full range only).
+  std::string codec = "libx264";
   /// libx264's constant rate factor: lower is better and larger (18 visually
   /// lossless, 23 libx264's default, 28 a low-bitrate recorder). Other codecs ignore it.
   int crf = 23;
   std::string preset = "veryfast";  ///< libx264's speed preset; other codecs ignore it.
   int key_frame_interval = 30;      ///< Frames from one key frame to the next, >= 1.
+  double frame_rate_hz = 30;        ///< The frames' nominal rate (the stream's header) [Hz].
   int threads = 1;                  ///< The encoder's threads.
   /// "" when usable, else what is wrong, naming the field.
   std::string check() const;

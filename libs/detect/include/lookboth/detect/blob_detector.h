@@ -76,13 +76,14 @@ struct BlobDetectorOptions {
   /// off too when the fisheye has no calibration [factor >= 1].
   double housing_size_tolerance = 1.25;
   /// A recording's fisheye frames searched at most this often [Hz]; the
-  /// others are not decoded. At 30 Hz consecutive frames see the same
+  /// others are not decoded when they are image files (a video's are, in
+  /// order, but not searched). At 30 Hz consecutive frames see the same
   /// housings a few pixels apart, and the adjustments keep a few hundred
   /// blobs per camera spread over time (joint's max_blobs_per_camera)
   /// whatever the rate. 0 = every frame. On the `paper` facility's 60 s
   /// full recording (doc/benchmarks.md), 10 for its 30 Hz fisheye took
   /// `register` from 108 to 97 s and the cameras from 0.82 to 0.87 cm RMS:
-  /// not the default until the accuracy is shown unchanged.
+  /// not the default, the accuracy not being shown unchanged.
   double max_rate_hz = 0;
   std::string check() const;
 };

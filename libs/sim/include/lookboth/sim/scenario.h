@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "lookboth/dataset/manifest.h"
+#include "lookboth/dataset/video_writer.h"
 #include "lookboth/geometry/rigid3.h"
 #include "lookboth/geometry/time.h"
 #include "lookboth/sim/motion.h"
@@ -59,7 +60,6 @@ struct RobotSpec {
   double body_length_m = 0.50, body_width_m = 0.43, body_height_m = 0.25;
 };
 
-/// The environment cameras, placed along the robot's loop.
 /// How the environment cameras' rendered frames are stored: one video file
 /// per camera (as a recorder keeps them; folder datasets only) instead of a
 /// PNG file per frame.
@@ -70,6 +70,7 @@ struct CameraVideoSpec {
   double key_frame_interval_s = 1.0;  ///< [s] between key frames (network cameras: 1-2 s).
 };
 
+/// The environment cameras, placed along the robot's loop.
 struct EnvCamerasSpec {
   int count = 6;
   std::string label_prefix = "cam";   ///< Labels cam00, cam01...
@@ -86,6 +87,12 @@ struct EnvCamerasSpec {
   double housing_radius_m = 0.06, housing_height_m = 0.10;  ///< The housing the fisheye sees.
   std::optional<CameraVideoSpec> video;                     ///< Absent: a PNG file per frame.
 };
+
+/// The encoder's options of `cameras.video` (the defaults when absent): its
+/// key frame interval counted in frames at `rate_hz` (with a finite
+/// store_radius_m the frames stored are those near the robot, and a key frame
+/// comes every so many of them).
+VideoEncodeOptions cameraVideoOptions(const EnvCamerasSpec& cameras);
 
 struct ClockSpec {
   TimeNs start_time = secondsToNs(1700000000);      ///< True time of the start (Unix) [ns].

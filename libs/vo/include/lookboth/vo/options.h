@@ -15,8 +15,9 @@ namespace lookboth::vo {
 struct OdometryOptions {
   // Images.
   int working_width = 640;  ///< Frames wider than this are downscaled by an integer factor [px].
-  /// Frames tracked at most this often [Hz]; the others are not decoded (a
-  /// 30 Hz recording at 15: every other frame). 0 = every frame. On the
+  /// Frames tracked at most this often [Hz]; the others are not decoded
+  /// when they are image files (a video's are, in order, but not tracked);
+  /// a 30 Hz recording at 15: every other frame. 0 = every frame. On the
   /// `paper` facility's 60 s full recording (30 Hz, 1920x1080), 15 took
   /// `register` from 97 to 73 s but the cameras from 0.87 to 1.43 cm RMS.
   double max_rate_hz = 0;
