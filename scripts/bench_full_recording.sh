@@ -119,15 +119,6 @@ for name in register_overlapped register_sequential; do
 done
 # Recall of the coarse search against every frame, per format.
 for format in png_coarse video_coarse video_no_keys; do
-  python3 - "$work/det_${format%%_*}_every" "$work/det_$format" "$format" <<'PY'
-import csv, sys
-def load(d):
-    with open(d + "/detections/markers.csv") as f:
-        return {(r["camera"], r["timestamp_ns"]) for r in csv.DictReader(f)}
-every, coarse = load(sys.argv[1]), load(sys.argv[2])
-found = len(every & coarse)
-print(f"{sys.argv[3]}: the coarse search finds {found} of the {len(every)} markers examining "
-      f"every frame finds ({100.0 * found / max(1, len(every)):.2f} %), and {len(coarse - every)} more")
-PY
+  python3 "$here/coarse_recall.py" "$work/det_${format%%_*}_every" "$work/det_$format" "$format"
 done
 grep "examined" "$work/out_png_coarse.txt" "$work/out_video_coarse.txt" || true

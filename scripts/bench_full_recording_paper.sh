@@ -76,16 +76,7 @@ examined=$(grep -o "([0-9]* examined" "$work/out_keys_detect.txt" | grep -o "[0-
 echo "keys_detect: $(cat "$work/t_keys_detect") ms for the $examined frames examined, one core;" \
   "keys_ffmpeg: $(cat "$work/t_keys_ffmpeg") ms to decode the key frames alone"
 grep -h "run time" "$work/out_register.txt" || true
-python3 - "$work/det_every" "$work/det_coarse" <<'PY'
-import csv, sys
-def load(d):
-    with open(d + "/detections/markers.csv") as f:
-        return {(r["camera"], r["timestamp_ns"]) for r in csv.DictReader(f)}
-every, coarse = load(sys.argv[1]), load(sys.argv[2])
-found = len(every & coarse)
-print(f"recall: the coarse search finds {found} of the {len(every)} markers examining every "
-      f"frame finds ({100.0 * found / max(1, len(every)):.2f} %), and {len(coarse - every)} more")
-PY
+python3 "$here/coarse_recall.py" "$work/det_every" "$work/det_coarse" recall
 for reg in reg_coarse; do
   "$lookboth" evaluate "$work/$reg" --ground-truth "$work/site" --json "$work/$reg.eval.json" \
     --overwrite >/dev/null
