@@ -966,10 +966,17 @@ class CameraVideos {
                                     std::to_string(static_cast<long long>(::getpid())));
     fs::remove_all(scratch_);
     fs::create_directories(scratch_);
-    for (size_t c = 0; c < setup.placements.size(); ++c) {
-      encoders_.push_back(std::make_unique<VideoEncoder>(file(static_cast<int>(c)),
-                                                         setup.env_camera->width(),
-                                                         setup.env_camera->height(), options));
+    try {
+      for (size_t c = 0; c < setup.placements.size(); ++c) {
+        encoders_.push_back(std::make_unique<VideoEncoder>(file(static_cast<int>(c)),
+                                                           setup.env_camera->width(),
+                                                           setup.env_camera->height(), options));
+      }
+    } catch (...) {
+      encoders_.clear();
+      std::error_code ec;
+      fs::remove_all(scratch_, ec);  // no destructor runs after a throw here
+      throw;
     }
     frames_.resize(setup.placements.size());
   }
