@@ -332,6 +332,18 @@ std::vector<size_t> keyFrameCoarse(const CameraWork& work, const std::vector<Tim
   return keys;
 }
 
+/// One fisheye frame's blobs, as a record.
+BlobObservation blobRecord(const BlobDetector& detector, TimeNs t, const std::string& label,
+                           const cv::Mat& grey, BlobDetectorStats* stats) {
+  BlobObservation obs;
+  obs.t = t;
+  obs.camera = label;
+  obs.image_width = grey.cols;
+  obs.image_height = grey.rows;
+  obs.blobs = detector.detect(grey, stats);
+  return obs;
+}
+
 JobResult runFisheyeJob(const CameraWork& work, const Job& job, const DetectConfig& config,
                         std::atomic<std::int64_t>& done, const std::atomic<bool>& stop) {
   JobResult result;
@@ -341,12 +353,8 @@ JobResult runFisheyeJob(const CameraWork& work, const Job& job, const DetectConf
     if (!work.searched[i]) continue;
     const cv::Mat grey = frames.grey(i);
     if (grey.empty()) continue;
-    BlobObservation obs;
-    obs.t = work.frames[i].t;
-    obs.camera = work.sensor->label;
-    obs.image_width = grey.cols;
-    obs.image_height = grey.rows;
-    obs.blobs = detector.detect(grey, &result.blob_candidates);
+    BlobObservation obs =
+        blobRecord(detector, work.frames[i].t, work.sensor->label, grey, &result.blob_candidates);
     result.blobs += static_cast<std::int64_t>(obs.blobs.size());
     result.records.push_back(std::move(obs));
   }
@@ -640,6 +648,33 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   }
   return records;
+}
+
+FisheyeBlobSearch::FisheyeBlobSearch(const CameraSensor& fisheye, const DetectConfig& config)
+    : label_(fisheye.label),
+      camera_(fisheye.camera),
+      detector_(config.blobs, fisheye.camera ? &*fisheye.camera : nullptr),
+      rate_(config.blobs.max_rate_hz) {
+  summary_.camera = fisheye.label;
+  summary_.fisheye = true;
+}
+
+bool FisheyeBlobSearch::wants(TimeNs t) {
+  ++summary_.frames;
+  return rate_.keep(t);
+}
+
+void FisheyeBlobSearch::search(const ImageFrame& frame, const cv::Mat& grey) {
+  const Camera* camera = camera_ ? &*camera_ : nullptr;
+  if (std::string why = sizeMismatch(frame, camera, grey.cols, grey.rows); !why.empty()) {
+    ++summary_.skipped;
+    issues_.push_back({label_, std::move(why)});
+    return;
+  }
+  BlobObservation obs = blobRecord(detector_, frame.t, label_, grey, &summary_.blob_candidates);
+  summary_.blobs += static_cast<std::int64_t>(obs.blobs.size());
+  ++summary_.detections;
+  records_.push_back(std::move(obs));
 }
 
 AugmentSummary writeDetections(const DetectOptions& options, std::vector<Record> records,

@@ -415,6 +415,34 @@ StepOutcome RegistrationPipeline::detect(const ProgressReporter& progress) {
   return outcome;
 }
 
+namespace {
+
+/// The blobs searched beside the odometry added to detection's results; if
+/// the odometry failed (not every frame was searched), searched again alone.
+void addBlobs(DetectOptions detect, bool odometry_done, BlobsBesideOdometry& blobs,
+              std::vector<Record>& records, DetectSummary& summary,
+              const ProgressReporter& progress) {
+  if (!odometry_done) {
+    detect.markers = false;
+    detect.blobs = true;
+    DetectSummary alone;
+    for (Record& record : runDetection(detect, progress, &alone))
+      records.push_back(std::move(record));
+    summary.cameras.insert(summary.cameras.end(), alone.cameras.begin(), alone.cameras.end());
+    summary.issues.insert(summary.issues.end(), alone.issues.begin(), alone.issues.end());
+    return;
+  }
+  FisheyeBlobSearch& search = blobs.finish();
+  for (Record& record : search.takeRecords()) records.push_back(std::move(record));
+  summary.cameras.push_back(search.summary());
+  for (const DatasetIssue& issue : search.issues()) {
+    if (detect.on_issue) detect.on_issue(issue);
+    summary.issues.push_back(issue);
+  }
+}
+
+}  // namespace
+
 StepOutcome RegistrationPipeline::detectAlongsideOdometry(DetectOptions detect,
                                                           const ProgressReporter& progress) {
   State& st = *state_;
@@ -424,10 +452,21 @@ StepOutcome RegistrationPipeline::detectAlongsideOdometry(DetectOptions detect,
   // odometry is usually the shorter: one camera against many).
   const auto joint = std::make_shared<JointProgress>(progress);
   vo::OdometryRunOptions odometry = odometryFor(st.working, st.layers, {});
-  odometry.limit_opencv_threads = false;                      // OpenCV's pool is detection's too
+  odometry.limit_opencv_threads = false;  // OpenCV's pool is detection's too
+  // The fisheye's blobs in the frames the odometry decodes: each decoded once.
+  std::optional<BlobsBesideOdometry> blobs;
+  if (detect.blobs && detect.cameras.empty() && odometry.camera.empty()) {
+    const Manifest manifest = DatasetReader::open(detect.dataset)->manifest();
+    if (const CameraSensor* fisheye = manifest.fisheye()) {
+      blobs.emplace(*fisheye, detect.config);
+      odometry.tap = blobs->tap();
+      detect.blobs = false;
+    }
+  }
   BackgroundOdometry background(std::move(odometry), joint);  // stopped and joined if we throw
   DetectSummary summary;
-  std::vector<Record> records = runDetection(detect, joint->detection(), &summary);
+  std::vector<Record> records;
+  if (detect.markers || detect.blobs) records = runDetection(detect, joint->detection(), &summary);
   joint->detectionDone();
   std::optional<vo::OdometryRunSummary> odometry_summary;
   try {
@@ -439,6 +478,8 @@ StepOutcome RegistrationPipeline::detectAlongsideOdometry(DetectOptions detect,
   } catch (...) {
     st.odometry_error = std::current_exception();  // the odometry step reports it
   }
+  if (blobs)
+    addBlobs(detect, odometry_summary && !st.odometry_error, *blobs, records, summary, progress);
   // Both written now that nothing reads the dataset: the detections (to
   // the scratch copy, or in place) whatever became of the odometry, then the
   // trajectory into them.

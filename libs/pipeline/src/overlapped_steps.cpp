@@ -3,6 +3,8 @@
 #include <chrono>
 #include <cmath>
 
+#include "lookboth/core/error.h"
+
 namespace lookboth {
 
 ProgressReporter JointProgress::detection() {
@@ -79,6 +81,46 @@ vo::OdometryRunSummary BackgroundOdometry::wait(const ProgressReporter& progress
   if (thread_.joinable()) thread_.join();
   if (error_) std::rethrow_exception(error_);
   return *summary_;
+}
+
+BlobsBesideOdometry::BlobsBesideOdometry(const CameraSensor& fisheye, const DetectConfig& config)
+    : label_(fisheye.label), search_(fisheye, config), thread_([this] { work(); }) {}
+
+BlobsBesideOdometry::~BlobsBesideOdometry() {
+  abandon_ = true;
+  queue_.cancel();
+  queue_.close();
+  if (thread_.joinable()) thread_.join();
+}
+
+void BlobsBesideOdometry::work() {
+  try {
+    while (std::optional<std::pair<ImageFrame, cv::Mat>> item = queue_.pop()) {
+      if (!abandon_.load()) search_.search(item->first, item->second);
+    }
+  } catch (...) {
+    error_ = std::current_exception();
+    queue_.cancel();  // the odometry's take() fails instead of waiting for room
+  }
+}
+
+vo::OdometryRunOptions::FrameTap BlobsBesideOdometry::tap() {
+  vo::OdometryRunOptions::FrameTap tap;
+  tap.wants = [this](const ImageFrame& frame) {
+    return frame.sensor == label_ && search_.wants(frame.t);
+  };
+  tap.take = [this](const ImageFrame& frame, const cv::Mat& grey) {
+    if (!queue_.push({frame, grey}))
+      throw Error(frame.sensor + ": the blob search beside the odometry failed");
+  };
+  return tap;
+}
+
+FisheyeBlobSearch& BlobsBesideOdometry::finish() {
+  queue_.close();
+  if (thread_.joinable()) thread_.join();
+  if (error_) std::rethrow_exception(error_);
+  return search_;
 }
 
 }  // namespace lookboth

@@ -2,7 +2,9 @@
 // needs the other's result, so `register`'s detect step runs the odometry
 // (its tracking thread and its decoding thread) beside detection's workers
 // (FullPipelineOptions::overlap_steps); both results are written after both
-// are done, so that nothing reads the dataset while it is replaced.
+// are done, so that nothing reads the dataset while it is replaced. The
+// fisheye's blobs are searched in the frames the odometry decodes
+// (BlobsBesideOdometry): each fisheye frame is decoded once for both.
 #pragma once
 
 #include <exception>
@@ -11,7 +13,9 @@
 #include <optional>
 #include <thread>
 
+#include "lookboth/core/bounded_queue.h"
 #include "lookboth/core/progress.h"
+#include "lookboth/detect/detect_dataset.h"
 #include "lookboth/vo/run.h"
 
 namespace lookboth {
@@ -62,6 +66,34 @@ class BackgroundOdometry {
   std::optional<vo::OdometryRunSummary> summary_;
   std::exception_ptr error_;
   std::atomic<bool> finished_{false};
+  std::thread thread_;
+};
+
+/// The fisheye's blob search (FisheyeBlobSearch) on a thread of its own,
+/// given the frames the odometry decodes (tap()): the odometry's decoding
+/// thread hands each frame over and goes on. Dropped unfinished (the
+/// odometry failed or was stopped), the frames not yet searched are dropped.
+class BlobsBesideOdometry {
+ public:
+  BlobsBesideOdometry(const CameraSensor& fisheye, const DetectConfig& config);
+  ~BlobsBesideOdometry();
+  BlobsBesideOdometry(const BlobsBesideOdometry&) = delete;
+  BlobsBesideOdometry& operator=(const BlobsBesideOdometry&) = delete;
+  /// For vo::OdometryRunOptions::tap: the fisheye's frames that the search
+  /// wants (blobs.max_rate_hz). Its take() throws once the search failed.
+  vo::OdometryRunOptions::FrameTap tap();
+  /// Once the odometry has read every frame: waits for the last ones to be
+  /// searched; the search, or its error rethrown.
+  FisheyeBlobSearch& finish();
+
+ private:
+  void work();
+
+  std::string label_;
+  FisheyeBlobSearch search_;  ///< wants() on the odometry's thread, search() on ours.
+  BoundedQueue<std::pair<ImageFrame, cv::Mat>> queue_{4};
+  std::atomic<bool> abandon_{false};
+  std::exception_ptr error_;  ///< Written by our thread, read after it is joined.
   std::thread thread_;
 };
 

@@ -481,6 +481,10 @@ TEST(OverlappedSteps, SameRegistrationAsOneStepAfterTheOtherAndAStopStopsBoth) {
       << line(overlapped, "odometry");
   EXPECT_EQ(line(sequential, "odometry").find("alongside"), std::string::npos)
       << line(sequential, "odometry");
+  // The blobs searched in the odometry's frames are detection's own.
+  EXPECT_EQ(line(overlapped, "detect"), line(sequential, "detect"));
+  EXPECT_EQ(overlapped.run.registration.blob_associations.size(),
+            sequential.run.registration.blob_associations.size());
   const auto& a = overlapped.run.registration.cameras;
   const auto& b = sequential.run.registration.cameras;
   ASSERT_EQ(a.size(), b.size());

@@ -3,14 +3,12 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <condition_variable>
-#include <deque>
 #include <exception>
-#include <mutex>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <thread>
 
+#include "lookboth/core/bounded_queue.h"
 #include "lookboth/core/error.h"
 #include "lookboth/dataset/augment.h"
 #include "lookboth/dataset/dataset_io.h"
@@ -31,51 +29,7 @@ struct DecodedFrame {
   cv::Mat image;  ///< Working resolution, 8-bit grey.
 };
 
-/// Bounded single-producer single-consumer queue; `close()` ends it.
-class FrameQueue {
- public:
-  explicit FrameQueue(size_t capacity) : capacity_(capacity) {}
-  bool push(DecodedFrame frame) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    not_full_.wait(lock, [&] { return queue_.size() < capacity_ || cancelled_; });
-    if (cancelled_) return false;
-    queue_.push_back(std::move(frame));
-    not_empty_.notify_one();
-    return true;
-  }
-  std::optional<DecodedFrame> pop() {
-    std::unique_lock<std::mutex> lock(mutex_);
-    not_empty_.wait(lock, [&] { return !queue_.empty() || closed_; });
-    if (queue_.empty()) return std::nullopt;
-    DecodedFrame f = std::move(queue_.front());
-    queue_.pop_front();
-    not_full_.notify_one();
-    return f;
-  }
-  void close(std::exception_ptr error = nullptr) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    closed_ = true;
-    error_ = error;
-    not_empty_.notify_all();
-  }
-  void cancel() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    cancelled_ = true;
-    not_full_.notify_all();
-  }
-  std::exception_ptr error() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return error_;
-  }
-
- private:
-  size_t capacity_;
-  std::mutex mutex_;
-  std::condition_variable not_empty_, not_full_;
-  std::deque<DecodedFrame> queue_;
-  bool closed_ = false, cancelled_ = false;
-  std::exception_ptr error_;
-};
+using FrameQueue = BoundedQueue<DecodedFrame>;
 
 /// Refuses a frame whose size is not the calibration's: tracking it would
 /// put features at pixels the camera does not have (and a huge one would be
@@ -206,12 +160,16 @@ OdometryRunSummary runOdometry(const OdometryRunOptions& options,
         if (!first) first = frame->t;
         if (options.max_duration_s > 0 && frame->t - *first > secondsToNs(options.max_duration_s))
           continue;
-        if (!rate.keep(frame->t)) continue;
+        const bool for_odometry = rate.keep(frame->t);
+        const bool for_tap = options.tap.wants && options.tap.wants(*frame);
+        if (!for_odometry && !for_tap) continue;
         const double t0 = threadCpuSeconds();
-        DecodedFrame decoded{frame->t,
-                             VisualOdometry::prepareImage(decode(decoder, *frame, camera), factor)};
+        const cv::Mat image = decode(decoder, *frame, camera);
+        DecodedFrame decoded;
+        if (for_odometry) decoded = {frame->t, VisualOdometry::prepareImage(image, factor)};
         decode_seconds += threadCpuSeconds() - t0;
-        if (!queue.push(std::move(decoded))) break;
+        if (for_tap) options.tap.take(*frame, image);
+        if (for_odometry && !queue.push(std::move(decoded))) break;
       }
       queue.close();
     } catch (...) {

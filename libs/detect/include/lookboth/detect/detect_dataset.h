@@ -22,6 +22,7 @@
 #include "lookboth/dataset/augment.h"
 #include "lookboth/detect/blob_detector.h"
 #include "lookboth/detect/marker_detector.h"
+#include "lookboth/geometry/time.h"
 
 namespace lookboth {
 
@@ -111,6 +112,35 @@ DetectSummary detectDataset(const DetectOptions& options, const ProgressReporter
 /// replaced, everything else is kept.
 AugmentSummary writeDetections(const DetectOptions& options, std::vector<Record> records,
                                const DetectSummary& summary, const ProgressReporter& progress);
+
+/// The fisheye's blob search fed frame by frame by whoever decodes the
+/// frames: `register` gives it the frames its odometry decodes, so that each
+/// is decoded once for both. It searches the frames runDetection would
+/// (blobs.max_rate_hz) and gives the same records and counts, provided
+/// every fisheye frame is offered to wants(), in time order.
+class FisheyeBlobSearch {
+ public:
+  /// Throws lookboth::Error when the configuration's blob options are wrong.
+  FisheyeBlobSearch(const CameraSensor& fisheye, const DetectConfig& config);
+  /// Whether the frame at `t` is searched; counts the frame.
+  bool wants(TimeNs t);
+  /// Searches a frame wants() chose (8-bit grey); one of the wrong size is
+  /// skipped with its reason.
+  void search(const ImageFrame& frame, const cv::Mat& grey);
+  /// The blob records in the order searched, and the fisheye's summary.
+  std::vector<Record> takeRecords() { return std::move(records_); }
+  const CameraDetectSummary& summary() const { return summary_; }
+  const std::vector<DatasetIssue>& issues() const { return issues_; }
+
+ private:
+  std::string label_;
+  std::optional<Camera> camera_;
+  BlobDetector detector_;
+  RateLimiter rate_;
+  std::vector<Record> records_;
+  CameraDetectSummary summary_;
+  std::vector<DatasetIssue> issues_;
+};
 
 /// Detection without writing: the records `detectDataset` would add (markers
 /// in time order per camera, then blobs), for evaluation and benchmarks.

@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 
@@ -37,6 +38,17 @@ struct OdometryRunOptions {
   /// threads are the design). Off when other work runs OpenCV beside it:
   /// the setting is the process's.
   bool limit_opencv_threads = true;
+  /// Another user of the fisheye's frames (register's blob search), so that
+  /// a frame both want is decoded once. `wants` is asked of each frame the
+  /// odometry reads (in the dataset's order, on the decoding thread), and
+  /// `take` is given those it wants, decoded at full resolution (8-bit grey,
+  /// shared: not to be written to), on that thread; frames only it wants
+  /// are decoded for it alone. Either one throwing fails the run.
+  struct FrameTap {
+    std::function<bool(const ImageFrame&)> wants;
+    std::function<void(const ImageFrame&, const cv::Mat&)> take;
+  };
+  FrameTap tap;
   /// Told of what the user should know while the dataset is written (e.g.
   /// waiting for another run that is rewriting it).
   std::function<void(const DatasetIssue&)> on_issue;
