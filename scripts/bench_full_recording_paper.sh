@@ -15,7 +15,11 @@
 #     videos, two at a time (2 cores), the floor of anything reading every frame;
 #   - the cost of a key frame alone (decoded and searched) beside ffmpeg
 #     decoding the same key frames;
-#   - the registration's accuracy (`lookboth evaluate`).
+#   - the registration's accuracy (`lookboth evaluate`);
+#   - the same `register` with the fisheye's frames as JPEG (a copy of the
+#     site, its PNG frames re-encoded by `ffmpeg -q:v 3`, the cameras' videos
+#     hard-linked): a robot's camera records JPEG or video, and a 1920x1080
+#     PNG takes 3-4 times as long to decode as a JPEG.
 # Usage: LOOKBOTH_BENCH_DIR=/tmp/fr43 scripts/bench_full_recording_paper.sh
 # (keeps the simulated recording for the next run: about 40 min on 2 cores,
 # 7 GB of memory, 2.5 GB on disk).
@@ -40,11 +44,25 @@ fi
 printf 'detect:\n  markers:\n    coarse_period_s: 0\n' >"$work/every.yaml"
 mapfile -t videos < <(ls "$work"/site/cameras/*/video.mp4)
 
+# The fisheye as JPEG: made once, beside the site.
+if [[ ! -f $work/site_jpeg/fisheye/frames.csv ]]; then
+  rm -rf "$work/site_jpeg"
+  mkdir -p "$work/site_jpeg/fisheye/frames"
+  cp -al "$work/site/cameras" "$work/site_jpeg/cameras"
+  cp -r "$work/site/marker.yaml" "$work/site/ground_truth" "$work/site/odometry" "$work/site_jpeg/"
+  cp "$work/site/fisheye/calibration.yaml" "$work/site_jpeg/fisheye/"
+  (cd "$work/site/fisheye/frames" && ls | sed -n 's/\.png$//p' |
+    xargs -P 2 -I{} ffmpeg -v error -i {}.png -q:v 3 "$work/site_jpeg/fisheye/frames/{}.jpg")
+  sed 's/\.png$/.jpg/' "$work/site/fisheye/frames.csv" >"$work/site_jpeg/fisheye/frames.csv"
+fi
+
 wait_for_quiet_machine
 
 run() { timed_run "$@"; }
 rm -rf "$work"/reg_* "$work"/det_*
 run register "$lookboth" register "$work/site" --no-write-back --overwrite --out "$work/reg_coarse"
+run register_jpeg "$lookboth" register "$work/site_jpeg" --no-write-back --overwrite \
+  --out "$work/reg_jpeg"
 run detect_coarse "$lookboth" detect "$work/site" --threads 2 --no-blobs --detections-only \
   --out "$work/det_coarse"
 run ffmpeg_videos bash -c 'printf "%s\n" "$@" |
@@ -65,7 +83,7 @@ frames=0
 for v in "$work"/site/cameras/*/video.csv; do frames=$((frames + $(tail -n +2 "$v" | grep -c .))); done
 echo "full recording: ${#videos[@]} cameras, $frames frames at 1920x1080 (${drive_s} s at 30 Hz), H.264"
 printf '%-36s %8s %10s %12s\n' run "wall s" "x drive" "ms/frame"
-for name in register detect_coarse ffmpeg_videos detect_every; do
+for name in register register_jpeg detect_coarse ffmpeg_videos detect_every; do
   ms=$(cat "$work/t_$name")
   awk -v l="$name" -v ms="$ms" -v f="$frames" -v d="$drive_s" \
     'BEGIN { printf "%-36s %8.1f %10.2f %12.2f\n", l, ms / 1000, ms / 1000 / d, ms / f }'
@@ -75,9 +93,9 @@ done
 examined=$(grep -o "([0-9]* examined" "$work/out_keys_detect.txt" | grep -o "[0-9]*" | paste -sd+ | bc)
 echo "keys_detect: $(cat "$work/t_keys_detect") ms for the $examined frames examined, one core;" \
   "keys_ffmpeg: $(cat "$work/t_keys_ffmpeg") ms to decode the key frames alone"
-grep -h "run time" "$work/out_register.txt" || true
+grep -h "run time" "$work/out_register.txt" "$work/out_register_jpeg.txt" || true
 python3 "$here/coarse_recall.py" "$work/det_every" "$work/det_coarse" recall
-for reg in reg_coarse; do
+for reg in reg_coarse reg_jpeg; do
   "$lookboth" evaluate "$work/$reg" --ground-truth "$work/site" --json "$work/$reg.eval.json" \
     --overwrite >/dev/null
   python3 - "$reg" "$work/$reg.eval.json" <<'PY'
