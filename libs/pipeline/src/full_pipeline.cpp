@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <map>
 #include <utility>
 
 #include "lookboth/core/error.h"
@@ -417,28 +418,76 @@ StepOutcome RegistrationPipeline::detect(const ProgressReporter& progress) {
 
 namespace {
 
-/// The blobs searched beside the odometry added to detection's results; if
-/// the odometry failed (not every frame was searched), searched again alone.
-void addBlobs(DetectOptions detect, bool odometry_done, BlobsBesideOdometry& blobs,
+/// Where a camera's results go among detection's, which come per camera in
+/// the manifest's order: before the first of a camera listed after it.
+size_t manifestPosition(const Manifest& manifest, const std::string& label,
+                        const std::vector<std::string>& cameras) {
+  std::map<std::string, size_t> rank;
+  for (size_t i = 0; i < manifest.cameras.size(); ++i) rank[manifest.cameras[i].label] = i;
+  const size_t mine = rank[label];
+  size_t k = 0;
+  while (k < cameras.size() && rank[cameras[k]] < mine) ++k;
+  return k;
+}
+
+/// The camera a record is of (detection's records are markers and blobs).
+const std::string& recordCamera(const Record& record) {
+  if (const auto* b = std::get_if<BlobObservation>(&record)) return b->camera;
+  return std::get<MarkerObservation>(record).camera;
+}
+
+/// The fisheye's blobs: searched beside the odometry when that search is
+/// detection's own, else searched now on their own.
+DetectSummary fisheyeBlobs(DetectOptions detect, BlobsBesideOdometry& blobs,
+                           const std::vector<DatasetIssue>& told, std::vector<Record>& found,
+                           const ProgressReporter& progress) {
+  DetectSummary fisheye;
+  if (FisheyeBlobSearch* search = blobs.finish()) {
+    found = search->takeRecords();
+    fisheye.cameras.push_back(search->summary());
+    fisheye.issues = search->issues();
+    for (const DatasetIssue& issue : fisheye.issues)
+      if (detect.on_issue) detect.on_issue(issue);
+    return fisheye;
+  }
+  detect.markers = false;
+  detect.blobs = true;
+  const auto on_issue = std::exchange(detect.on_issue, nullptr);
+  found = runDetection(detect, progress, &fisheye);
+  // The dataset's own issues were told once already, by the first search.
+  std::vector<DatasetIssue> issues;
+  for (const DatasetIssue& issue : fisheye.issues) {
+    const bool again = std::any_of(told.begin(), told.end(), [&](const DatasetIssue& t) {
+      return t.where == issue.where && t.message == issue.message;
+    });
+    if (again) continue;
+    if (on_issue) on_issue(issue);
+    issues.push_back(issue);
+  }
+  fisheye.issues = std::move(issues);
+  return fisheye;
+}
+
+/// The fisheye's blobs added to detection's results where detection puts
+/// them (the manifest's order).
+void addBlobs(const DetectOptions& detect, const Manifest& manifest, BlobsBesideOdometry& blobs,
               std::vector<Record>& records, DetectSummary& summary,
               const ProgressReporter& progress) {
-  if (!odometry_done) {
-    detect.markers = false;
-    detect.blobs = true;
-    DetectSummary alone;
-    for (Record& record : runDetection(detect, progress, &alone))
-      records.push_back(std::move(record));
-    summary.cameras.insert(summary.cameras.end(), alone.cameras.begin(), alone.cameras.end());
-    summary.issues.insert(summary.issues.end(), alone.issues.begin(), alone.issues.end());
-    return;
+  std::vector<Record> found;
+  const DetectSummary fisheye = fisheyeBlobs(detect, blobs, summary.issues, found, progress);
+  std::vector<std::string> cameras, record_cameras;
+  for (const CameraDetectSummary& c : summary.cameras) cameras.push_back(c.camera);
+  for (const Record& r : records) record_cameras.push_back(recordCamera(r));
+  for (const CameraDetectSummary& c : fisheye.cameras) {
+    const size_t at = manifestPosition(manifest, c.camera, cameras);
+    summary.cameras.insert(summary.cameras.begin() + static_cast<std::ptrdiff_t>(at), c);
   }
-  FisheyeBlobSearch& search = blobs.finish();
-  for (Record& record : search.takeRecords()) records.push_back(std::move(record));
-  summary.cameras.push_back(search.summary());
-  for (const DatasetIssue& issue : search.issues()) {
-    if (detect.on_issue) detect.on_issue(issue);
-    summary.issues.push_back(issue);
+  if (!fisheye.cameras.empty()) {
+    const size_t at = manifestPosition(manifest, fisheye.cameras.front().camera, record_cameras);
+    records.insert(records.begin() + static_cast<std::ptrdiff_t>(at),
+                   std::make_move_iterator(found.begin()), std::make_move_iterator(found.end()));
   }
+  summary.issues.insert(summary.issues.end(), fisheye.issues.begin(), fisheye.issues.end());
 }
 
 }  // namespace
@@ -454,14 +503,18 @@ StepOutcome RegistrationPipeline::detectAlongsideOdometry(DetectOptions detect,
   vo::OdometryRunOptions odometry = odometryFor(st.working, st.layers, {});
   odometry.limit_opencv_threads = false;  // OpenCV's pool is detection's too
   // The fisheye's blobs in the frames the odometry decodes: each decoded once.
+  // With one fisheye, whose every frame the odometry decodes, the blob
+  // search decodes none of its own.
   std::optional<BlobsBesideOdometry> blobs;
-  if (detect.blobs && detect.cameras.empty() && odometry.camera.empty()) {
-    const Manifest manifest = DatasetReader::open(detect.dataset)->manifest();
-    if (const CameraSensor* fisheye = manifest.fisheye()) {
-      blobs.emplace(*fisheye, detect.config);
-      odometry.tap = blobs->tap();
-      detect.blobs = false;
-    }
+  const Manifest manifest = DatasetReader::open(detect.dataset)->manifest();
+  const auto fisheyes =
+      std::count_if(manifest.cameras.begin(), manifest.cameras.end(),
+                    [](const CameraSensor& c) { return c.role == SensorRole::kFisheye; });
+  if (detect.blobs && detect.cameras.empty() && odometry.camera.empty() && fisheyes == 1 &&
+      odometry.odometry.max_rate_hz == 0) {
+    blobs.emplace(*manifest.fisheye(), detect.config);
+    odometry.tap = blobs->tap();
+    detect.blobs = false;
   }
   BackgroundOdometry background(std::move(odometry), joint);  // stopped and joined if we throw
   DetectSummary summary;
@@ -478,8 +531,7 @@ StepOutcome RegistrationPipeline::detectAlongsideOdometry(DetectOptions detect,
   } catch (...) {
     st.odometry_error = std::current_exception();  // the odometry step reports it
   }
-  if (blobs)
-    addBlobs(detect, odometry_summary && !st.odometry_error, *blobs, records, summary, progress);
+  if (blobs) addBlobs(detect, manifest, *blobs, records, summary, progress);
   // Both written now that nothing reads the dataset: the detections (to
   // the scratch copy, or in place) whatever became of the odometry, then the
   // trajectory into them.

@@ -1,9 +1,8 @@
 #include "overlapped_steps.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
-
-#include "lookboth/core/error.h"
 
 namespace lookboth {
 
@@ -99,28 +98,36 @@ void BlobsBesideOdometry::work() {
       if (!abandon_.load()) search_.search(item->first, item->second);
     }
   } catch (...) {
-    error_ = std::current_exception();
-    queue_.cancel();  // the odometry's take() fails instead of waiting for room
+    // Not the odometry's failure: the search stops taking frames, and
+    // finish() says it is incomplete (detection then searches on its own,
+    // and reports the error if there is one).
+    failed_ = true;
+    queue_.cancel();
   }
 }
 
 vo::OdometryRunOptions::FrameTap BlobsBesideOdometry::tap() {
   vo::OdometryRunOptions::FrameTap tap;
   tap.wants = [this](const ImageFrame& frame) {
-    return frame.sensor == label_ && search_.wants(frame.t);
+    if (frame.sensor != label_) return false;
+    // Detection searches the frames in time order (the rate limit picks
+    // them so); a dataset that is not is searched by detection itself.
+    if (offered_ && frame.t < last_t_) in_order_ = false;
+    offered_ = true;
+    last_t_ = std::max(last_t_, frame.t);
+    return !failed_.load() && search_.wants(frame.t);
   };
   tap.take = [this](const ImageFrame& frame, const cv::Mat& grey) {
-    if (!queue_.push({frame, grey}))
-      throw Error(frame.sensor + ": the blob search beside the odometry failed");
+    queue_.push({frame, grey});  // refused once the search failed: finish() tells
   };
+  tap.read_all = [this] { read_all_ = true; };
   return tap;
 }
 
-FisheyeBlobSearch& BlobsBesideOdometry::finish() {
+FisheyeBlobSearch* BlobsBesideOdometry::finish() {
   queue_.close();
   if (thread_.joinable()) thread_.join();
-  if (error_) std::rethrow_exception(error_);
-  return search_;
+  return read_all_ && in_order_ && !failed_.load() ? &search_ : nullptr;
 }
 
 }  // namespace lookboth

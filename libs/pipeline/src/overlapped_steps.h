@@ -7,6 +7,7 @@
 // (BlobsBesideOdometry): each fisheye frame is decoded once for both.
 #pragma once
 
+#include <atomic>
 #include <exception>
 #include <memory>
 #include <mutex>
@@ -71,8 +72,9 @@ class BackgroundOdometry {
 
 /// The fisheye's blob search (FisheyeBlobSearch) on a thread of its own,
 /// given the frames the odometry decodes (tap()): the odometry's decoding
-/// thread hands each frame over and goes on. Dropped unfinished (the
-/// odometry failed or was stopped), the frames not yet searched are dropped.
+/// thread hands each frame over (waiting only when 4 are not yet searched).
+/// It must outlive the odometry run its tap is given to. Dropped unfinished
+/// (the odometry was stopped), the frames not yet searched are dropped.
 class BlobsBesideOdometry {
  public:
   BlobsBesideOdometry(const CameraSensor& fisheye, const DetectConfig& config);
@@ -80,11 +82,13 @@ class BlobsBesideOdometry {
   BlobsBesideOdometry(const BlobsBesideOdometry&) = delete;
   BlobsBesideOdometry& operator=(const BlobsBesideOdometry&) = delete;
   /// For vo::OdometryRunOptions::tap: the fisheye's frames that the search
-  /// wants (blobs.max_rate_hz). Its take() throws once the search failed.
+  /// wants (blobs.max_rate_hz).
   vo::OdometryRunOptions::FrameTap tap();
-  /// Once the odometry has read every frame: waits for the last ones to be
-  /// searched; the search, or its error rethrown.
-  FisheyeBlobSearch& finish();
+  /// Once the odometry run is over, done or failed: waits for the frames
+  /// handed over to be searched. The search when it is detection's own:
+  /// every fisheye frame of the dataset offered, in time order, and
+  /// searched; else nullptr, and detection searches the blobs itself.
+  FisheyeBlobSearch* finish();
 
  private:
   void work();
@@ -92,8 +96,11 @@ class BlobsBesideOdometry {
   std::string label_;
   FisheyeBlobSearch search_;  ///< wants() on the odometry's thread, search() on ours.
   BoundedQueue<std::pair<ImageFrame, cv::Mat>> queue_{4};
+  // The odometry's decoding thread's, read by finish() once it is joined.
+  bool offered_ = false, in_order_ = true, read_all_ = false;
+  TimeNs last_t_ = 0;
+  std::atomic<bool> failed_{false};  ///< The search threw (ours), seen by the tap.
   std::atomic<bool> abandon_{false};
-  std::exception_ptr error_;  ///< Written by our thread, read after it is joined.
   std::thread thread_;
 };
 

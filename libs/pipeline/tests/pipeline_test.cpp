@@ -13,6 +13,7 @@
 #include "lookboth/calib/builtin_stages.h"
 #include "lookboth/core/error.h"
 #include "lookboth/core/test_seed.h"
+#include "lookboth/dataset/dataset_io.h"
 #include "lookboth/pipeline/full_pipeline.h"
 #include "lookboth/pipeline/registration_controller.h"
 #include "lookboth/sim/scenario.h"
@@ -442,6 +443,60 @@ TEST_F(PipelineTest, WritesTheOutputDirectoryAtomically) {
   ASSERT_TRUE(back.observability.aligned_position_rmse_m);
   EXPECT_NEAR(*back.observability.aligned_position_rmse_m,
               *run.registration.observability.aligned_position_rmse_m, 1e-12);
+}
+
+/// A rawlog whose fisheye frames are not all in time order: the blob search
+/// beside the odometry (which sees them in the file's order) gives way to
+/// detection's own, which sorts them: the same blobs as one step after the
+/// other.
+TEST(OverlappedSteps, FisheyeFramesOutOfOrderGiveTheSameBlobs) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("lookboth_overlapped_order_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  sim::SimulateOptions simulate;
+  simulate.scenario = "small";
+  simulate.out = dir / "small.rawlog";
+  simulate.max_duration_s = 8.0;
+  simulate.threads = 2;
+  sim::simulate(simulate, ProgressReporter());
+  // Fisheye frames 30 and 31 swapped in the file.
+  const fs::path shuffled = dir / "shuffled.rawlog";
+  {
+    auto reader = DatasetReader::open(simulate.out);
+    auto writer = DatasetWriter::create(shuffled, DatasetKind::kRawlog, reader->manifest());
+    std::optional<Record> held;
+    int fisheye_frames = 0;
+    while (std::optional<Record> record = reader->next()) {
+      const auto* frame = std::get_if<ImageFrame>(&*record);
+      const bool fisheye = frame && frame->sensor == reader->manifest().fisheye()->label;
+      if (fisheye && ++fisheye_frames == 30) {
+        held = std::move(*record);
+        continue;
+      }
+      writer->write(*record);
+      if (fisheye && held) writer->write(*std::exchange(held, std::nullopt));
+    }
+    writer->finish();
+  }
+  // Detection and the odometry only: what the blobs are.
+  auto detectLine = [&](bool overlap) {
+    FullPipelineOptions options;
+    options.dataset = shuffled;
+    options.choose_trajectory = true;
+    options.write_back = false;
+    options.overlap_steps = overlap;
+    options.out = dir / "registration";
+    RegistrationPipeline pipeline(options);
+    const std::string detect = pipeline.runNext(ProgressReporter()).summary;
+    const std::string odometry = pipeline.runNext(ProgressReporter()).summary;
+    EXPECT_EQ(odometry.find("alongside detection") != std::string::npos, overlap) << odometry;
+    return detect;
+  };
+  const std::string overlapped = detectLine(true);
+  EXPECT_NE(overlapped.find(" fisheye frames with blobs"), std::string::npos) << overlapped;
+  EXPECT_EQ(overlapped, detectLine(false));
+  fs::remove_all(dir);
 }
 
 /// A rendered recording's first 12 s registered with detection and odometry

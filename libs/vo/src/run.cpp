@@ -147,9 +147,10 @@ OdometryRunSummary runOdometry(const OdometryRunOptions& options,
       std::optional<TimeNs> first;
       FrameDecoder decoder;
       RateLimiter rate(options.odometry.max_rate_hz);
+      bool stopped = false, cut = false;  // the tap's frames are then not all offered
       while (auto record = reader->next()) {
         ++records_read;
-        if (progress.stopRequested()) break;
+        if ((stopped = progress.stopRequested())) break;
         if (const auto* pose = std::get_if<PoseSample>(&*record)) {
           if (pose->label == "ground_truth")
             ground_truth.push_back({pose->t, pose->world_from_body});
@@ -158,8 +159,10 @@ OdometryRunSummary runOdometry(const OdometryRunOptions& options,
         const auto* frame = std::get_if<ImageFrame>(&*record);
         if (!frame || frame->sensor != label) continue;
         if (!first) first = frame->t;
-        if (options.max_duration_s > 0 && frame->t - *first > secondsToNs(options.max_duration_s))
+        if (options.max_duration_s > 0 && frame->t - *first > secondsToNs(options.max_duration_s)) {
+          cut = true;
           continue;
+        }
         const bool for_odometry = rate.keep(frame->t);
         const bool for_tap = options.tap.wants && options.tap.wants(*frame);
         if (!for_odometry && !for_tap) continue;
@@ -169,8 +172,12 @@ OdometryRunSummary runOdometry(const OdometryRunOptions& options,
         if (for_odometry) decoded = {frame->t, VisualOdometry::prepareImage(image, factor)};
         decode_seconds += threadCpuSeconds() - t0;
         if (for_tap) options.tap.take(*frame, image);
-        if (for_odometry && !queue.push(std::move(decoded))) break;
+        if (for_odometry && !queue.push(std::move(decoded))) {
+          stopped = true;
+          break;
+        }
       }
+      if (!stopped && !cut && options.tap.read_all) options.tap.read_all();
       queue.close();
     } catch (...) {
       queue.close(std::current_exception());

@@ -39,7 +39,8 @@ class BoundedQueue {
     return item;
   }
 
-  /// No more items (the maker is done, or failed with `error`).
+  /// No more items (the maker is done, or failed with `error`): pop() gives
+  /// what is left, then nullopt. Call it once the maker has stopped pushing.
   void close(std::exception_ptr error = nullptr) {
     std::lock_guard<std::mutex> lock(mutex_);
     closed_ = true;
@@ -47,7 +48,8 @@ class BoundedQueue {
     not_empty_.notify_all();
   }
 
-  /// The user stopped: a waiting or later push() returns false.
+  /// The consumer stopped (the user asked, or it failed): a waiting or
+  /// later push() returns false.
   void cancel() {
     std::lock_guard<std::mutex> lock(mutex_);
     cancelled_ = true;

@@ -116,16 +116,17 @@ AugmentSummary writeDetections(const DetectOptions& options, std::vector<Record>
 /// The fisheye's blob search fed frame by frame by whoever decodes the
 /// frames: `register` gives it the frames its odometry decodes, so that each
 /// is decoded once for both. It searches the frames runDetection would
-/// (blobs.max_rate_hz) and gives the same records and counts, provided
-/// every fisheye frame is offered to wants(), in time order.
+/// (blobs.max_rate_hz) and gives the same records and counts provided every
+/// fisheye frame is offered to wants() in time order, which the caller
+/// checks (a rawlog may hold frames out of order; runDetection sorts them).
 class FisheyeBlobSearch {
  public:
   /// Throws lookboth::Error when the configuration's blob options are wrong.
   FisheyeBlobSearch(const CameraSensor& fisheye, const DetectConfig& config);
   /// Whether the frame at `t` is searched; counts the frame.
   bool wants(TimeNs t);
-  /// Searches a frame wants() chose (8-bit grey); one of the wrong size is
-  /// skipped with its reason.
+  /// Searches a frame wants() chose (8-bit grey); one of the wrong size
+  /// (a caller that did not check it) is skipped with its reason.
   void search(const ImageFrame& frame, const cv::Mat& grey);
   /// The blob records in the order searched, and the fisheye's summary.
   std::vector<Record> takeRecords() { return std::move(records_); }

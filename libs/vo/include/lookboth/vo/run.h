@@ -39,14 +39,18 @@ struct OdometryRunOptions {
   /// the setting is the process's.
   bool limit_opencv_threads = true;
   /// Another user of the fisheye's frames (register's blob search), so that
-  /// a frame both want is decoded once. `wants` is asked of each frame the
-  /// odometry reads (in the dataset's order, on the decoding thread), and
-  /// `take` is given those it wants, decoded at full resolution (8-bit grey,
-  /// shared: not to be written to), on that thread; frames only it wants
-  /// are decoded for it alone. Either one throwing fails the run.
+  /// a frame both want is decoded once. `wants` is asked of each fisheye
+  /// frame the odometry reads (in the dataset's order, on the decoding
+  /// thread; not those past max_duration_s), and `take` is given those it
+  /// wants, decoded at full resolution (8-bit grey, shared: not to be
+  /// written to), on that thread; frames only it wants are decoded for it
+  /// alone. `read_all` is called once the dataset was read to its end with
+  /// every frame offered (not when the run is stopped or fails first).
+  /// Any of them throwing fails the run.
   struct FrameTap {
     std::function<bool(const ImageFrame&)> wants;
     std::function<void(const ImageFrame&, const cv::Mat&)> take;
+    std::function<void()> read_all;
   };
   FrameTap tap;
   /// Told of what the user should know while the dataset is written (e.g.
