@@ -44,16 +44,18 @@ fi
 printf 'detect:\n  markers:\n    coarse_period_s: 0\n' >"$work/every.yaml"
 mapfile -t videos < <(ls "$work"/site/cameras/*/video.mp4)
 
-# The fisheye as JPEG: made once, beside the site.
-if [[ ! -f $work/site_jpeg/fisheye/frames.csv ]]; then
-  rm -rf "$work/site_jpeg"
-  mkdir -p "$work/site_jpeg/fisheye/frames"
-  cp -al "$work/site/cameras" "$work/site_jpeg/cameras"
-  cp -r "$work/site/marker.yaml" "$work/site/ground_truth" "$work/site/odometry" "$work/site_jpeg/"
-  cp "$work/site/fisheye/calibration.yaml" "$work/site_jpeg/fisheye/"
+# The fisheye as JPEG: made once beside the site (again when the site is
+# newer), every other file hard-linked (register only reads them).
+jpeg=$work/site_jpeg
+if [[ ! -f $jpeg/fisheye/frames.csv || $work/site/fisheye/frames.csv -nt $jpeg/fisheye/frames.csv ]]
+then
+  rm -rf "$jpeg"
+  cp -al "$work/site" "$jpeg"
+  rm -rf "$jpeg/fisheye/frames" "$jpeg/fisheye/frames.csv"
+  mkdir -p "$jpeg/fisheye/frames"
   (cd "$work/site/fisheye/frames" && ls | sed -n 's/\.png$//p' |
-    xargs -P 2 -I{} ffmpeg -v error -i {}.png -q:v 3 "$work/site_jpeg/fisheye/frames/{}.jpg")
-  sed 's/\.png$/.jpg/' "$work/site/fisheye/frames.csv" >"$work/site_jpeg/fisheye/frames.csv"
+    xargs -P 2 -I{} ffmpeg -v error -i {}.png -q:v 3 "$jpeg/fisheye/frames/{}.jpg")
+  sed 's/\.png$/.jpg/' "$work/site/fisheye/frames.csv" >"$jpeg/fisheye/frames.csv"
 fi
 
 wait_for_quiet_machine

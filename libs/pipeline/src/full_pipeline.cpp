@@ -436,13 +436,28 @@ const std::string& recordCamera(const Record& record) {
   return std::get<MarkerObservation>(record).camera;
 }
 
+/// Whether the fisheye's blobs can be searched in the odometry's frames as
+/// detection would search them: one fisheye, whose every frame the odometry
+/// decodes, and detection reading the dataset for the markers all the same
+/// (it tells the dataset's issues).
+bool blobsFitBesideOdometry(const DetectOptions& detect, const vo::OdometryRunOptions& odometry,
+                            const Manifest& manifest) {
+  const auto fisheyes =
+      std::count_if(manifest.cameras.begin(), manifest.cameras.end(),
+                    [](const CameraSensor& c) { return c.role == SensorRole::kFisheye; });
+  return detect.blobs && detect.markers && detect.cameras.empty() && odometry.camera.empty() &&
+         fisheyes == 1 && odometry.odometry.max_rate_hz == 0;
+}
+
 /// The fisheye's blobs: searched beside the odometry when that search is
-/// detection's own, else searched now on their own.
+/// detection's own (`*beside` true), else searched here, after the odometry.
 DetectSummary fisheyeBlobs(DetectOptions detect, BlobsBesideOdometry& blobs,
                            const std::vector<DatasetIssue>& told, std::vector<Record>& found,
-                           const ProgressReporter& progress) {
+                           const ProgressReporter& progress, bool* beside) {
   DetectSummary fisheye;
+  *beside = false;
   if (FisheyeBlobSearch* search = blobs.finish()) {
+    *beside = true;
     found = search->takeRecords();
     fisheye.cameras.push_back(search->summary());
     fisheye.issues = search->issues();
@@ -469,12 +484,15 @@ DetectSummary fisheyeBlobs(DetectOptions detect, BlobsBesideOdometry& blobs,
 }
 
 /// The fisheye's blobs added to detection's results where detection puts
-/// them (the manifest's order).
-void addBlobs(const DetectOptions& detect, const Manifest& manifest, BlobsBesideOdometry& blobs,
+/// them (the manifest's order); whether they were searched in the
+/// odometry's frames.
+bool addBlobs(const DetectOptions& detect, const Manifest& manifest, BlobsBesideOdometry& blobs,
               std::vector<Record>& records, DetectSummary& summary,
               const ProgressReporter& progress) {
   std::vector<Record> found;
-  const DetectSummary fisheye = fisheyeBlobs(detect, blobs, summary.issues, found, progress);
+  bool beside = false;
+  const DetectSummary fisheye =
+      fisheyeBlobs(detect, blobs, summary.issues, found, progress, &beside);
   std::vector<std::string> cameras, record_cameras;
   for (const CameraDetectSummary& c : summary.cameras) cameras.push_back(c.camera);
   for (const Record& r : records) record_cameras.push_back(recordCamera(r));
@@ -488,6 +506,7 @@ void addBlobs(const DetectOptions& detect, const Manifest& manifest, BlobsBeside
                    std::make_move_iterator(found.begin()), std::make_move_iterator(found.end()));
   }
   summary.issues.insert(summary.issues.end(), fisheye.issues.begin(), fisheye.issues.end());
+  return beside;
 }
 
 }  // namespace
@@ -502,16 +521,11 @@ StepOutcome RegistrationPipeline::detectAlongsideOdometry(DetectOptions detect,
   const auto joint = std::make_shared<JointProgress>(progress);
   vo::OdometryRunOptions odometry = odometryFor(st.working, st.layers, {});
   odometry.limit_opencv_threads = false;  // OpenCV's pool is detection's too
-  // The fisheye's blobs in the frames the odometry decodes: each decoded once.
-  // With one fisheye, whose every frame the odometry decodes, the blob
-  // search decodes none of its own.
+  // The fisheye's blobs searched in the frames the odometry decodes: the
+  // blob search then decodes none of its own.
   std::optional<BlobsBesideOdometry> blobs;
   const Manifest manifest = DatasetReader::open(detect.dataset)->manifest();
-  const auto fisheyes =
-      std::count_if(manifest.cameras.begin(), manifest.cameras.end(),
-                    [](const CameraSensor& c) { return c.role == SensorRole::kFisheye; });
-  if (detect.blobs && detect.cameras.empty() && odometry.camera.empty() && fisheyes == 1 &&
-      odometry.odometry.max_rate_hz == 0) {
+  if (blobsFitBesideOdometry(detect, odometry, manifest)) {
     blobs.emplace(*manifest.fisheye(), detect.config);
     odometry.tap = blobs->tap();
     detect.blobs = false;
@@ -531,7 +545,7 @@ StepOutcome RegistrationPipeline::detectAlongsideOdometry(DetectOptions detect,
   } catch (...) {
     st.odometry_error = std::current_exception();  // the odometry step reports it
   }
-  if (blobs) addBlobs(detect, manifest, *blobs, records, summary, progress);
+  const bool blobs_beside = blobs && addBlobs(detect, manifest, *blobs, records, summary, progress);
   // Both written now that nothing reads the dataset: the detections (to
   // the scratch copy, or in place) whatever became of the odometry, then the
   // trajectory into them.
@@ -542,7 +556,8 @@ StepOutcome RegistrationPipeline::detectAlongsideOdometry(DetectOptions detect,
         vo::addOdometryTrajectory(st.working.dataset, {}, false,
                                   odometry_summary->result.trajectory, options_.on_issue, progress);
     st.odometry_alongside = odometryLine(*odometry_summary, written.added, where) +
-                            ", alongside detection (its time is in detect's)";
+                            ", alongside detection (its time is in detect's" +
+                            (blobs_beside ? "; the fisheye's blobs searched in its frames)" : ")");
   }
   StepOutcome outcome;
   outcome.ran = true;

@@ -4,7 +4,8 @@
 // (FullPipelineOptions::overlap_steps); both results are written after both
 // are done, so that nothing reads the dataset while it is replaced. The
 // fisheye's blobs are searched in the frames the odometry decodes
-// (BlobsBesideOdometry): each fisheye frame is decoded once for both.
+// (BlobsBesideOdometry), each fisheye frame then decoded once for both, when
+// that search is detection's own (finish() says when).
 #pragma once
 
 #include <atomic>

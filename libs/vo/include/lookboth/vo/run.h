@@ -46,7 +46,9 @@ struct OdometryRunOptions {
   /// written to), on that thread; frames only it wants are decoded for it
   /// alone. `read_all` is called once the dataset was read to its end with
   /// every frame offered (not when the run is stopped or fails first).
-  /// Any of them throwing fails the run.
+  /// `take` is needed with `wants`. Any of them throwing fails the run, and
+  /// so does a frame the tap alone wants that cannot be decoded, as one of
+  /// the odometry's own does; decode_seconds counts the tap's frames too.
   struct FrameTap {
     std::function<bool(const ImageFrame&)> wants;
     std::function<void(const ImageFrame&, const cv::Mat&)> take;
