@@ -445,6 +445,19 @@ TEST_F(PipelineTest, WritesTheOutputDirectoryAtomically) {
               *run.registration.observability.aligned_position_rmse_m, 1e-12);
 }
 
+/// `small`'s first `seconds` rendered into a fresh `dir` (small.rawlog).
+sim::SimulateOptions renderSmall(const fs::path& dir, double seconds) {
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  sim::SimulateOptions simulate;
+  simulate.scenario = "small";
+  simulate.out = dir / "small.rawlog";
+  simulate.max_duration_s = seconds;
+  simulate.threads = 2;
+  sim::simulate(simulate, ProgressReporter());
+  return simulate;
+}
+
 /// A rawlog whose fisheye frames are not all in time order: the blob search
 /// beside the odometry (which sees them in the file's order) gives way to
 /// detection's own, which sorts them: the same blobs as one step after the
@@ -452,14 +465,7 @@ TEST_F(PipelineTest, WritesTheOutputDirectoryAtomically) {
 TEST(OverlappedSteps, FisheyeFramesOutOfOrderGiveTheSameBlobs) {
   const fs::path dir =
       fs::temp_directory_path() / ("lookboth_overlapped_order_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  sim::SimulateOptions simulate;
-  simulate.scenario = "small";
-  simulate.out = dir / "small.rawlog";
-  simulate.max_duration_s = 8.0;
-  simulate.threads = 2;
-  sim::simulate(simulate, ProgressReporter());
+  const sim::SimulateOptions simulate = renderSmall(dir, 8.0);
   // Fisheye frames 30 and 31 swapped in the file.
   const fs::path shuffled = dir / "shuffled.rawlog";
   {
@@ -509,14 +515,7 @@ TEST(OverlappedSteps, FisheyeFramesOutOfOrderGiveTheSameBlobs) {
 TEST(OverlappedSteps, SameRegistrationAsOneStepAfterTheOtherAndAStopStopsBoth) {
   const fs::path dir =
       fs::temp_directory_path() / ("lookboth_overlapped_steps_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  sim::SimulateOptions simulate;
-  simulate.scenario = "small";
-  simulate.out = dir / "small.rawlog";
-  simulate.max_duration_s = 12.0;
-  simulate.threads = 2;
-  sim::simulate(simulate, ProgressReporter());
+  const sim::SimulateOptions simulate = renderSmall(dir, 12.0);
   const auto before = fs::last_write_time(simulate.out);
 
   FullPipelineOptions options;
