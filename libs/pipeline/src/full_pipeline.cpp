@@ -532,8 +532,8 @@ StepOutcome RegistrationPipeline::detectAlongsideOdometry(DetectOptions detect,
   }
   BackgroundOdometry background(std::move(odometry), joint);  // stopped and joined if we throw
   DetectSummary summary;
-  std::vector<Record> records;
-  if (detect.markers || detect.blobs) records = runDetection(detect, joint->detection(), &summary);
+  // The markers at least: the blobs go beside the odometry only with them.
+  std::vector<Record> records = runDetection(detect, joint->detection(), &summary);
   joint->detectionDone();
   std::optional<vo::OdometryRunSummary> odometry_summary;
   try {
