@@ -80,11 +80,19 @@ void printEvaluation(const DetectOptions& options, const DetectSummary& summary,
     constexpr double kFar = std::numeric_limits<double>::infinity();
     const BlobEvaluation e = evaluateBlobs(truth, blobs, 6.0, {0.0, 3.0, 4.0, 6.0, kFar});
     std::printf(
-        "blobs vs ground truth: %d frames, recall %d/%d (%.1f %%; hidden housings count "
-        "as missed), false positives %.2f per frame, precision %.1f %%, centre error median "
-        "%.2f px, p90 %.2f px\n",
-        e.frames, e.matched, e.expected, 100 * e.recall(), e.falsePositivesPerFrame(),
-        100 * e.precision(), e.median_error_px, e.p90_error_px);
+        "blobs vs ground truth: %d frames, recall %d/%d (%.1f %%; %s), false positives %.2f "
+        "per frame, precision %.1f %%, centre error median %.2f px, p90 %.2f px\n",
+        e.frames, e.matched, e.expected, 100 * e.recall(),
+        e.knows_hidden ? "of the housings the fisheye sees"
+                       : "the dataset does not say which housings are hidden: they count as missed",
+        e.falsePositivesPerFrame(), 100 * e.precision(), e.median_error_px, e.p90_error_px);
+    if (e.knows_hidden) {
+      std::printf(
+          "  %d more hidden from the fisheye by the world (%d of them with a blob); recall with "
+          "them counted as missed %d/%d (%.1f %%)\n",
+          e.hidden, e.hidden_matched, e.matched + e.hidden_matched, e.expected + e.hidden,
+          100 * e.recallWithHidden());
+    }
     std::printf("  %-12s %9s %9s %9s %15s\n", "distance m", "expected", "matched", "recall %",
                 "centre med px");
     for (const BlobBand& band : e.bands) {

@@ -256,6 +256,8 @@ void mergeManifest(const Manifest& other, const fs::path& other_path, const fs::
   GroundTruth& truth = into->ground_truth;
   truth.world_from_camera.insert(other.ground_truth.world_from_camera.begin(),
                                  other.ground_truth.world_from_camera.end());
+  truth.hidden_from_fisheye.insert(other.ground_truth.hidden_from_fisheye.begin(),
+                                   other.ground_truth.hidden_from_fisheye.end());
   // Times of two inputs are comparable only when their clocks are described alike.
   for (const auto& [label, offset] : other.ground_truth.clock_offset) {
     const auto known = truth.clock_offset.find(label);

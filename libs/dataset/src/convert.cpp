@@ -147,6 +147,7 @@ void keepCameras(const ConvertOptions& options, Manifest* manifest) {
   };
   dropOthers(truth.world_from_camera);
   dropOthers(truth.clock_offset);
+  dropOthers(truth.hidden_from_fisheye);
   if (!manifest->fisheye()) truth.fisheye_from_marker.reset();
 }
 

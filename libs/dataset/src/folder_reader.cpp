@@ -832,6 +832,16 @@ class FolderReader final : public DatasetReader {
         }
       }
     }
+    const fs::path hidden = file("ground_truth/hidden_from_fisheye.csv");
+    if (fs::exists(hidden)) {
+      CsvReader csv(hidden, {"label", "begin_ns", "end_ns"});
+      while (csv.next()) {
+        const std::string& label = csv.text("label");
+        if (label.empty()) throw Error(csv.where("label"), "empty label");
+        truth.hidden_from_fisheye[label].push_back(
+            {csv.integer("begin_ns"), csv.integer("end_ns")});
+      }
+    }
   }
 
   /// Tie order (equal timestamps): fisheye frames, environment camera frames

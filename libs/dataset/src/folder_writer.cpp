@@ -466,6 +466,15 @@ class FolderWriter final : public DatasetWriter {
       }
       writeTextFile(temporary_ / "ground_truth/clock_offsets.csv", csv);
     }
+    if (!truth.hidden_from_fisheye.empty()) {
+      std::string csv = "label,begin_ns,end_ns\n";
+      for (const auto& [label, spans] : truth.hidden_from_fisheye) {
+        for (const TimeSpan& span : spans) {
+          csv += label + "," + std::to_string(span.begin) + "," + std::to_string(span.end) + "\n";
+        }
+      }
+      writeTextFile(temporary_ / "ground_truth/hidden_from_fisheye.csv", csv);
+    }
   }
 
   fs::path folder_;

@@ -2,7 +2,9 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <set>
 
 #include "lookboth/cameras/camera_io.h"
@@ -99,7 +101,27 @@ std::string Manifest::check() const {
     if (!labels.count(label))
       return "'ground_truth.clock_offsets_ns." + label + "': unknown sensor";
   }
+  for (const auto& [label, spans] : ground_truth.hidden_from_fisheye) {
+    const std::string field = "'ground_truth.hidden_from_fisheye." + label + "'";
+    const CameraSensor* camera = findCamera(label);
+    if (!camera || camera->role != SensorRole::kEnvCamera)
+      return field + ": no environment camera has that label";
+    for (size_t i = 0; i < spans.size(); ++i) {
+      if (spans[i].end < spans[i].begin) return field + ": a span ends before it begins";
+      if (i > 0 && spans[i].begin <= spans[i - 1].end)
+        return field + ": spans overlap or are not in time order";
+    }
+  }
   return "";
+}
+
+bool GroundTruth::hiddenFromFisheye(const std::string& camera, TimeNs t) const {
+  const auto found = hidden_from_fisheye.find(camera);
+  if (found == hidden_from_fisheye.end()) return false;
+  const std::vector<TimeSpan>& spans = found->second;
+  const auto after = std::upper_bound(spans.begin(), spans.end(), t,
+                                      [](TimeNs x, const TimeSpan& s) { return x < s.begin; });
+  return after != spans.begin() && std::prev(after)->contains(t);
 }
 
 namespace {
@@ -142,6 +164,25 @@ struct Reader : YamlReader {
     return Rigid3d(q, Eigen::Vector3d(v[0], v[1], v[2]));
   }
 };
+
+// ground_truth.hidden_from_fisheye: {label: [[begin_ns, end_ns], ...]}; the
+// spans' order is checked with the rest by Manifest::check.
+void readHiddenFromFisheye(const Reader& r, const YAML::Node& hidden, GroundTruth& truth) {
+  const std::string field = "ground_truth.hidden_from_fisheye";
+  if (!hidden.IsMap()) throw Error(r.at(hidden, field), "expected a mapping label: spans");
+  for (const auto& entry : hidden) {
+    const std::string label = r.key(entry.first, field);
+    const std::string at = field + "." + label;
+    if (!entry.second.IsSequence())
+      throw Error(r.at(entry.second, at), "expected a list of [begin_ns, end_ns]");
+    std::vector<TimeSpan>& spans = truth.hidden_from_fisheye[label];
+    for (const YAML::Node& span : entry.second) {
+      if (!span.IsSequence() || span.size() != 2)
+        throw Error(r.at(span, at), "expected [begin_ns, end_ns]");
+      spans.push_back({r.integer(span[0], at), r.integer(span[1], at)});
+    }
+  }
+}
 
 }  // namespace
 
@@ -194,6 +235,18 @@ std::string manifestToYaml(const Manifest& manifest) {
       out << YAML::Key << "clock_offsets_ns" << YAML::Value << YAML::BeginMap;
       for (const auto& [label, offset] : gt.clock_offset) {
         out << YAML::Key << label << YAML::Value << static_cast<long long>(offset);
+      }
+      out << YAML::EndMap;
+    }
+    if (!gt.hidden_from_fisheye.empty()) {
+      out << YAML::Key << "hidden_from_fisheye" << YAML::Value << YAML::BeginMap;
+      for (const auto& [label, spans] : gt.hidden_from_fisheye) {
+        out << YAML::Key << label << YAML::Value << YAML::Flow << YAML::BeginSeq;
+        for (const TimeSpan& span : spans) {
+          out << YAML::BeginSeq << static_cast<long long>(span.begin)
+              << static_cast<long long>(span.end) << YAML::EndSeq;
+        }
+        out << YAML::EndSeq;
       }
       out << YAML::EndMap;
     }
@@ -286,8 +339,9 @@ Manifest manifestFromYaml(const std::string& yaml, const std::string& source) {
   }
 
   if (const YAML::Node gt = root["ground_truth"]; gt && !gt.IsNull()) {
-    r.rejectUnknownKeys(gt, {"fisheye_from_marker", "world_from_camera", "clock_offsets_ns"},
-                        "ground_truth");
+    r.rejectUnknownKeys(
+        gt, {"fisheye_from_marker", "world_from_camera", "clock_offsets_ns", "hidden_from_fisheye"},
+        "ground_truth");
     if (gt["fisheye_from_marker"]) {
       manifest.ground_truth.fisheye_from_marker =
           r.pose(gt["fisheye_from_marker"], "ground_truth.fisheye_from_marker");
@@ -312,6 +366,8 @@ Manifest manifestFromYaml(const std::string& yaml, const std::string& source) {
             r.integer(entry.second, "ground_truth.clock_offsets_ns." + label);
       }
     }
+    if (const YAML::Node hidden = gt["hidden_from_fisheye"]; hidden)
+      readHiddenFromFisheye(r, hidden, manifest.ground_truth);
   }
   if (root["rawlog_entries"])
     manifest.rawlog_entries = r.integer(root["rawlog_entries"], "rawlog_entries");

@@ -227,6 +227,7 @@ TEST_F(AugmentTest, MergeJoinsInputsOfSomeCamerasAndRefusesDisagreements) {
       if (!m.findCamera(label)) {
         m.ground_truth.world_from_camera.erase(label);
         m.ground_truth.clock_offset.erase(label);
+        m.ground_truth.hidden_from_fisheye.erase(label);
       }
     }
     if (!m.fisheye()) m.ground_truth.fisheye_from_marker.reset();
@@ -247,6 +248,7 @@ TEST_F(AugmentTest, MergeJoinsInputsOfSomeCamerasAndRefusesDisagreements) {
   EXPECT_EQ(merged.cameras[2].label, "cam01");
   EXPECT_EQ(merged.ground_truth.world_from_camera.size(), 2u);
   EXPECT_EQ(merged.ground_truth.clock_offset.size(), 2u);
+  EXPECT_EQ(merged.ground_truth.hidden_from_fisheye.at("cam01").size(), 2u);
   EXPECT_TRUE(merged.ground_truth.fisheye_from_marker.has_value());
 
   auto refused = [&](const Manifest& other, const std::string& expected) {

@@ -80,6 +80,14 @@ class ConvertTest : public ::testing::Test {
                 1e-12);
     }
     EXPECT_EQ(a.ground_truth.clock_offset, b.ground_truth.clock_offset);
+    EXPECT_EQ(a.ground_truth.hidden_from_fisheye.size(), b.ground_truth.hidden_from_fisheye.size());
+    for (const auto& [label, spans] : a.ground_truth.hidden_from_fisheye) {
+      ASSERT_EQ(b.ground_truth.hidden_from_fisheye.at(label).size(), spans.size()) << label;
+      for (size_t i = 0; i < spans.size(); ++i) {
+        EXPECT_EQ(b.ground_truth.hidden_from_fisheye.at(label)[i].begin, spans[i].begin);
+        EXPECT_EQ(b.ground_truth.hidden_from_fisheye.at(label)[i].end, spans[i].end);
+      }
+    }
     ASSERT_EQ(a.ground_truth.fisheye_from_marker.has_value(),
               b.ground_truth.fisheye_from_marker.has_value());
   }

@@ -33,7 +33,25 @@ TEST(Manifest, YamlRoundTripIsExact) {
   EXPECT_EQ(back.ground_truth.fisheye_from_marker->translation,
             original.ground_truth.fisheye_from_marker->translation);
   EXPECT_EQ(back.ground_truth.clock_offset.at("cam01"), -700'000);
+  const auto& spans = back.ground_truth.hidden_from_fisheye.at("cam01");
+  ASSERT_EQ(spans.size(), 2u);
+  EXPECT_EQ(spans[1].begin, 1'500'000'000);
+  EXPECT_EQ(spans[1].end, 1'500'000'000);
   EXPECT_EQ(back.fisheye()->label, "fisheye");
+}
+
+// A housing is hidden on the spans' stamps, both ends included, and at no
+// other time; a camera without spans never is.
+TEST(Manifest, HiddenFromFisheyeCoversItsSpansOnly) {
+  const GroundTruth truth = testing::sampleManifest().ground_truth;
+  EXPECT_FALSE(truth.hiddenFromFisheye("cam01", 999'999'999));
+  EXPECT_TRUE(truth.hiddenFromFisheye("cam01", 1'000'000'000));
+  EXPECT_TRUE(truth.hiddenFromFisheye("cam01", 1'100'000'000));
+  EXPECT_FALSE(truth.hiddenFromFisheye("cam01", 1'100'000'001));
+  EXPECT_FALSE(truth.hiddenFromFisheye("cam01", 1'499'999'999));
+  EXPECT_TRUE(truth.hiddenFromFisheye("cam01", 1'500'000'000));
+  EXPECT_FALSE(truth.hiddenFromFisheye("cam01", 2'000'000'000));
+  EXPECT_FALSE(truth.hiddenFromFisheye("cam00", 1'000'000'000));
 }
 
 void expectError(const std::string& yaml, const std::vector<std::string>& needles) {
@@ -78,6 +96,16 @@ TEST(Manifest, ErrorsNameTheField) {
   expectError(head + marker + "trajectories:\n  - {label: vo, metric: maybe}\n",
               {"trajectories[0].metric", "maybe"});
   expectError("lookboth_dataset: [1\n", {"m.yaml", "not valid YAML"});
+  const std::string cam = "cameras:\n  - {label: c, role: env_camera}\n";
+  expectError(head + marker + cam + "ground_truth:\n  hidden_from_fisheye:\n    d: [[1, 2]]\n",
+              {"hidden_from_fisheye.d", "no environment camera"});
+  expectError(head + marker + cam + "ground_truth:\n  hidden_from_fisheye:\n    c: [[5, 2]]\n",
+              {"hidden_from_fisheye.c", "ends before it begins"});
+  expectError(
+      head + marker + cam + "ground_truth:\n  hidden_from_fisheye:\n    c: [[1, 4], [3, 6]]\n",
+      {"hidden_from_fisheye.c", "overlap"});
+  expectError(head + marker + cam + "ground_truth:\n  hidden_from_fisheye:\n    c: [[1, 2, 3]]\n",
+              {"m.yaml:7", "[begin_ns, end_ns]"});
 }
 
 TEST(Manifest, KnowsTheOpenCvDictionaries) {

@@ -31,6 +31,8 @@ inline Manifest sampleManifest() {
       Rigid3d(Eigen::Quaterniond(0.0, 1.0, 0.0, 0.0), Eigen::Vector3d(-0.1, 0.0, -0.35));
   m.ground_truth.clock_offset["cam00"] = 1'200'000;
   m.ground_truth.clock_offset["cam01"] = -700'000;
+  m.ground_truth.hidden_from_fisheye["cam01"] = {{1'000'000'000, 1'100'000'000},
+                                                 {1'500'000'000, 1'500'000'000}};
   return m;
 }
 

@@ -250,10 +250,30 @@ GroundTruthView loadGroundTruth(const std::filesystem::path& dataset) {
   return view;
 }
 
+namespace {
+
+/// The blob nearest `p` within `match_px` not used yet, or -1.
+int nearestUnused(const std::vector<Blob>& blobs, const std::vector<bool>& used,
+                  const Eigen::Vector2d& p, double match_px) {
+  int best = -1;
+  double best_distance = match_px;
+  for (size_t i = 0; i < blobs.size(); ++i) {
+    const double distance = (Eigen::Vector2d(blobs[i].u, blobs[i].v) - p).norm();
+    if (!used[i] && distance < best_distance) {
+      best_distance = distance;
+      best = static_cast<int>(i);
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
 BlobEvaluation evaluateBlobs(const GroundTruthView& truth,
                              const std::vector<BlobObservation>& observations, double match_px,
                              const std::vector<double>& band_edges) {
   BlobEvaluation out;
+  out.knows_hidden = !truth.manifest.ground_truth.hidden_from_fisheye.empty();
   for (size_t b = 0; b + 1 < band_edges.size(); ++b) {
     out.bands.push_back({band_edges[b], band_edges[b + 1]});
   }
@@ -277,6 +297,15 @@ BlobEvaluation evaluateBlobs(const GroundTruthView& truth,
       const Eigen::Vector3d centre = fisheye_from_world * world_from_camera.translation;
       const auto p = sensor->camera->project(centre);
       if (!p || !sensor->camera->isInImage(*p, 2.0)) continue;
+      if (truth.manifest.ground_truth.hiddenFromFisheye(label, obs.t)) {
+        ++out.hidden;
+        const int near = nearestUnused(obs.blobs, used, *p, match_px);
+        if (near >= 0) {
+          used[static_cast<size_t>(near)] = true;
+          ++out.hidden_matched;
+        }
+        continue;
+      }
       ++out.expected;
       const double distance = centre.norm();
       BlobBand* band = nullptr;
@@ -284,16 +313,10 @@ BlobEvaluation evaluateBlobs(const GroundTruthView& truth,
         if (distance >= b.min_distance_m && distance < b.max_distance_m) band = &b;
       }
       if (band) ++band->expected;
-      int best = -1;
-      double best_distance = match_px;
-      for (size_t i = 0; i < obs.blobs.size(); ++i) {
-        const double distance = (Eigen::Vector2d(obs.blobs[i].u, obs.blobs[i].v) - *p).norm();
-        if (!used[i] && distance < best_distance) {
-          best_distance = distance;
-          best = static_cast<int>(i);
-        }
-      }
+      const int best = nearestUnused(obs.blobs, used, *p, match_px);
       if (best >= 0) {
+        const Blob& nearest = obs.blobs[static_cast<size_t>(best)];
+        const double best_distance = (Eigen::Vector2d(nearest.u, nearest.v) - *p).norm();
         used[static_cast<size_t>(best)] = true;
         ++out.matched;
         errors.push_back(best_distance);

@@ -368,6 +368,36 @@ Setup buildSetup(const SimulateOptions& options) {
   return setup;
 }
 
+/// Each housing's spans of fisheye frames in which the world hides its
+/// centre from the fisheye, on the fisheye's stamps. Only housings inside the
+/// frame are cast (a ray each); one outside it is in no span.
+std::map<std::string, std::vector<TimeSpan>> hiddenFromFisheye(const Setup& setup) {
+  const World& world = *setup.world;
+  const double period = 1 / setup.scenario.robot.fisheye.rate_hz;
+  std::map<std::string, std::vector<TimeSpan>> hidden;
+  std::vector<bool> was_hidden(world.housings().size(), false);
+  for (std::int64_t k = 0;; ++k) {
+    const double t = setup.fisheye_phase + static_cast<double>(k) * period;
+    if (t > setup.duration) break;
+    const TimeNs stamp = setup.stamp(t, setup.robot_offset);
+    const Rigid3d world_from_fisheye = setup.worldFromFisheye(t);
+    for (size_t i = 0; i < world.housings().size(); ++i) {
+      const Housing& housing = world.housings()[i];
+      const Eigen::Vector3d towards = housing.centre_in_world - world_from_fisheye.translation;
+      const auto pixel = setup.fisheye->project(world_from_fisheye.rotation.inverse() * towards);
+      const bool in_frame = pixel && setup.fisheye->isInImage(*pixel, 0.0);
+      const bool now =
+          in_frame &&
+          world.intersect(world_from_fisheye.translation, towards.normalized()).housing !=
+              static_cast<int>(i);
+      if (now && was_hidden[i]) hidden[housing.label].back().end = stamp;
+      if (now && !was_hidden[i]) hidden[housing.label].push_back({stamp, stamp});
+      was_hidden[i] = now;
+    }
+  }
+  return hidden;
+}
+
 Manifest buildManifest(const Setup& setup, const SimulateOptions& options) {
   const Scenario& sc = setup.scenario;
   Manifest manifest;
@@ -401,6 +431,7 @@ Manifest buildManifest(const Setup& setup, const SimulateOptions& options) {
     manifest.ground_truth.world_from_camera[p.label] = p.world_from_camera;
     manifest.ground_truth.clock_offset[p.label] = setup.camera_offsets[i] - setup.robot_offset;
   }
+  manifest.ground_truth.hidden_from_fisheye = hiddenFromFisheye(setup);
   return manifest;
 }
 

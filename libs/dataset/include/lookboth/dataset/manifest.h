@@ -44,14 +44,28 @@ struct TrajectoryInfo {
   std::string description;  ///< Free text ("wheel+IMU", "lookboth odometry", ...).
 };
 
+/// Times [begin, end] (both included) on the fisheye's clock [ns].
+struct TimeSpan {
+  TimeNs begin = 0, end = 0;
+  bool contains(TimeNs t) const { return t >= begin && t <= end; }
+};
+
 /// What a simulation knows and a real recording usually does not.
 struct GroundTruth {
   std::map<std::string, Rigid3d> world_from_camera;  ///< By environment camera label.
   std::optional<Rigid3d> fisheye_from_marker;
   std::map<std::string, TimeNs> clock_offset;  ///< node clock - robot clock, by sensor label [ns].
+  /// By environment camera label: the fisheye's frames in which the world
+  /// (a beam, a duct, a tray) stands between the fisheye and the camera's
+  /// optical centre, as spans of their stamps, sorted. No blob can be found
+  /// there, so a blob detector's recall is scored on the other frames.
+  std::map<std::string, std::vector<TimeSpan>> hidden_from_fisheye;
   bool empty() const {
-    return world_from_camera.empty() && !fisheye_from_marker && clock_offset.empty();
+    return world_from_camera.empty() && !fisheye_from_marker && clock_offset.empty() &&
+           hidden_from_fisheye.empty();
   }
+  /// Whether `camera` is hidden from the fisheye in its frame stamped `t`.
+  bool hiddenFromFisheye(const std::string& camera, TimeNs t) const;
 };
 
 struct Manifest {

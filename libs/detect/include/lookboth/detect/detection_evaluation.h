@@ -93,9 +93,18 @@ struct BlobEvaluation {
   /// distance and are counted only in all.
   std::vector<BlobBand> bands;
   int frames = 0;
-  int expected = 0;         ///< Housing centres projected inside the image (2 px margin), in front.
+  /// Housing centres projected inside the image (2 px margin), in front,
+  /// and not hidden from the fisheye (GroundTruth::hidden_from_fisheye).
+  int expected = 0;
   int matched = 0;          ///< Expected ones with a blob within `match_px`.
   int false_positives = 0;  ///< Blobs matched to no housing.
+  /// Housings inside the image that the dataset's ground truth says the
+  /// world hides from the fisheye, and how many of them had a blob anyway
+  /// (a dome's rim showing past a beam): neither a miss nor a false positive.
+  int hidden = 0, hidden_matched = 0;
+  /// Whether the dataset says which housings are hidden; when not, hidden
+  /// ones count as expected and recall is a lower bound.
+  bool knows_hidden = false;
   double median_error_px = 0, p90_error_px = 0;
   /// As MarkerEvaluation's, for each housing's matched blobs (passes of at
   /// least 3 with no gap over 1 s; errors in pixels, scaled by one blob's
@@ -108,6 +117,10 @@ struct BlobEvaluation {
   /// blob_pass_error_share is its square over blob_sigma_px's.
   double shared_error_px = 0;
   double recall() const { return expected ? double(matched) / expected : 0.0; }
+  /// Recall with the hidden housings counted as misses.
+  double recallWithHidden() const {
+    return expected + hidden ? double(matched + hidden_matched) / (expected + hidden) : 0.0;
+  }
   double falsePositivesPerFrame() const { return frames ? double(false_positives) / frames : 0.0; }
   /// Matched / all blobs (1 when there are none).
   double precision() const {
@@ -115,9 +128,10 @@ struct BlobEvaluation {
   }
 };
 
-/// Scores blob observations of the fisheye (housings hidden behind other
-/// objects are counted as expected: recall is a lower bound). Bands are by
-/// true distance from the fisheye [m], `band_edges` ascending.
+/// Scores blob observations of the fisheye against the housings the
+/// ground truth says it sees (all in the image when the dataset does not
+/// say which are hidden). Bands are by true distance from the fisheye [m],
+/// `band_edges` ascending, of the housings not hidden.
 BlobEvaluation evaluateBlobs(const GroundTruthView& truth,
                              const std::vector<BlobObservation>& observations,
                              double match_px = 6.0, const std::vector<double>& band_edges = {});
