@@ -317,8 +317,15 @@ void JointAdjustment::addCamerasAndDetections() {
   for (JointCamera& c : cameras_) {
     Q.AddParameterBlock(c.pose, 7, newPoseManifold());
     Q.AddParameterBlock(&c.offset_s, 1);
-    Q.AddResidualBlock(ScalarPriorCost::Create(c.offset0_s, options_.clock_prior_sigma_s), nullptr,
-                       &c.offset_s);
+    // The clock search moves an offset by whole 10 ms steps: a camera it
+    // moved has a clock the synchronisation does not hold.
+    constexpr double kSearchStepHalf_s = 0.005;
+    const bool unsynchronised = restarted_.count(c.registration->label) > 0 &&
+                                std::abs(c.offset_s - c.offset0_s) >= kSearchStepHalf_s;
+    Q.AddResidualBlock(ScalarPriorCost::Create(
+                           c.offset0_s, unsynchronised ? options_.unsynchronised_clock_prior_sigma_s
+                                                       : options_.clock_prior_sigma_s),
+                       nullptr, &c.offset_s);
     if (!options_.estimate_clock_offsets) Q.SetParameterBlockConstant(&c.offset_s);
     if (c.prior) {
       Q.AddResidualBlock(PosePriorCost::Create(*c.prior, c.prior_sqrt_info), nullptr, c.pose);

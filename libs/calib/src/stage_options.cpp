@@ -130,6 +130,7 @@ static void fields(JointOptions& o, OptionFields& s) {
   s.number("max_rotation_sigma_deg", o.max_rotation_sigma_deg);
   s.flag("estimate_clock_offsets", o.estimate_clock_offsets);
   s.number("clock_prior_sigma_s", o.clock_prior_sigma_s);
+  s.number("unsynchronised_clock_prior_sigma_s", o.unsynchronised_clock_prior_sigma_s);
   s.number("max_clock_sigma_ms", o.max_clock_sigma_ms);
   s.flag("use_corners", o.use_corners);
   s.number("huber", o.huber);
@@ -283,6 +284,7 @@ std::string JointOptions::check() const {
            {"max_translation_sigma_m", max_translation_sigma_m},
            {"max_rotation_sigma_deg", max_rotation_sigma_deg},
            {"clock_prior_sigma_s", clock_prior_sigma_s},
+           {"unsynchronised_clock_prior_sigma_s", unsynchronised_clock_prior_sigma_s},
            {"max_clock_sigma_ms", max_clock_sigma_ms},
            {"huber", huber},
            {"reject_chi2_pose", reject_chi2_pose},

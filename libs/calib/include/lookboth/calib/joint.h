@@ -85,9 +85,19 @@ struct JointOptions {
   double max_rotation_sigma_deg = 0.5;
   // --- clocks ---
   /// Estimate each camera's clock offset (node clock - robot clock), starting
-  /// from associate's configured offset, with a weak prior around it [s].
+  /// from associate's configured offset, with a prior around it [s]: the
+  /// synchronisation the nodes are known to have. The default is the paper's
+  /// NTP: each node within 1-2 ms of the server, so a camera about 2 ms from
+  /// the robot. A weaker prior lets a real odometry's error along the path
+  /// pass for clock offsets of tens of ms, turning the cameras
+  /// (doc/benchmarks.md, "Real drift"); cameras not synchronised need 1.0 or
+  /// their offsets in associate.clock_offsets_ns.
   bool estimate_clock_offsets = true;
-  double clock_prior_sigma_s = 1.0;
+  double clock_prior_sigma_s = 0.002;
+  /// The prior of a camera whose detections agree only at another offset
+  /// (the clock search moved it by 10 ms or more: its clock is not
+  /// synchronised) [s].
+  double unsynchronised_clock_prior_sigma_s = 1.0;
   /// An offset whose sigma exceeds this is a warning [ms]: a third of a
   /// 30 Hz frame period, beyond which the detections' times are uncertain
   /// by more than the camera's own sampling.
