@@ -127,9 +127,11 @@ real_mh04)
   cp -r "$ROOT/tests/data/real_trajectories/euroc_mh04_vislam_rp" data/
   LOOKBOTH_BIN=$L bash "$ROOT/scripts/bench_replay.sh" data runs | tee bench.log
   check runs/euroc_mh04_vislam_rp.floor 0.006
-  # Rotation: 0.21 deg with the clocks held within the nodes' NTP
-  # synchronisation (joint.clock_prior_sigma_s), 0.30 with a weak prior.
-  check runs/euroc_mh04_vislam_rp.real 0.015 runs/euroc_mh04_vislam_rp.floor 0.25
+  # Rotation (target 0.2 deg): 0.18 deg with the clocks held within the
+  # nodes' NTP synchronisation (joint.clock_prior_sigma_s) and the clock
+  # search not fooled by the drift, 0.21 with the search moving three
+  # cameras by 50-190 ms, 0.30 with a weak prior as well.
+  check runs/euroc_mh04_vislam_rp.real 0.015 runs/euroc_mh04_vislam_rp.floor 0.2
   grep -q "euroc_mh04_vislam_rp paper" bench.log || fail "the paper's stages did not run"
   ;;
 

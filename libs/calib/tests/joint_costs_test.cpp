@@ -454,8 +454,10 @@ TEST(JointCosts, CacheRecomputesAtANewPointAndWhenJacobiansAreAskedLater) {
 }  // namespace
 
 // The clock search of a camera look_down could not register: the configured
-// offset (shift 0) stays unless another is clearly better, by the blobs
-// where there are scores, else by the detections' spread.
+// offset (shift 0) stays while the detections agree there (its spread is
+// admissible: the blobs along a path not yet corrected cannot tell a clock
+// offset from the odometry's drift), or unless another is clearly better, by
+// the blobs where there are scores, else by the detections' spread.
 TEST(JointClockSearch, KeepsTheConfiguredOffsetUnlessAnotherIsClearlyBetter) {
   const std::vector<double> shifts = {-0.01, 0.0, 0.01};
   const double none = std::numeric_limits<double>::quiet_NaN();
@@ -463,15 +465,19 @@ TEST(JointClockSearch, KeepsTheConfiguredOffsetUnlessAnotherIsClearlyBetter) {
   EXPECT_EQ(joint_detail::chooseShift(shifts, {0.010, 0.011, 0.012}, {none, none, none}), 1u);
   // One spread 25x smaller: it wins (the others are not even admissible).
   EXPECT_EQ(joint_detail::chooseShift(shifts, {0.002, 0.05, 0.06}, {none, none, none}), 0u);
-  // The blobs decide among admissible spreads: 0.5 px beats 3 px by more
-  // than 1 px; 2.5 px does not.
-  EXPECT_EQ(joint_detail::chooseShift(shifts, {0.010, 0.011, 0.012}, {5.0, 3.0, 0.5}), 2u);
-  EXPECT_EQ(joint_detail::chooseShift(shifts, {0.010, 0.011, 0.012}, {5.0, 3.0, 2.5}), 1u);
+  // The detections agree at 0: it stays whatever the blobs say.
+  EXPECT_EQ(joint_detail::chooseShift(shifts, {0.010, 0.011, 0.012}, {5.0, 3.0, 0.5}), 1u);
+  // They do not: the blobs decide among the admissible spreads, and 0.5 px
+  // beats 0's 3 px by more than 1 px; 2.5 px does not.
+  EXPECT_EQ(joint_detail::chooseShift(shifts, {0.010, 0.05, 0.012}, {5.0, 3.0, 0.5}), 2u);
+  EXPECT_EQ(joint_detail::chooseShift(shifts, {0.010, 0.05, 0.012}, {5.0, 3.0, 2.5}), 1u);
   // Among the other shifts, one with a blob score beats one without; the
-  // configured offset stays against it, unless its spread is 1.5x larger.
+  // configured offset stays against it, unless its spread is 1.5x larger
+  // and not admissible.
   EXPECT_EQ(joint_detail::chooseShift({-0.01, 0.01}, {0.010, 0.010}, {none, 4.0}), 1u);
   EXPECT_EQ(joint_detail::chooseShift({0.0, 0.01}, {0.010, 0.010}, {none, 4.0}), 0u);
-  EXPECT_EQ(joint_detail::chooseShift({0.0, 0.01}, {0.016, 0.010}, {none, 4.0}), 1u);
+  EXPECT_EQ(joint_detail::chooseShift({0.0, 0.01}, {0.016, 0.010}, {none, 4.0}), 0u);
+  EXPECT_EQ(joint_detail::chooseShift({0.0, 0.01}, {0.05, 0.010}, {none, 4.0}), 1u);
 }
 
 // A detection's rotation is the marker's, noisy by degrees; its position in
