@@ -84,14 +84,14 @@ void printEvaluation(const DetectOptions& options, const DetectSummary& summary,
         "per frame, precision %.1f %%, centre error median %.2f px, p90 %.2f px\n",
         e.frames, e.matched, e.expected, 100 * e.recall(),
         e.knows_hidden ? "of the housings the fisheye sees"
-                       : "the dataset does not say which housings are hidden: they count as missed",
+                       : "the dataset names no hidden housing: any hidden one counts as missed",
         e.falsePositivesPerFrame(), 100 * e.precision(), e.median_error_px, e.p90_error_px);
     if (e.knows_hidden) {
       std::printf(
-          "  %d more hidden from the fisheye by the world (%d of them with a blob); recall with "
-          "them counted as missed %d/%d (%.1f %%)\n",
+          "  %d more hidden from the fisheye by the world (%d of them with a blob); over every "
+          "housing in the image, as without the spans, %d/%d (%.1f %%)\n",
           e.hidden, e.hidden_matched, e.matched + e.hidden_matched, e.expected + e.hidden,
-          100 * e.recallWithHidden());
+          100 * e.recallOfAllInImage());
     }
     std::printf("  %-12s %9s %9s %9s %15s\n", "distance m", "expected", "matched", "recall %",
                 "centre med px");

@@ -51,6 +51,7 @@
 #include <ceres/ceres.h>
 
 #include <array>
+#include <cmath>
 #include <ctime>
 #include <map>
 #include <memory>
@@ -95,12 +96,21 @@ struct Detection {
 
 /// An environment camera's parameter blocks and what it is measured by.
 struct JointCamera {
+  /// Offsets this far from the configured one are no synchronisation's
+  /// (the clock search moves by whole 10 ms steps) [s].
+  static constexpr double kUnsynchronisedFrom_s = 0.005;
+  void judgeClock() { unsynchronised = std::abs(offset_s - offset0_s) >= kUnsynchronisedFrom_s; }
+
   CameraRegistration* registration = nullptr;
   const Camera* model = nullptr;  // env camera calibration (corners), may be null
   double pose[7];
   Rigid3d start;         // the pose the joint started from (look_up's, or the restart's)
   double offset_s = 0;   // node - robot [s]
   double offset0_s = 0;  // configured (associate) [s]
+  /// The clock search (or an earlier run) put its offset 5 ms or more from
+  /// the configured one: its clock is not synchronised, and its prior is
+  /// unsynchronised_clock_prior_sigma_s.
+  bool unsynchronised = false;
   std::vector<std::size_t> detections;
   int blobs = 0;
   /// Held near a registration on record (RegistrationProblem::camera_priors).
@@ -179,6 +189,8 @@ class JointAdjustment {
   // An unregistered camera's start (pose and clock shift [s] from the
   // configured offset) from its detections; none when they cannot give one.
   std::optional<std::pair<Rigid3d, double>> restartCamera(const CameraRegistration& camera) const;
+  // Whether the camera's clock prior is the unsynchronised one.
+  bool unsynchronised(const JointCamera& c) const;
   // The restarted cameras' clock search again, on the corrected trajectory.
   void researchRestartedClocks();
 

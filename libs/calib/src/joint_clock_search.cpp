@@ -186,7 +186,10 @@ std::optional<std::pair<Rigid3d, double>> JointAdjustment::restartCamera(
   // the camera's detections, the mean distance from its projection to
   // the nearest blob, truncated [px]; NaN with too few frames seeing it.
   // (A pass in one direction moves every per-detection pose alike when the
-  // clock shifts: their spread cannot tell the offset, the blobs can.)
+  // clock shifts: their spread cannot tell the offset, the blobs can; here
+  // they decide only when the spread at the configured offset is not
+  // admissible, and the search after the first round, on the corrected
+  // path, judges a single pass.)
   TimeNs t_first = std::numeric_limits<TimeNs>::max(), t_last = 0;
   for (std::size_t a : found->second) {
     t_first = std::min(t_first, problem_.associations[a].t_robot);
@@ -308,6 +311,7 @@ void JointAdjustment::researchRestartedClocks() {
     for (const Rigid3d& r : candidates) rotations.push_back(r.rotation);
     poseToParams(Rigid3d(calib_detail::meanRotation(rotations), median), jc.pose);
     jc.offset_s = best_offset;
+    jc.judgeClock();
     restarted_now_[static_cast<std::size_t>(&jc - cameras_.data())] = true;
   }
 }

@@ -312,20 +312,26 @@ void JointAdjustment::addFisheyeFromMarker() {
 }
 
 // Cameras, their clock offsets (with their priors) and their detections.
+// A camera the clock search restarted may have a clock tens of ms off
+// that its detections agreed with at the configured offset (one pass in one
+// direction): once the solve takes it 5 ms or more from there, against the
+// synchronised prior, its own prior is the unsynchronised one.
+bool JointAdjustment::unsynchronised(const JointCamera& c) const {
+  return c.unsynchronised ||
+         (restarted_.count(c.registration->label) > 0 &&
+          std::abs(c.offset_s - c.offset0_s) >= JointCamera::kUnsynchronisedFrom_s);
+}
+
 void JointAdjustment::addCamerasAndDetections() {
   ceres::Problem& Q = *ceres_problem_;
   for (JointCamera& c : cameras_) {
     Q.AddParameterBlock(c.pose, 7, newPoseManifold());
     Q.AddParameterBlock(&c.offset_s, 1);
-    // The clock search moves an offset by whole 10 ms steps: a camera it
-    // moved has a clock the synchronisation does not hold.
-    constexpr double kSearchStepHalf_s = 0.005;
-    const bool unsynchronised = restarted_.count(c.registration->label) > 0 &&
-                                std::abs(c.offset_s - c.offset0_s) >= kSearchStepHalf_s;
-    Q.AddResidualBlock(ScalarPriorCost::Create(
-                           c.offset0_s, unsynchronised ? options_.unsynchronised_clock_prior_sigma_s
-                                                       : options_.clock_prior_sigma_s),
-                       nullptr, &c.offset_s);
+    Q.AddResidualBlock(
+        ScalarPriorCost::Create(c.offset0_s, unsynchronised(c)
+                                                 ? options_.unsynchronised_clock_prior_sigma_s
+                                                 : options_.clock_prior_sigma_s),
+        nullptr, &c.offset_s);
     if (!options_.estimate_clock_offsets) Q.SetParameterBlockConstant(&c.offset_s);
     if (c.prior) {
       Q.AddResidualBlock(PosePriorCost::Create(*c.prior, c.prior_sqrt_info), nullptr, c.pose);

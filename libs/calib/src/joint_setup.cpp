@@ -199,6 +199,7 @@ void JointAdjustment::initCameras() {
     jc.offset0_s = offset == configured_offsets.end() ? 0.0 : nsToSeconds(offset->second);
     jc.offset_s = jc.offset0_s;
     if (const auto r = restarted_.find(c.label); r != restarted_.end()) jc.offset_s += r->second;
+    jc.judgeClock();
     if (const auto prior = problem_.camera_priors.find(c.label);
         prior != problem_.camera_priors.end()) {
       jc.prior = prior->second.world_from_camera;
@@ -290,6 +291,7 @@ void JointAdjustment::startFromEarlierRun() {
     const auto& offset = c.registration->clock_offset;
     if (offset && offset->estimated && !restarted_.count(c.registration->label)) {
       c.offset_s = nsToSeconds(offset->offset_ns);
+      c.judgeClock();
     }
   }
 }

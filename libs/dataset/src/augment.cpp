@@ -256,8 +256,19 @@ void mergeManifest(const Manifest& other, const fs::path& other_path, const fs::
   GroundTruth& truth = into->ground_truth;
   truth.world_from_camera.insert(other.ground_truth.world_from_camera.begin(),
                                  other.ground_truth.world_from_camera.end());
-  truth.hidden_from_fisheye.insert(other.ground_truth.hidden_from_fisheye.begin(),
-                                   other.ground_truth.hidden_from_fisheye.end());
+  for (const auto& [label, spans] : other.ground_truth.hidden_from_fisheye) {
+    const auto known = truth.hidden_from_fisheye.find(label);
+    const auto same = [](const TimeSpan& a, const TimeSpan& b) {
+      return a.begin == b.begin && a.end == b.end;
+    };
+    if (known != truth.hidden_from_fisheye.end() &&
+        !std::equal(known->second.begin(), known->second.end(), spans.begin(), spans.end(), same)) {
+      throw Error({other_path.string(), 0, "hidden_from_fisheye", label},
+                  "hidden from the fisheye at other times than in '" + first_path.string() +
+                      "': not the same recording");
+    }
+    truth.hidden_from_fisheye.emplace(label, spans);
+  }
   // Times of two inputs are comparable only when their clocks are described alike.
   for (const auto& [label, offset] : other.ground_truth.clock_offset) {
     const auto known = truth.clock_offset.find(label);

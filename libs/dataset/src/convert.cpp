@@ -148,6 +148,8 @@ void keepCameras(const ConvertOptions& options, Manifest* manifest) {
   dropOthers(truth.world_from_camera);
   dropOthers(truth.clock_offset);
   dropOthers(truth.hidden_from_fisheye);
+  // The spans stay with their camera when the fisheye goes: an edge node's
+  // part of a recording merges back into the whole with them.
   if (!manifest->fisheye()) truth.fisheye_from_marker.reset();
 }
 

@@ -293,17 +293,15 @@ BlobEvaluation evaluateBlobs(const GroundTruthView& truth,
     ++out.frames;
     const Rigid3d fisheye_from_world = at.world_from_body.inverse();
     std::vector<bool> used(obs.blobs.size(), false);
+    // The housings the fisheye sees take their blobs first; a hidden one
+    // may then take a blob left (its dome's rim past the obstacle).
+    std::vector<std::pair<const std::string*, Eigen::Vector2d>> hidden;
     for (const auto& [label, world_from_camera] : truth.manifest.ground_truth.world_from_camera) {
       const Eigen::Vector3d centre = fisheye_from_world * world_from_camera.translation;
       const auto p = sensor->camera->project(centre);
       if (!p || !sensor->camera->isInImage(*p, 2.0)) continue;
       if (truth.manifest.ground_truth.hiddenFromFisheye(label, obs.t)) {
-        ++out.hidden;
-        const int near = nearestUnused(obs.blobs, used, *p, match_px);
-        if (near >= 0) {
-          used[static_cast<size_t>(near)] = true;
-          ++out.hidden_matched;
-        }
+        hidden.emplace_back(&label, *p);
         continue;
       }
       ++out.expected;
@@ -326,6 +324,14 @@ BlobEvaluation evaluateBlobs(const GroundTruthView& truth,
         }
         const Blob& blob = obs.blobs[static_cast<size_t>(best)];
         by_camera[label].push_back({obs.t, Eigen::Vector2d(blob.u, blob.v) - *p});
+      }
+    }
+    for (const auto& [label, p] : hidden) {
+      ++out.hidden;
+      const int near = nearestUnused(obs.blobs, used, p, match_px);
+      if (near >= 0) {
+        used[static_cast<size_t>(near)] = true;
+        ++out.hidden_matched;
       }
     }
     for (const bool u : used) out.false_positives += u ? 0 : 1;

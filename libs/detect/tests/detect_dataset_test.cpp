@@ -564,7 +564,7 @@ TEST(BlobEvaluation, HousingsHiddenFromTheFisheyeAreScoredApart) {
   EXPECT_EQ(e.hidden_matched, 1);
   EXPECT_EQ(e.false_positives, 1);
   EXPECT_DOUBLE_EQ(e.recall(), 2.0 / 3.0);
-  EXPECT_DOUBLE_EQ(e.recallWithHidden(), 3.0 / 4.0);
+  EXPECT_DOUBLE_EQ(e.recallOfAllInImage(), 3.0 / 4.0);
 
   truth.manifest.ground_truth.hidden_from_fisheye.clear();  // a dataset that does not say
   const BlobEvaluation blind = evaluateBlobs(truth, observations);

@@ -57,8 +57,9 @@ struct GroundTruth {
   std::map<std::string, TimeNs> clock_offset;  ///< node clock - robot clock, by sensor label [ns].
   /// By environment camera label: the fisheye's frames in which the world
   /// (a beam, a duct, a tray) stands between the fisheye and the camera's
-  /// optical centre, as spans of their stamps, sorted. No blob can be found
-  /// there, so a blob detector's recall is scored on the other frames.
+  /// optical centre, as spans of their stamps, sorted. The housing's blob is
+  /// then missing (or only its dome's rim shows), so a blob detector's
+  /// recall is scored on the other frames.
   std::map<std::string, std::vector<TimeSpan>> hidden_from_fisheye;
   bool empty() const {
     return world_from_camera.empty() && !fisheye_from_marker && clock_offset.empty() &&

@@ -117,12 +117,15 @@ struct BlobEvaluation {
   /// blob_pass_error_share is its square over blob_sigma_px's.
   double shared_error_px = 0;
   double recall() const { return expected ? double(matched) / expected : 0.0; }
-  /// Recall with the hidden housings counted as misses.
-  double recallWithHidden() const {
+  /// Over every housing in the image, hidden or not, with the hidden ones
+  /// that had a blob counted as found: what a dataset without the spans
+  /// gives.
+  double recallOfAllInImage() const {
     return expected + hidden ? double(matched + hidden_matched) / (expected + hidden) : 0.0;
   }
   double falsePositivesPerFrame() const { return frames ? double(false_positives) / frames : 0.0; }
-  /// Matched / all blobs (1 when there are none).
+  /// Matched / (matched + false positives); blobs on hidden housings are
+  /// in neither (1 when there are none).
   double precision() const {
     return matched + false_positives ? double(matched) / (matched + false_positives) : 1.0;
   }
