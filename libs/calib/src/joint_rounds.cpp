@@ -311,7 +311,6 @@ void JointAdjustment::addFisheyeFromMarker() {
   }
 }
 
-// Cameras, their clock offsets (with their priors) and their detections.
 // A camera the clock search restarted may have a clock tens of ms off
 // that its detections agreed with at the configured offset (one pass in one
 // direction): once the solve takes it 5 ms or more from there, against the
@@ -322,6 +321,7 @@ bool JointAdjustment::unsynchronised(const JointCamera& c) const {
           std::abs(c.offset_s - c.offset0_s) >= JointCamera::kUnsynchronisedFrom_s);
 }
 
+// Cameras, their clock offsets (with their priors) and their detections.
 void JointAdjustment::addCamerasAndDetections() {
   ceres::Problem& Q = *ceres_problem_;
   for (JointCamera& c : cameras_) {

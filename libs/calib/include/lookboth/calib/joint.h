@@ -94,9 +94,10 @@ struct JointOptions {
   /// their offsets in associate.clock_offsets_ns.
   bool estimate_clock_offsets = true;
   double clock_prior_sigma_s = 0.002;
-  /// The prior of a camera whose detections agree only at another offset
-  /// (the clock search moved it by 10 ms or more: its clock is not
-  /// synchronised) [s].
+  /// The prior of a camera whose clock is not synchronised: the clock search
+  /// moved it by 10 ms or more, the solve took a restarted camera 5 ms or
+  /// more from its configured offset, or an earlier run (`register
+  /// --update`) found it that far off [s].
   double unsynchronised_clock_prior_sigma_s = 1.0;
   /// An offset whose sigma exceeds this is a warning [ms]: a third of a
   /// 30 Hz frame period, beyond which the detections' times are uncertain
