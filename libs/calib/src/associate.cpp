@@ -32,7 +32,8 @@ void runAssociate(RegistrationProblem& problem, const AssociateOptions& options,
   stats.dropped_gap = 0;
   std::int64_t other_marker = 0;
   const int marker_id = input.manifest.marker.id;
-  const TimeNs max_gap = static_cast<TimeNs>(options.max_gap_s * 1e9);
+  const TimeNs max_gap =
+      effectiveMaxGap(input.trajectory, static_cast<TimeNs>(options.max_gap_s * 1e9));
 
   // Every environment camera of the manifest gets an entry, detected or not.
   for (const CameraSensor& sensor : input.manifest.cameras) {
@@ -86,7 +87,7 @@ void runAssociate(RegistrationProblem& problem, const AssociateOptions& options,
     const std::string text = std::to_string(stats.dropped_outside_trajectory) +
                              " detections outside the trajectory and " +
                              std::to_string(stats.dropped_gap) + " inside its gaps (longer than " +
-                             formatDouble(options.max_gap_s) +
+                             formatDouble(nsToSeconds(max_gap)) +
                              " s) were dropped (never extrapolated)";
     // Detections before the trajectory starts and after it ends are
     // expected: the cameras record the whole drive, the odometry starts

@@ -124,6 +124,19 @@ struct BlobFrame {
   Bracket bracket;
 };
 
+/// A relative-motion cost between two trajectory nodes: the input's motion
+/// between two of its samples (the drift model), or between two nodes of
+/// which one at least lies between samples (the random walk off the
+/// interpolation, between_samples_*).
+struct TrajectoryEdge {
+  std::size_t from = 0, to = 0;  // node indices, from < to
+  bool between_samples = false;
+  bool gap = false;         // the samples are farther apart than the gap limit
+  std::size_t segment = 0;  // the scale segment
+  double length_m = 0;      // the reference's distance between the nodes [m]
+  double duration_s = 0;
+};
+
 /// Blob `blob` of frame `frame`, associated with a camera.
 struct BlobMatch {
   std::size_t frame, blob;
@@ -131,14 +144,16 @@ struct BlobMatch {
 
 /// The drift model estimated from the data (estimate_drift_model): factors on
 /// the configured sigmas of the relative motions' horizontal translation,
-/// vertical translation, tilt (roll, pitch) and yaw.
+/// vertical translation, tilt (roll, pitch) and yaw, and of the motion
+/// between samples' translation and rotation (between_samples_*).
 struct DriftModelState {
-  double factor[4] = {1, 1, 1, 1};
-  double last_step[4] = {1, 1, 1, 1};  // each group's last update step
-  bool changed = false;                // by the update after this round: another round
-  bool still_changing = false;         // the last update made changed the model (> 10 %)
-  int updates = 0;                     // made (each followed by a round)
-  bool failed = false;                 // its covariance could not be computed
+  static constexpr int kGroups = 6;
+  double factor[kGroups] = {1, 1, 1, 1, 1, 1};
+  double last_step[kGroups] = {1, 1, 1, 1, 1, 1};  // each group's last update step
+  bool changed = false;                            // by the update after this round: another round
+  bool still_changing = false;  // the last update made changed the model (> 10 %)
+  int updates = 0;              // made (each followed by a round)
+  bool failed = false;          // its covariance could not be computed
 };
 
 // The clock searches' pieces (joint_clock_search.cpp).
@@ -172,6 +187,8 @@ class JointAdjustment {
   void prepareReferenceTrajectory();
   void initFisheyeFromMarker();
   void buildNodes();
+  void pushNode(TimeNs t, const Rigid3d& input_pose, bool between_samples);
+  void buildEdges();
   void initCameras();
   void collectDetections();
   void collectBlobFrames();
@@ -284,12 +301,13 @@ class JointAdjustment {
   std::array<bool, 6> prior_on_ = {false, false, false, false, false, false};
 
   // Trajectory nodes and scale segments.
-  std::vector<std::size_t> node_sample_;  // sample index of each node
+  TimeNs max_gap_ns_ = kMaxGapNs;  // effectiveMaxGap of the reference
   std::vector<TimeNs> node_t_;
-  std::vector<Rigid3d> node_ref_;  // Nref (scaled input)
+  std::vector<Rigid3d> node_input_;         // the input (reference) at each node, its own units
+  std::vector<Rigid3d> node_ref_;           // Nref (scaled input)
+  std::vector<bool> node_between_samples_;  // added between two samples
   std::vector<std::array<double, 7>> nodes_;
-  std::vector<double> edge_length_;
-  std::vector<std::size_t> segment_of_edge_;
+  std::vector<TrajectoryEdge> edges_;
   std::size_t n_segments_ = 1;
   std::vector<double> scales_;
 
@@ -331,7 +349,7 @@ class JointAdjustment {
   std::shared_ptr<FramePoseCache> frame_poses_;
   std::unique_ptr<ceres::Problem> ceres_problem_;
   std::vector<bool> node_used_;                     // in this round's problem
-  std::vector<ceres::ResidualBlockId> edge_block_;  // per edge; null across a gap
+  std::vector<ceres::ResidualBlockId> edge_block_;  // per edges_; null across a gap
   // Verbose diagnostics: the cost of the odometry, marker and blob residuals apart.
   std::array<std::vector<ceres::ResidualBlockId>, 3> group_blocks_;
   // The marker detections' residual blocks, with the detection's index, and

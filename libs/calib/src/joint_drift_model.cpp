@@ -2,11 +2,11 @@
 // (estimate_drift_model; joint_adjustment.h). Factors on the configured
 // sigmas of the relative motions' horizontal translation, vertical
 // translation, tilt (roll, pitch) and yaw, by Helmert's variance component
-// estimation after a round: each group's factor is multiplied by
-// sqrt(sum of its squared whitened residuals / its redundancy), the
-// redundancy sum_i (1 - (J_i Cov J_i^T)_cc) over the group's residual
-// components (what the other measurements leave to the relative motions to
-// decide), from the covariance of the nodes and scales on the pattern of the
+// estimation after a round (and of the motion between the input's samples'
+// translation and rotation, where nodes were added between them): each group's factor is multiplied
+// by sqrt(sum of its squared whitened residuals / its redundancy), the redundancy sum_i (1 - (J_i
+// Cov J_i^T)_cc) over the group's residual components (what the other measurements leave to the
+// relative motions to decide), from the covariance of the nodes and scales on the pattern of the
 // problem (selected inversion). Gap edges are left out.
 #include <algorithm>
 #include <cmath>
@@ -31,8 +31,8 @@ bool JointAdjustment::updateDriftModel() {
   };
   for (std::size_t k = 0; k < edge_block_.size(); ++k) {
     if (edge_block_[k] == nullptr) continue;
-    const double* blocks[3] = {nodes_[k].data(), nodes_[k + 1].data(),
-                               &scales_[segment_of_edge_[k]]};
+    const TrajectoryEdge& e = edges_[k];
+    const double* blocks[3] = {nodes_[e.from].data(), nodes_[e.to].data(), &scales_[e.segment]};
     for (int i = 0; i < 3; ++i) {
       for (int j = i; j < 3; ++j) want(blocks[i], blocks[j]);
     }
@@ -50,11 +50,15 @@ bool JointAdjustment::updateDriftModel() {
     drift_.failed = true;  // no further attempts
     return false;
   }
-  double squares[4] = {0, 0, 0, 0}, redundancy[4] = {0, 0, 0, 0};
-  constexpr int kGroupOf[6] = {0, 0, 1, 2, 2, 3};  // residual component -> group
+  constexpr int kGroups = DriftModelState::kGroups;
+  double squares[kGroups] = {}, redundancy[kGroups] = {};
+  // Residual component -> group: the drift model's, the motion between samples'.
+  constexpr int kGroupOf[2][6] = {{0, 0, 1, 2, 2, 3}, {4, 4, 4, 5, 5, 5}};
   for (std::size_t k = 0; k < edge_block_.size(); ++k) {
     if (edge_block_[k] == nullptr) continue;
-    double* blocks[3] = {nodes_[k].data(), nodes_[k + 1].data(), &scales_[segment_of_edge_[k]]};
+    const TrajectoryEdge& e = edges_[k];
+    const int* group_of = kGroupOf[e.between_samples ? 1 : 0];
+    double* blocks[3] = {nodes_[e.from].data(), nodes_[e.to].data(), &scales_[e.segment]};
     Eigen::Matrix<double, 6, 7, Eigen::RowMajor> ambient[2];
     Eigen::Matrix<double, 6, 1> d_scale;
     double* jacobians[3] = {isFree(blocks[0]) ? ambient[0].data() : nullptr,
@@ -82,12 +86,12 @@ bool JointAdjustment::updateDriftModel() {
     const Eigen::Matrix<double, 6, 1> h = leverage.diagonal();
     if (!h.allFinite() || h.maxCoeff() > 1 + 1e-6 || h.minCoeff() < -1e-9) continue;
     for (int c = 0; c < 6; ++c) {
-      squares[kGroupOf[c]] += r[c] * r[c];
-      redundancy[kGroupOf[c]] += 1 - h[c];
+      squares[group_of[c]] += r[c] * r[c];
+      redundancy[group_of[c]] += 1 - h[c];
     }
   }
   bool changed = false;
-  for (int g = 0; g < 4; ++g) {
+  for (int g = 0; g < kGroups; ++g) {
     if (redundancy[g] < 10) continue;  // the data leave this group nothing to judge by
     const double step = std::sqrt(std::clamp(squares[g] / redundancy[g], 1e-4, 1e4));
     // A group moved the same way twice: its step squared. Helmert's
@@ -104,8 +108,10 @@ bool JointAdjustment::updateDriftModel() {
     std::cerr << "joint drift model update " << drift_.updates + 1 << " (CPU " << lap() << " s"
               << cov.describe() << "): sigma factors horizontal " << drift_.factor[0]
               << ", vertical " << drift_.factor[1] << ", tilt " << drift_.factor[2] << ", yaw "
-              << drift_.factor[3] << " (redundancies " << redundancy[0] << ", " << redundancy[1]
-              << ", " << redundancy[2] << ", " << redundancy[3] << ")\n";
+              << drift_.factor[3] << ", between samples " << drift_.factor[4] << " and "
+              << drift_.factor[5] << " (redundancies " << redundancy[0] << ", " << redundancy[1]
+              << ", " << redundancy[2] << ", " << redundancy[3] << ", " << redundancy[4] << ", "
+              << redundancy[5] << ")\n";
   }
   return changed;
 }

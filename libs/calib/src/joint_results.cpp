@@ -34,6 +34,12 @@ void JointAdjustment::noteModelEstimates() {
     e.tilt = drift_.factor[2];
     e.yaw = drift_.factor[3];
     e.updates = drift_.updates;
+    const bool between_samples = std::any_of(node_between_samples_.begin(),
+                                             node_between_samples_.end(), [](bool b) { return b; });
+    if (between_samples) {
+      e.between_samples_translation = drift_.factor[4];
+      e.between_samples_rotation = drift_.factor[5];
+    }
     result_.observability.drift_model = e;
     auto sigmaFactor = [](double f) { return formatFixed(f, f < 0.1 ? 3 : 2); };
     appendSentence(
@@ -43,7 +49,12 @@ void JointAdjustment::noteModelEstimates() {
             (drift_.still_changing ? ", the last still changing it by more than 10 %" : "") +
             ") is the configured one with its sigmas times " + sigmaFactor(e.horizontal) +
             " horizontally, " + sigmaFactor(e.vertical) + " vertically, " + sigmaFactor(e.tilt) +
-            " in tilt and " + sigmaFactor(e.yaw) + " in yaw.");
+            " in tilt and " + sigmaFactor(e.yaw) + " in yaw" +
+            (between_samples ? ", and the motion between the input's samples' times " +
+                                   sigmaFactor(drift_.factor[4]) + " in translation and " +
+                                   sigmaFactor(drift_.factor[5]) + " in rotation"
+                             : std::string()) +
+            ".");
   }
   for (int kind = 0; kind < 2; ++kind) {
     if (variance_factor_[kind] > 1.5) {
@@ -442,14 +453,22 @@ void JointAdjustment::writeScale() {
   }
 }
 
-// The corrected trajectory at the input's samples between the nodes.
+// The corrected trajectory at the input's samples between the nodes and at
+// the nodes added between them.
 void JointAdjustment::writeTrajectory() {
+  std::vector<TimeNs> times;
+  times.reserve(samples_->size() + nodes_.size());
+  for (const StampedPose& sample : *samples_) times.push_back(sample.t);
+  for (std::size_t k = 0; k < nodes_.size(); ++k) {
+    if (node_between_samples_[k]) times.push_back(node_t_[k]);
+  }
+  std::sort(times.begin(), times.end());
   std::vector<StampedPose> corrected;
-  corrected.reserve(samples_->size());
-  for (const StampedPose& sample : *samples_) {
-    const auto b = bracketAt(sample.t, false);
+  corrected.reserve(times.size());
+  for (const TimeNs t : times) {
+    const auto b = bracketAt(t, false);
     if (!b) continue;
-    corrected.push_back({sample.t, evalPose(*b, b->tau_ref_s)});
+    corrected.push_back({t, evalPose(*b, b->tau_ref_s)});
   }
   problem_.metric_trajectory = std::move(corrected);
 }

@@ -234,7 +234,7 @@ void JointAdjustment::buildProblem(bool drift_update_follows) {
   marker_blocks_.clear();
   blob_blocks_.clear();
   node_used_.assign(nodes_.size(), false);
-  edge_block_.assign(nodes_.empty() ? 0 : nodes_.size() - 1, nullptr);
+  edge_block_.assign(edges_.size(), nullptr);
   if (!options_.fix_trajectory) addTrajectory();
   addFisheyeFromMarker();
   addCamerasAndDetections();
@@ -257,32 +257,43 @@ void JointAdjustment::addNode(std::size_t k) {
   ceres_problem_->AddParameterBlock(nodes_[k].data(), 7, newPoseManifold());
 }
 
-// Trajectory: relative motions weighted by the drift model, and scales.
+// Trajectory: relative motions weighted by the drift model (between the
+// input's samples) or by the motion off its interpolation (where nodes were
+// added between them), and scales.
 void JointAdjustment::addTrajectory() {
   ceres::Problem& Q = *ceres_problem_;
-  const std::vector<StampedPose>& samples = *samples_;
   const double* factor = drift_.factor;
-  for (std::size_t k = 0; k + 1 < nodes_.size(); ++k) {
-    addNode(k);
-    addNode(k + 1);
-    const Rigid3d& a = samples[node_sample_[k]].world_from_body;
-    const Rigid3d& b = samples[node_sample_[k + 1]].world_from_body;
-    const double d = edge_length_[k];
-    const bool gap = node_t_[k + 1] - node_t_[k] > kMaxGapNs;
-    double sigma_t = std::sqrt(options_.min_sigma_m * options_.min_sigma_m +
-                               options_.drift_m_per_sqrt_m * options_.drift_m_per_sqrt_m * d);
-    double sigma_r = std::sqrt(std::pow(options_.min_sigma_deg * kDeg, 2) +
-                               std::pow(options_.drift_deg_per_sqrt_m * kDeg, 2) * d);
-    if (gap) {  // across a gap the input says little
+  edge_block_.assign(edges_.size(), nullptr);
+  for (std::size_t i = 0; i < edges_.size(); ++i) {
+    const TrajectoryEdge& e = edges_[i];
+    addNode(e.from);
+    addNode(e.to);
+    const double floor_t = options_.min_sigma_m, floor_r = options_.min_sigma_deg * kDeg;
+    double sigma_t, sigma_r, vertical_ratio = 1, tilt_ratio = 1;
+    if (e.between_samples) {
+      sigma_t =
+          std::hypot(floor_t, options_.between_samples_m_per_sqrt_s * std::sqrt(e.duration_s)) *
+          factor[4];
+      sigma_r = std::hypot(floor_r, options_.between_samples_deg_per_sqrt_s * kDeg *
+                                        std::sqrt(e.duration_s)) *
+                factor[5];
+    } else {
+      sigma_t =
+          std::hypot(floor_t, options_.drift_m_per_sqrt_m * std::sqrt(e.length_m)) * factor[0];
+      sigma_r = std::hypot(floor_r, options_.drift_deg_per_sqrt_m * kDeg * std::sqrt(e.length_m)) *
+                factor[3];
+      vertical_ratio = options_.drift_vertical_ratio * factor[1] / factor[0];
+      tilt_ratio = options_.drift_tilt_ratio * factor[2] / factor[3];
+    }
+    if (e.gap) {  // across a gap the input says little
       sigma_t *= 100;
       sigma_r *= 100;
     }
     const ceres::ResidualBlockId id = Q.AddResidualBlock(
-        RelativeMotionCost::Create(a.inverse() * b, sigma_t * factor[0], sigma_r * factor[3],
-                                   options_.drift_vertical_ratio * factor[1] / factor[0],
-                                   options_.drift_tilt_ratio * factor[2] / factor[3]),
-        nullptr, nodes_[k].data(), nodes_[k + 1].data(), &scales_[segment_of_edge_[k]]);
-    if (!gap) edge_block_[k] = id;
+        RelativeMotionCost::Create(node_input_[e.from].inverse() * node_input_[e.to], sigma_t,
+                                   sigma_r, vertical_ratio, tilt_ratio),
+        nullptr, nodes_[e.from].data(), nodes_[e.to].data(), &scales_[e.segment]);
+    if (!e.gap) edge_block_[i] = id;
     if (verbose_) group_blocks_[0].push_back(id);
   }
   for (std::size_t j = 0; j < n_segments_; ++j) {

@@ -73,6 +73,7 @@ void JointAdjustment::prepareReferenceTrajectory() {
   }
   samples_ = &reference_->samples();
   if (samples_->size() < 2) throw Error("joint: the trajectory has fewer than 2 samples");
+  max_gap_ns_ = effectiveMaxGap(*reference_, kMaxGapNs);
 }
 
 // The start of fisheye_from_marker, and the priors on the components
@@ -93,39 +94,79 @@ void JointAdjustment::initFisheyeFromMarker() {
   }
 }
 
-// Nodes at input samples at least node_interval_s apart; scale segments by
-// metric distance along the trajectory.
+// Nodes at input samples at least node_interval_s apart and, between two
+// such samples more than twice that apart (a keyframe trajectory), every
+// node_interval_s on the input's interpolation, where the detections can
+// bend the path the input does not sample. Not across a gap.
 void JointAdjustment::buildNodes() {
   const std::vector<StampedPose>& samples = *samples_;
   const TimeNs interval = static_cast<TimeNs>(options_.node_interval_s * 1e9);
-  node_sample_.push_back(0);
+  std::vector<std::size_t> chosen{0};
   for (std::size_t i = 1; i + 1 < samples.size(); ++i) {
-    if (samples[i].t - samples[node_sample_.back()].t >= interval) node_sample_.push_back(i);
+    if (samples[i].t - samples[chosen.back()].t >= interval) chosen.push_back(i);
   }
-  node_sample_.push_back(samples.size() - 1);
-  const std::size_t n_nodes = node_sample_.size();
-  node_t_.resize(n_nodes);
-  node_ref_.resize(n_nodes);
-  nodes_.resize(n_nodes);
-  for (std::size_t k = 0; k < n_nodes; ++k) {
-    node_t_[k] = samples[node_sample_[k]].t;
-    node_ref_[k] = problem_.metricWorldFromFisheye(samples[node_sample_[k]].world_from_body);
-    poseToParams(node_ref_[k], nodes_[k].data());
+  chosen.push_back(samples.size() - 1);
+  for (std::size_t c = 0; c < chosen.size(); ++c) {
+    const StampedPose& sample = samples[chosen[c]];
+    if (c > 0 && interval > 0) {
+      const TimeNs t0 = samples[chosen[c - 1]].t, span = sample.t - t0;
+      const TimeNs added = span > 2 * interval && span <= max_gap_ns_ ? span / interval - 1 : 0;
+      for (TimeNs j = 1; j <= added; ++j) {
+        const TimeNs t = t0 + span * j / (added + 1);
+        pushNode(t, reference_->interpolate(t, 0).world_from_body, true);
+      }
+    }
+    pushNode(sample.t, sample.world_from_body, false);
   }
-  segment_of_edge_.resize(n_nodes - 1);
-  edge_length_.resize(n_nodes - 1);
+  buildEdges();
+}
+
+void JointAdjustment::pushNode(TimeNs t, const Rigid3d& input_pose, bool between_samples) {
+  node_t_.push_back(t);
+  node_input_.push_back(input_pose);
+  node_ref_.push_back(problem_.metricWorldFromFisheye(input_pose));
+  node_between_samples_.push_back(between_samples);
+  nodes_.emplace_back();
+  poseToParams(node_ref_.back(), nodes_.back().data());
+}
+
+// The input's motion between consecutive sampled nodes (the drift model),
+// and between consecutive nodes where one was added (the motion off the
+// interpolation); scale segments by metric distance along the trajectory.
+void JointAdjustment::buildEdges() {
+  const std::size_t n_nodes = nodes_.size();
+  std::vector<std::size_t> segment_of_node(n_nodes, 0);
   double travelled = 0;
   for (std::size_t k = 0; k + 1 < n_nodes; ++k) {
-    edge_length_[k] = (node_ref_[k + 1].translation - node_ref_[k].translation).norm();
-    segment_of_edge_[k] = static_cast<std::size_t>(travelled / options_.scale_segment_m);
-    travelled += edge_length_[k];
+    segment_of_node[k] = static_cast<std::size_t>(travelled / options_.scale_segment_m);
+    travelled += (node_ref_[k + 1].translation - node_ref_[k].translation).norm();
   }
-  n_segments_ = segment_of_edge_.empty() ? 1 : segment_of_edge_.back() + 1;
+  segment_of_node[n_nodes - 1] =
+      n_nodes > 1 ? segment_of_node[n_nodes - 2] : 0;  // the last edge's segment
+  auto edge = [&](std::size_t from, std::size_t to, bool between_samples) {
+    TrajectoryEdge e;
+    e.from = from;
+    e.to = to;
+    e.between_samples = between_samples;
+    e.duration_s = nsToSeconds(node_t_[to] - node_t_[from]);
+    e.gap = node_t_[to] - node_t_[from] > max_gap_ns_;
+    e.segment = segment_of_node[from];
+    e.length_m = (node_ref_[to].translation - node_ref_[from].translation).norm();
+    edges_.push_back(e);
+  };
+  std::size_t last_sampled = 0;
+  for (std::size_t k = 1; k < n_nodes; ++k) {
+    if (node_between_samples_[k] || node_between_samples_[k - 1]) edge(k - 1, k, true);
+    if (node_between_samples_[k]) continue;
+    edge(last_sampled, k, false);
+    last_sampled = k;
+  }
+  n_segments_ = n_nodes > 1 ? segment_of_node[n_nodes - 2] + 1 : 1;
   scales_.assign(n_segments_, visual_ ? scale0_ : 1.0);
 }
 
 std::optional<Rigid3d> JointAdjustment::referenceAt(TimeNs t) const {
-  const InterpolationResult r = reference_->interpolate(t, kMaxGapNs);
+  const InterpolationResult r = reference_->interpolate(t, max_gap_ns_);
   if (!r.ok()) return std::nullopt;
   return problem_.metricWorldFromFisheye(r.world_from_body);
 }
@@ -284,6 +325,8 @@ void JointAdjustment::startFromEarlierRun() {
     drift_.factor[1] = e.vertical;
     drift_.factor[2] = e.tilt;
     drift_.factor[3] = e.yaw;
+    drift_.factor[4] = e.between_samples_translation.value_or(1.0);
+    drift_.factor[5] = e.between_samples_rotation.value_or(1.0);
     drift_.updates = e.updates;
     drift_model_given_ = true;
   }

@@ -110,7 +110,8 @@ class LookUp {
 
   /// Fisheye frames with a pose.
   void collectFrames() {
-    const TimeNs max_gap = static_cast<TimeNs>(options_.max_gap_s * 1e9);
+    const TimeNs max_gap =
+        effectiveMaxGap(problem_.input.trajectory, static_cast<TimeNs>(options_.max_gap_s * 1e9));
     for (const BlobObservation& b : problem_.input.blobs) {
       const InterpolationResult pose = problem_.input.trajectory.interpolate(b.t, max_gap);
       if (!pose.ok()) continue;

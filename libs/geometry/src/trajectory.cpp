@@ -1,6 +1,7 @@
 #include "lookboth/geometry/trajectory.h"
 
 #include <algorithm>
+#include <vector>
 
 #include "lookboth/core/error.h"
 #include "lookboth/geometry/lie.h"
@@ -80,6 +81,22 @@ InterpolationResult Trajectory::interpolate(TimeNs t, TimeNs max_gap) const {
       interpolateLinearSlerp(before->world_from_body, after->world_from_body, alpha);
   result.status = InterpolationStatus::kOk;
   return result;
+}
+
+TimeNs Trajectory::medianInterval() const {
+  if (samples_.size() < 2) return 0;
+  std::vector<TimeNs> intervals(samples_.size() - 1);
+  for (std::size_t i = 0; i + 1 < samples_.size(); ++i) {
+    intervals[i] = samples_[i + 1].t - samples_[i].t;
+  }
+  const auto middle = intervals.begin() + static_cast<std::ptrdiff_t>(intervals.size() / 2);
+  std::nth_element(intervals.begin(), middle, intervals.end());
+  return *middle;
+}
+
+TimeNs effectiveMaxGap(const Trajectory& trajectory, TimeNs max_gap) {
+  if (max_gap <= 0) return max_gap;
+  return std::max(max_gap, 10 * trajectory.medianInterval());
 }
 
 }  // namespace lookboth

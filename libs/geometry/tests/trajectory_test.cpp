@@ -110,5 +110,31 @@ TEST(Trajectory, AgreesWithMrptLinearSlerpInterpolator) {
   }
 }
 
+// A keyframe trajectory's intervals are its sampling, not gaps: the limit
+// grows to ten times the median interval; a dense trajectory keeps the
+// configured one, and a lost stretch in it is still a gap.
+TEST(Trajectory, EffectiveMaxGapFollowsTheSampling) {
+  Trajectory dense, keyframes;
+  for (int i = 0; i < 100; ++i) dense.append(millisecondsToNs(33) * i, Rigid3d());
+  dense.append(millisecondsToNs(33) * 99 + secondsToNs(2), Rigid3d());
+  const TimeNs limit = millisecondsToNs(500);
+  EXPECT_EQ(dense.medianInterval(), millisecondsToNs(33));
+  EXPECT_EQ(effectiveMaxGap(dense, limit), limit);
+  EXPECT_EQ(
+      dense.interpolate(millisecondsToNs(33) * 99 + secondsToNs(1), effectiveMaxGap(dense, limit))
+          .status,
+      InterpolationStatus::kGapTooLong);
+  const TimeNs intervals[] = {300, 400, 350, 1200, 380, 2500, 360};  // [ms]
+  TimeNs t = 0;
+  keyframes.append(t, Rigid3d());
+  for (TimeNs ms : intervals) keyframes.append(t += millisecondsToNs(ms), Rigid3d());
+  EXPECT_EQ(keyframes.medianInterval(), millisecondsToNs(380));
+  EXPECT_EQ(effectiveMaxGap(keyframes, limit), millisecondsToNs(3800));
+  EXPECT_TRUE(
+      keyframes.interpolate(t - millisecondsToNs(1000), effectiveMaxGap(keyframes, limit)).ok());
+  EXPECT_EQ(effectiveMaxGap(keyframes, 0), 0);  // no limit stays no limit
+  EXPECT_EQ(Trajectory().medianInterval(), 0);
+}
+
 }  // namespace
 }  // namespace lookboth

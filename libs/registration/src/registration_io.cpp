@@ -337,6 +337,33 @@ std::vector<BlobAssociation> readBlobAssociations(const std::filesystem::path& p
   return rows;
 }
 
+void emitObservability(YAML::Emitter& out, const Observability& o) {
+  out << YAML::BeginMap;
+  out << YAML::Key << "message" << YAML::Value << YAML::DoubleQuoted << o.message;
+  out << YAML::Key << "eigenvalues" << YAML::Value;
+  emitNumbers(out, o.eigenvalues.data(), static_cast<int>(o.eigenvalues.size()));
+  if (o.aligned_position_rmse_m) {
+    out << YAML::Key << "aligned_position_rmse_m" << YAML::Value
+        << formatDouble(*o.aligned_position_rmse_m);
+  }
+  if (const auto& d = o.drift_model) {
+    out << YAML::Key << "drift_model" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "horizontal" << YAML::Value << formatDouble(d->horizontal);
+    out << YAML::Key << "vertical" << YAML::Value << formatDouble(d->vertical);
+    out << YAML::Key << "tilt" << YAML::Value << formatDouble(d->tilt);
+    out << YAML::Key << "yaw" << YAML::Value << formatDouble(d->yaw);
+    out << YAML::Key << "updates" << YAML::Value << d->updates;
+    if (d->between_samples_translation && d->between_samples_rotation) {
+      out << YAML::Key << "between_samples_translation" << YAML::Value
+          << formatDouble(*d->between_samples_translation);
+      out << YAML::Key << "between_samples_rotation" << YAML::Value
+          << formatDouble(*d->between_samples_rotation);
+    }
+    out << YAML::EndMap;
+  }
+  out << YAML::EndMap;
+}
+
 }  // namespace
 
 std::string registrationToYaml(const Registration& reg) {
@@ -475,25 +502,8 @@ std::string registrationToYaml(const Registration& reg) {
     out << YAML::Key << "reprojection" << YAML::Value;
     emitReprojection(out, *reg.reprojection);
   }
-  out << YAML::Key << "observability" << YAML::Value << YAML::BeginMap;
-  out << YAML::Key << "message" << YAML::Value << YAML::DoubleQuoted << reg.observability.message;
-  out << YAML::Key << "eigenvalues" << YAML::Value;
-  emitNumbers(out, reg.observability.eigenvalues.data(),
-              static_cast<int>(reg.observability.eigenvalues.size()));
-  if (reg.observability.aligned_position_rmse_m) {
-    out << YAML::Key << "aligned_position_rmse_m" << YAML::Value
-        << formatDouble(*reg.observability.aligned_position_rmse_m);
-  }
-  if (const auto& d = reg.observability.drift_model) {
-    out << YAML::Key << "drift_model" << YAML::Value << YAML::BeginMap;
-    out << YAML::Key << "horizontal" << YAML::Value << formatDouble(d->horizontal);
-    out << YAML::Key << "vertical" << YAML::Value << formatDouble(d->vertical);
-    out << YAML::Key << "tilt" << YAML::Value << formatDouble(d->tilt);
-    out << YAML::Key << "yaw" << YAML::Value << formatDouble(d->yaw);
-    out << YAML::Key << "updates" << YAML::Value << d->updates;
-    out << YAML::EndMap;
-  }
-  out << YAML::EndMap;
+  out << YAML::Key << "observability" << YAML::Value;
+  emitObservability(out, reg.observability);
   out << YAML::Key << "warnings" << YAML::Value;
   emitStrings(out, reg.warnings);
   out << YAML::Key << "notes" << YAML::Value;
@@ -692,7 +702,9 @@ Registration loadRegistration(const std::filesystem::path& dir,
     r.rejectUnknownKeys(o, {"message", "eigenvalues", "aligned_position_rmse_m", "drift_model"},
                         "observability");
     if (const YAML::Node d = o["drift_model"]; d) {
-      r.rejectUnknownKeys(d, {"horizontal", "vertical", "tilt", "yaw", "updates"},
+      r.rejectUnknownKeys(d,
+                          {"horizontal", "vertical", "tilt", "yaw", "updates",
+                           "between_samples_translation", "between_samples_rotation"},
                           "observability.drift_model");
       DriftModelEstimate e;
       const std::string at = "observability.drift_model.";
@@ -704,6 +716,12 @@ Registration loadRegistration(const std::filesystem::path& dir,
         *target = r.number(r.require(d, key, at + key), at + key);
       }
       if (d["updates"]) e.updates = r.int32(d["updates"], at + "updates");
+      for (const auto& [key, target] :
+           std::initializer_list<std::pair<const char*, std::optional<double>*>>{
+               {"between_samples_translation", &e.between_samples_translation},
+               {"between_samples_rotation", &e.between_samples_rotation}}) {
+        if (d[key]) *target = r.number(d[key], at + key);
+      }
       reg.observability.drift_model = e;
     }
     if (o["aligned_position_rmse_m"]) {

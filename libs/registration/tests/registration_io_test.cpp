@@ -74,7 +74,7 @@ Registration sampleRegistration() {
   reg.observability.message = "the vertical offset is not determined by planar motion";
   reg.observability.eigenvalues = {1e-12, 0.5, 3, 4, 5, 6, 7};
   reg.observability.aligned_position_rmse_m = 0.00138;
-  reg.observability.drift_model = DriftModelEstimate{0.108, 0.029, 0.0019, 0.079, 4};
+  reg.observability.drift_model = DriftModelEstimate{0.108, 0.029, 0.0019, 0.079, 4, 2.5, 0.75};
   reg.warnings = {"one", "two"};
   reg.statistics.detections_total = 1000;
   reg.statistics.detections_associated = 990;
@@ -203,6 +203,8 @@ TEST_F(RegistrationIoTest, RoundTripsEveryField) {
   EXPECT_DOUBLE_EQ(back.observability.drift_model->tilt, 0.0019);
   EXPECT_DOUBLE_EQ(back.observability.drift_model->yaw, 0.079);
   EXPECT_EQ(back.observability.drift_model->updates, 4);
+  EXPECT_EQ(back.observability.drift_model->between_samples_translation, 2.5);
+  EXPECT_EQ(back.observability.drift_model->between_samples_rotation, 0.75);
   EXPECT_EQ(back.warnings, reg.warnings);
   EXPECT_EQ(back.statistics.detections_total, 1000);
   EXPECT_EQ(back.statistics.detections_associated, 990);

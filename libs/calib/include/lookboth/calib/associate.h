@@ -14,7 +14,9 @@ namespace lookboth {
 
 struct AssociateOptions {
   /// Largest interval between the two trajectory samples around a detection
-  /// across which the pose is interpolated [s]; detections in longer gaps are dropped.
+  /// across which the pose is interpolated [s]; detections in longer gaps are
+  /// dropped. A sparser trajectory (keyframes) gets ten times its median
+  /// sampling interval instead (effectiveMaxGap, lookboth/geometry/trajectory.h).
   double max_gap_s = 0.5;
   /// Known clock offsets, node clock minus robot clock, by camera label [ns]
   /// (0 when absent: NTP-synchronised nodes, as in the paper).

@@ -34,7 +34,7 @@ struct LookUpOptions {
   /// housing dome is centred on the optical centre (0,0,0); a real housing
   /// whose visible centre is above the lens sets e.g. [0, 0, -0.05].
   Eigen::Vector3d blob_offset_in_camera_m = Eigen::Vector3d::Zero();
-  double max_gap_s = 0.5;  ///< Trajectory gap limit for fisheye frames [s].
+  double max_gap_s = 0.5;  ///< Trajectory gap limit for fisheye frames [s] (as associate's).
   /// Sets the options `node` (the configuration's "register.<stage>" section,
   /// named `field` in errors) has; an unknown key is an error.
   void read(const YamlReader& reader, const YAML::Node& node, const std::string& field);

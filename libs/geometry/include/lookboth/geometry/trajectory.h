@@ -62,8 +62,19 @@ class Trajectory {
   /// [ns]; 0 or negative means no limit.
   InterpolationResult interpolate(TimeNs t, TimeNs max_gap) const;
 
+  /// The median time between consecutive samples [ns]; 0 with fewer than 2.
+  TimeNs medianInterval() const;
+
  private:
   std::vector<StampedPose> samples_;
 };
+
+/// The longest interval between two samples that interpolation may cross,
+/// for a configured limit `max_gap` [ns]: the limit, or ten times the
+/// trajectory's median sampling interval when that is longer. A keyframe
+/// trajectory (ORB-SLAM's KeyFrameTrajectory.txt: a pose every 0.1-3 s) is
+/// that sparse by design, and its intervals are not lost tracking: against
+/// a limit set for a 30 Hz odometry most of its detections would be lost.
+TimeNs effectiveMaxGap(const Trajectory& trajectory, TimeNs max_gap);
 
 }  // namespace lookboth
