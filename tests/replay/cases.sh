@@ -139,11 +139,11 @@ real_mh04)
 
 keyframes_mh04)
   # A keyframe trajectory: the joint adds nodes between the samples, which
-  # the detections bend (joint.between_samples_*). The intervals cycle
-  # through 0.3-2 s (median 0.38 s; ORB-SLAM's fr2/desk keyframes: median
-  # 0.37 s, 22 of 155 over 1 s). 0.62 cm 0.13 deg against a floor of 0.46
-  # cm, predicted 0.63 cm; 57.8 cm (NEES/dof 451) without the added nodes
-  # (node_interval_s: 0).
+  # the detections bend, the motion held smooth (joint.between_samples_*).
+  # The intervals cycle through 0.3-2 s (median 0.38 s; ORB-SLAM's fr2/desk
+  # keyframes: median 0.37 s, 22 of 155 over 1 s). 0.57 cm 0.13 deg against
+  # a floor of 0.46 cm, predicted 0.62 cm; 57.8 cm (NEES/dof 451) without
+  # the added nodes (node_interval_s: 0).
   dir=data/mh04_keyframes
   mkdir -p $dir
   cp "$ROOT/tests/data/real_trajectories/euroc_mh04_vislam_rp/groundtruth.tum" $dir/

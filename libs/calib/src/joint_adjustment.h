@@ -124,17 +124,22 @@ struct BlobFrame {
   Bracket bracket;
 };
 
-/// A relative-motion cost between two trajectory nodes: the input's motion
-/// between two of its samples (the drift model), or between two nodes of
-/// which one at least lies between samples (the random walk off the
-/// interpolation, between_samples_*).
+/// A relative-motion cost between two trajectory nodes at consecutive
+/// samples of the input: its motion between them (the drift model).
 struct TrajectoryEdge {
   std::size_t from = 0, to = 0;  // node indices, from < to
-  bool between_samples = false;
-  bool gap = false;         // the samples are farther apart than the gap limit
-  std::size_t segment = 0;  // the scale segment
-  double length_m = 0;      // the reference's distance between the nodes [m]
+  bool gap = false;              // the samples are farther apart than the gap limit
+  std::size_t segment = 0;       // the scale segment
+  double length_m = 0;           // the reference's distance between the nodes [m]
   double duration_s = 0;
+};
+
+/// A trajectory residual block the drift model is estimated from, with its
+/// parameter blocks and whether it is a SmoothMotionCost (else a RelativeMotionCost).
+struct DriftResidual {
+  ceres::ResidualBlockId id;
+  std::array<double*, 3> blocks;
+  bool smooth;
 };
 
 /// Blob `blob` of frame `frame`, associated with a camera.
@@ -144,8 +149,8 @@ struct BlobMatch {
 
 /// The drift model estimated from the data (estimate_drift_model): factors on
 /// the configured sigmas of the relative motions' horizontal translation,
-/// vertical translation, tilt (roll, pitch) and yaw, and of the motion
-/// between samples' translation and rotation (between_samples_*).
+/// vertical translation, tilt (roll, pitch) and yaw, and of the smooth
+/// motion between samples' velocity and angular rate (between_samples_*).
 struct DriftModelState {
   static constexpr int kGroups = 6;
   double factor[kGroups] = {1, 1, 1, 1, 1, 1};
@@ -251,6 +256,8 @@ class JointAdjustment {
   // Helmert's variance component estimation after a round; true when the
   // model changed by more than kDriftModelTolerance.
   bool updateDriftModel();
+  bool leverageOf(const DriftResidual& d, const SparseCovariance& cov, double* r,
+                  Eigen::Matrix<double, 6, 6>& leverage) const;
 
   // ---- results (joint_results.cpp) ----
   void noteModelEstimates();
@@ -308,6 +315,7 @@ class JointAdjustment {
   std::vector<bool> node_between_samples_;  // added between two samples
   std::vector<std::array<double, 7>> nodes_;
   std::vector<TrajectoryEdge> edges_;
+  std::vector<std::size_t> smooth_middles_;  // SmoothMotionCost's middle nodes
   std::size_t n_segments_ = 1;
   std::vector<double> scales_;
 
@@ -348,8 +356,10 @@ class JointAdjustment {
   // complete only where the costs are built, joint_rounds.cpp).
   std::shared_ptr<FramePoseCache> frame_poses_;
   std::unique_ptr<ceres::Problem> ceres_problem_;
-  std::vector<bool> node_used_;                     // in this round's problem
-  std::vector<ceres::ResidualBlockId> edge_block_;  // per edges_; null across a gap
+  std::vector<bool> node_used_;  // in this round's problem
+  // The trajectory's residual blocks the drift model is estimated from: the
+  // edges' (not across a gap) and the smooth motion's.
+  std::vector<DriftResidual> drift_residuals_;
   // Verbose diagnostics: the cost of the odometry, marker and blob residuals apart.
   std::array<std::vector<ceres::ResidualBlockId>, 3> group_blocks_;
   // The marker detections' residual blocks, with the detection's index, and

@@ -79,6 +79,37 @@ struct RelativeMotionCost {
   }
 };
 
+// Blocks: three consecutive trajectory nodes (7, 7, 7), one at least added
+// between the input's samples: the change of the mean velocity (world) and
+// angular rate (body) across the middle node, whose sigma a white-noise
+// acceleration gives (the velocity and the rate random walks).
+struct SmoothMotionCost {
+  double h0 = 1, h1 = 1;            // the two intervals [s]
+  double sigma_v = 1, sigma_w = 1;  // [m/s], [rad/s]
+  static ceres::CostFunction* Create(double h0, double h1, double sigma_v, double sigma_w) {
+    auto* cost = new SmoothMotionCost;
+    cost->h0 = h0;
+    cost->h1 = h1;
+    cost->sigma_v = sigma_v;
+    cost->sigma_w = sigma_w;
+    return new ceres::AutoDiffCostFunction<SmoothMotionCost, 6, 7, 7, 7>(cost);
+  }
+  template <typename T>
+  bool operator()(const T* n0, const T* n1, const T* n2, T* residual) const {
+    const Rigid3<T> a = poseFromParams(n0), b = poseFromParams(n1), c = poseFromParams(n2);
+    const Eigen::Matrix<T, 3, 1> dv =
+        (c.translation - b.translation) / T(h1) - (b.translation - a.translation) / T(h0);
+    const Eigen::Matrix<T, 3, 1> dw =
+        so3Log(Eigen::Quaternion<T>(b.rotation.conjugate() * c.rotation)) / T(h1) -
+        so3Log(Eigen::Quaternion<T>(a.rotation.conjugate() * b.rotation)) / T(h0);
+    for (int i = 0; i < 3; ++i) {
+      residual[i] = dv[i] / T(sigma_v);
+      residual[3 + i] = dw[i] / T(sigma_w);
+    }
+    return true;
+  }
+};
+
 // Blocks: two neighbouring scale segments (1, 1).
 struct ScaleWalkCost {
   double sigma = 1;

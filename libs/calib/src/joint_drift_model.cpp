@@ -17,6 +17,48 @@
 
 namespace lookboth::joint_detail {
 
+// A trajectory residual's whitened value `r` and its leverage J Cov J^T
+// over its free blocks (tangent spaces); false when it cannot be evaluated.
+bool JointAdjustment::leverageOf(const DriftResidual& d, const SparseCovariance& cov, double* r,
+                                 Eigen::Matrix<double, 6, 6>& leverage) const {
+  ceres::Problem& Q = *ceres_problem_;
+  std::vector<double> ambient[3];
+  double* jacobians[3] = {nullptr, nullptr, nullptr};
+  int sizes[3] = {0, 0, 0};
+  for (int i = 0; i < 3; ++i) {
+    if (d.blocks[i] == nullptr) continue;
+    sizes[i] = Q.ParameterBlockSize(d.blocks[i]);
+    if (Q.IsParameterBlockConstant(d.blocks[i])) continue;
+    ambient[i].resize(6 * static_cast<std::size_t>(sizes[i]));
+    jacobians[i] = ambient[i].data();
+  }
+  if (!Q.GetCostFunctionForResidualBlock(d.id)->Evaluate(d.blocks.data(), r, jacobians)) {
+    return false;
+  }
+  using RowMajor = Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::RowMajor>;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> tangent[3];
+  for (int i = 0; i < 3; ++i) {
+    if (jacobians[i] == nullptr) continue;
+    const Eigen::Map<const RowMajor> J(jacobians[i], 6, sizes[i]);
+    if (const ceres::Manifold* m = Q.GetManifold(d.blocks[i]); m != nullptr) {
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> plus(m->AmbientSize(),
+                                                                                  m->TangentSize());
+      m->PlusJacobian(d.blocks[i], plus.data());
+      tangent[i] = J * plus;
+    } else {
+      tangent[i] = J;
+    }
+  }
+  leverage.setZero();
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      if (jacobians[i] == nullptr || jacobians[j] == nullptr) continue;
+      leverage += tangent[i] * cov.block(d.blocks[i], d.blocks[j]) * tangent[j].transpose();
+    }
+  }
+  return true;
+}
+
 bool JointAdjustment::updateDriftModel() {
   ceres::Problem& Q = *ceres_problem_;
   lap();
@@ -29,12 +71,9 @@ bool JointAdjustment::updateDriftModel() {
     if (!isFree(a) || !isFree(b)) return;
     if (seen.count({b, a}) == 0 && seen.insert({a, b}).second) pairs.emplace_back(a, b);
   };
-  for (std::size_t k = 0; k < edge_block_.size(); ++k) {
-    if (edge_block_[k] == nullptr) continue;
-    const TrajectoryEdge& e = edges_[k];
-    const double* blocks[3] = {nodes_[e.from].data(), nodes_[e.to].data(), &scales_[e.segment]};
+  for (const DriftResidual& d : drift_residuals_) {
     for (int i = 0; i < 3; ++i) {
-      for (int j = i; j < 3; ++j) want(blocks[i], blocks[j]);
+      for (int j = i; j < 3; ++j) want(d.blocks[i], d.blocks[j]);
     }
   }
   // The blocks that touch many others are requested too, so that they go
@@ -52,39 +91,15 @@ bool JointAdjustment::updateDriftModel() {
   }
   constexpr int kGroups = DriftModelState::kGroups;
   double squares[kGroups] = {}, redundancy[kGroups] = {};
-  // Residual component -> group: the drift model's, the motion between samples'.
+  // Residual component -> group: the drift model's, the smooth motion's.
   constexpr int kGroupOf[2][6] = {{0, 0, 1, 2, 2, 3}, {4, 4, 4, 5, 5, 5}};
-  for (std::size_t k = 0; k < edge_block_.size(); ++k) {
-    if (edge_block_[k] == nullptr) continue;
-    const TrajectoryEdge& e = edges_[k];
-    const int* group_of = kGroupOf[e.between_samples ? 1 : 0];
-    double* blocks[3] = {nodes_[e.from].data(), nodes_[e.to].data(), &scales_[e.segment]};
-    Eigen::Matrix<double, 6, 7, Eigen::RowMajor> ambient[2];
-    Eigen::Matrix<double, 6, 1> d_scale;
-    double* jacobians[3] = {isFree(blocks[0]) ? ambient[0].data() : nullptr,
-                            isFree(blocks[1]) ? ambient[1].data() : nullptr,
-                            isFree(blocks[2]) ? d_scale.data() : nullptr};
+  for (const DriftResidual& d : drift_residuals_) {
     double r[6];
-    if (!Q.GetCostFunctionForResidualBlock(edge_block_[k])->Evaluate(blocks, r, jacobians)) {
-      continue;
-    }
-    Eigen::Matrix<double, 6, Eigen::Dynamic> tangent[3];
-    for (int i = 0; i < 2; ++i) {
-      if (jacobians[i] == nullptr) continue;
-      Eigen::Matrix<double, 7, 6, Eigen::RowMajor> plus;
-      Q.GetManifold(blocks[i])->PlusJacobian(blocks[i], plus.data());
-      tangent[i] = ambient[i] * plus;
-    }
-    if (jacobians[2] != nullptr) tangent[2] = d_scale;
-    Eigen::Matrix<double, 6, 6> leverage = Eigen::Matrix<double, 6, 6>::Zero();
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) {
-        if (jacobians[i] == nullptr || jacobians[j] == nullptr) continue;
-        leverage += tangent[i] * cov.block(blocks[i], blocks[j]) * tangent[j].transpose();
-      }
-    }
+    Eigen::Matrix<double, 6, 6> leverage;
+    if (!leverageOf(d, cov, r, leverage)) continue;
     const Eigen::Matrix<double, 6, 1> h = leverage.diagonal();
     if (!h.allFinite() || h.maxCoeff() > 1 + 1e-6 || h.minCoeff() < -1e-9) continue;
+    const int* group_of = kGroupOf[d.smooth ? 1 : 0];
     for (int c = 0; c < 6; ++c) {
       squares[group_of[c]] += r[c] * r[c];
       redundancy[group_of[c]] += 1 - h[c];

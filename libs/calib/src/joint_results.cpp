@@ -37,8 +37,8 @@ void JointAdjustment::noteModelEstimates() {
     const bool between_samples = std::any_of(node_between_samples_.begin(),
                                              node_between_samples_.end(), [](bool b) { return b; });
     if (between_samples) {
-      e.between_samples_translation = drift_.factor[4];
-      e.between_samples_rotation = drift_.factor[5];
+      e.between_samples_velocity_walk = drift_.factor[4];
+      e.between_samples_rate_walk = drift_.factor[5];
     }
     result_.observability.drift_model = e;
     auto sigmaFactor = [](double f) { return formatFixed(f, f < 0.1 ? 3 : 2); };
@@ -50,10 +50,11 @@ void JointAdjustment::noteModelEstimates() {
             ") is the configured one with its sigmas times " + sigmaFactor(e.horizontal) +
             " horizontally, " + sigmaFactor(e.vertical) + " vertically, " + sigmaFactor(e.tilt) +
             " in tilt and " + sigmaFactor(e.yaw) + " in yaw" +
-            (between_samples ? ", and the motion between the input's samples' times " +
-                                   sigmaFactor(drift_.factor[4]) + " in translation and " +
-                                   sigmaFactor(drift_.factor[5]) + " in rotation"
-                             : std::string()) +
+            (between_samples
+                 ? ", and the smooth motion between the input's samples' velocity walk " +
+                       sigmaFactor(drift_.factor[4]) + " and angular rate walk " +
+                       sigmaFactor(drift_.factor[5])
+                 : std::string()) +
             ".");
   }
   for (int kind = 0; kind < 2; ++kind) {

@@ -234,7 +234,6 @@ void JointAdjustment::buildProblem(bool drift_update_follows) {
   marker_blocks_.clear();
   blob_blocks_.clear();
   node_used_.assign(nodes_.size(), false);
-  edge_block_.assign(edges_.size(), nullptr);
   if (!options_.fix_trajectory) addTrajectory();
   addFisheyeFromMarker();
   addCamerasAndDetections();
@@ -258,42 +257,48 @@ void JointAdjustment::addNode(std::size_t k) {
 }
 
 // Trajectory: relative motions weighted by the drift model (between the
-// input's samples) or by the motion off its interpolation (where nodes were
-// added between them), and scales.
+// input's samples), the smooth motion where nodes were added between them,
+// and scales.
 void JointAdjustment::addTrajectory() {
   ceres::Problem& Q = *ceres_problem_;
   const double* factor = drift_.factor;
-  edge_block_.assign(edges_.size(), nullptr);
-  for (std::size_t i = 0; i < edges_.size(); ++i) {
-    const TrajectoryEdge& e = edges_[i];
+  drift_residuals_.clear();
+  for (const TrajectoryEdge& e : edges_) {
     addNode(e.from);
     addNode(e.to);
-    const double floor_t = options_.min_sigma_m, floor_r = options_.min_sigma_deg * kDeg;
-    double sigma_t, sigma_r, vertical_ratio = 1, tilt_ratio = 1;
-    if (e.between_samples) {
-      sigma_t =
-          std::hypot(floor_t, options_.between_samples_m_per_sqrt_s * std::sqrt(e.duration_s)) *
-          factor[4];
-      sigma_r = std::hypot(floor_r, options_.between_samples_deg_per_sqrt_s * kDeg *
-                                        std::sqrt(e.duration_s)) *
-                factor[5];
-    } else {
-      sigma_t =
-          std::hypot(floor_t, options_.drift_m_per_sqrt_m * std::sqrt(e.length_m)) * factor[0];
-      sigma_r = std::hypot(floor_r, options_.drift_deg_per_sqrt_m * kDeg * std::sqrt(e.length_m)) *
-                factor[3];
-      vertical_ratio = options_.drift_vertical_ratio * factor[1] / factor[0];
-      tilt_ratio = options_.drift_tilt_ratio * factor[2] / factor[3];
-    }
+    double sigma_t =
+        std::hypot(options_.min_sigma_m, options_.drift_m_per_sqrt_m * std::sqrt(e.length_m)) *
+        factor[0];
+    double sigma_r = std::hypot(options_.min_sigma_deg * kDeg,
+                                options_.drift_deg_per_sqrt_m * kDeg * std::sqrt(e.length_m)) *
+                     factor[3];
     if (e.gap) {  // across a gap the input says little
       sigma_t *= 100;
       sigma_r *= 100;
     }
     const ceres::ResidualBlockId id = Q.AddResidualBlock(
         RelativeMotionCost::Create(node_input_[e.from].inverse() * node_input_[e.to], sigma_t,
-                                   sigma_r, vertical_ratio, tilt_ratio),
+                                   sigma_r, options_.drift_vertical_ratio * factor[1] / factor[0],
+                                   options_.drift_tilt_ratio * factor[2] / factor[3]),
         nullptr, nodes_[e.from].data(), nodes_[e.to].data(), &scales_[e.segment]);
-    if (!e.gap) edge_block_[i] = id;
+    if (!e.gap) {
+      drift_residuals_.push_back(
+          {id, {nodes_[e.from].data(), nodes_[e.to].data(), &scales_[e.segment]}, false});
+    }
+    if (verbose_) group_blocks_[0].push_back(id);
+  }
+  for (const std::size_t k : smooth_middles_) {
+    for (std::size_t j = k - 1; j <= k + 1; ++j) addNode(j);
+    const double h0 = nsToSeconds(node_t_[k] - node_t_[k - 1]);
+    const double h1 = nsToSeconds(node_t_[k + 1] - node_t_[k]);
+    const double root = std::sqrt(0.5 * (h0 + h1));
+    const ceres::ResidualBlockId id = Q.AddResidualBlock(
+        SmoothMotionCost::Create(
+            h0, h1, options_.between_samples_velocity_walk_mps_per_sqrt_s * root * factor[4],
+            options_.between_samples_rate_walk_dps_per_sqrt_s * kDeg * root * factor[5]),
+        nullptr, nodes_[k - 1].data(), nodes_[k].data(), nodes_[k + 1].data());
+    drift_residuals_.push_back(
+        {id, {nodes_[k - 1].data(), nodes_[k].data(), nodes_[k + 1].data()}, true});
     if (verbose_) group_blocks_[0].push_back(id);
   }
   for (std::size_t j = 0; j < n_segments_; ++j) {

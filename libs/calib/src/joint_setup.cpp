@@ -96,8 +96,9 @@ void JointAdjustment::initFisheyeFromMarker() {
 
 // Nodes at input samples at least node_interval_s apart and, between two
 // such samples more than twice that apart (a keyframe trajectory), every
-// node_interval_s on the input's interpolation, where the detections can
-// bend the path the input does not sample. Not across a gap.
+// node_interval_s, started on the input's interpolation: there the
+// detections bend the path the input does not sample, held smooth. Not
+// across a gap.
 void JointAdjustment::buildNodes() {
   const std::vector<StampedPose>& samples = *samples_;
   const TimeNs interval = static_cast<TimeNs>(options_.node_interval_s * 1e9);
@@ -131,8 +132,8 @@ void JointAdjustment::pushNode(TimeNs t, const Rigid3d& input_pose, bool between
 }
 
 // The input's motion between consecutive sampled nodes (the drift model),
-// and between consecutive nodes where one was added (the motion off the
-// interpolation); scale segments by metric distance along the trajectory.
+// the smooth motion over three consecutive nodes with an added one among
+// them; scale segments by metric distance along the trajectory.
 void JointAdjustment::buildEdges() {
   const std::size_t n_nodes = nodes_.size();
   std::vector<std::size_t> segment_of_node(n_nodes, 0);
@@ -143,11 +144,10 @@ void JointAdjustment::buildEdges() {
   }
   segment_of_node[n_nodes - 1] =
       n_nodes > 1 ? segment_of_node[n_nodes - 2] : 0;  // the last edge's segment
-  auto edge = [&](std::size_t from, std::size_t to, bool between_samples) {
+  auto edge = [&](std::size_t from, std::size_t to) {
     TrajectoryEdge e;
     e.from = from;
     e.to = to;
-    e.between_samples = between_samples;
     e.duration_s = nsToSeconds(node_t_[to] - node_t_[from]);
     e.gap = node_t_[to] - node_t_[from] > max_gap_ns_;
     e.segment = segment_of_node[from];
@@ -156,9 +156,12 @@ void JointAdjustment::buildEdges() {
   };
   std::size_t last_sampled = 0;
   for (std::size_t k = 1; k < n_nodes; ++k) {
-    if (node_between_samples_[k] || node_between_samples_[k - 1]) edge(k - 1, k, true);
+    if (k + 1 < n_nodes && (node_between_samples_[k - 1] || node_between_samples_[k] ||
+                            node_between_samples_[k + 1])) {
+      smooth_middles_.push_back(k);
+    }
     if (node_between_samples_[k]) continue;
-    edge(last_sampled, k, false);
+    edge(last_sampled, k);
     last_sampled = k;
   }
   n_segments_ = n_nodes > 1 ? segment_of_node[n_nodes - 2] + 1 : 1;
@@ -325,8 +328,8 @@ void JointAdjustment::startFromEarlierRun() {
     drift_.factor[1] = e.vertical;
     drift_.factor[2] = e.tilt;
     drift_.factor[3] = e.yaw;
-    drift_.factor[4] = e.between_samples_translation.value_or(1.0);
-    drift_.factor[5] = e.between_samples_rotation.value_or(1.0);
+    drift_.factor[4] = e.between_samples_velocity_walk.value_or(1.0);
+    drift_.factor[5] = e.between_samples_rate_walk.value_or(1.0);
     drift_.updates = e.updates;
     drift_model_given_ = true;
   }

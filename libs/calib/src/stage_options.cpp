@@ -118,8 +118,9 @@ static void fields(JointOptions& o, OptionFields& s) {
   s.integer("drift_round_max_iterations", o.drift_round_max_iterations);
   s.number("min_sigma_m", o.min_sigma_m);
   s.number("min_sigma_deg", o.min_sigma_deg);
-  s.number("between_samples_m_per_sqrt_s", o.between_samples_m_per_sqrt_s);
-  s.number("between_samples_deg_per_sqrt_s", o.between_samples_deg_per_sqrt_s);
+  s.number("between_samples_velocity_walk_mps_per_sqrt_s",
+           o.between_samples_velocity_walk_mps_per_sqrt_s);
+  s.number("between_samples_rate_walk_dps_per_sqrt_s", o.between_samples_rate_walk_dps_per_sqrt_s);
   s.number("scale_segment_m", o.scale_segment_m);
   s.number("scale_walk_sigma", o.scale_walk_sigma);
   s.number("metric_scale_sigma", o.metric_scale_sigma);
@@ -279,8 +280,9 @@ std::string JointOptions::check() const {
            {"scale_segment_m", scale_segment_m},
            {"drift_vertical_ratio", drift_vertical_ratio},
            {"drift_tilt_ratio", drift_tilt_ratio},
-           {"between_samples_m_per_sqrt_s", between_samples_m_per_sqrt_s},
-           {"between_samples_deg_per_sqrt_s", between_samples_deg_per_sqrt_s},
+           {"between_samples_velocity_walk_mps_per_sqrt_s",
+            between_samples_velocity_walk_mps_per_sqrt_s},
+           {"between_samples_rate_walk_dps_per_sqrt_s", between_samples_rate_walk_dps_per_sqrt_s},
            {"scale_walk_sigma", scale_walk_sigma},
            {"metric_scale_sigma", metric_scale_sigma},
            {"prior_translation_sigma_m", prior_translation_sigma_m},

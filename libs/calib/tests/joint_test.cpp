@@ -397,6 +397,56 @@ TEST(Joint, EstimatesTheDriftModelFromTheData) {
   EXPECT_LE(nees / cameras, 1.5);
 }
 
+// A keyframe trajectory (exact poses 0.3-1.5 s apart, as ORB-SLAM's): the
+// joint adds nodes between them, which the detections bend through the
+// loop's corners, and registers about as from the dense trajectory (after a
+// rigid alignment: the gauge, the first keyframe, holds the network less
+// firmly through fewer relative motions), with an honest prediction.
+// Without the added nodes (node_interval_s: 0) cameras are lost.
+TEST(Joint, RegistersFromAKeyframeTrajectoryAsFromADenseOne) {
+  const double intervals_s[] = {0.3, 0.5, 0.4, 1.5, 0.35, 0.8, 0.45, 1.0};
+  double dense_squares = 0, keyframes_squares = 0, predicted_squares = 0;
+  // The synthetic detections' errors are independent (as everySampleANode's).
+  JointOptions joint = forExactTrajectory();
+  joint.blob_sigma_px = 0.7;
+  joint.pass_error_share = 0;
+  joint.blob_pass_error_share = 0;
+  const std::uint32_t first = testSeedBlock(9, 3);
+  for (std::uint32_t seed = first; seed < first + 3; ++seed) {
+    SyntheticScene scene = makeSyntheticScene(noisyOptions(seed));
+    const RegistrationProblem dense = solve(scene, joint);
+    std::vector<StampedPose> keyframes = {scene.truth.front()};
+    for (const StampedPose& p : scene.truth) {
+      const double interval = intervals_s[keyframes.size() % std::size(intervals_s)];
+      if (nsToSeconds(p.t - keyframes.back().t) >= interval - 1e-6) keyframes.push_back(p);
+    }
+    ASSERT_LT(keyframes.size(), scene.truth.size() / 10);
+    scene.input.trajectory = Trajectory(keyframes);
+    const RegistrationProblem sparse = solve(scene, joint);
+    ASSERT_TRUE(sparse.metric_trajectory);
+    EXPECT_GT(sparse.metric_trajectory->size(), 4 * keyframes.size());  // the added nodes
+    const auto& drift = sparse.result.observability.drift_model;
+    ASSERT_TRUE(drift && drift->between_samples_velocity_walk && drift->between_samples_rate_walk);
+    ASSERT_TRUE(sparse.result.observability.aligned_position_rmse_m);
+    const auto a = alignedAccuracy(dense.result, scene.world_from_camera);
+    const auto b = alignedAccuracy(sparse.result, scene.world_from_camera);
+    ASSERT_EQ(a.compared, 6);
+    ASSERT_EQ(b.compared, 6);
+    const double predicted = *sparse.result.observability.aligned_position_rmse_m;
+    std::cout << "seed " << seed << ", aligned: dense " << a.position_rmse_m * 1e3
+              << " mm (predicted " << *dense.result.observability.aligned_position_rmse_m * 1e3
+              << "), keyframes " << b.position_rmse_m * 1e3 << " mm (predicted " << predicted * 1e3
+              << " mm)\n";
+    dense_squares += a.position_rmse_m * a.position_rmse_m;
+    keyframes_squares += b.position_rmse_m * b.position_rmse_m;
+    predicted_squares += predicted * predicted;
+  }
+  EXPECT_LT(std::sqrt(keyframes_squares / dense_squares), 1.75);
+  const double ratio = std::sqrt(keyframes_squares / predicted_squares);
+  EXPECT_GT(ratio, 0.5);
+  EXPECT_LT(ratio, 2.0);
+}
+
 // Visual mode: a trajectory with frame-to-frame position jitter (as a visual
 // odometry's) is smoothed before use, and says so; the same without jitter
 // is used as given (noise-free recovery stays exact, above).

@@ -353,11 +353,11 @@ void emitObservability(YAML::Emitter& out, const Observability& o) {
     out << YAML::Key << "tilt" << YAML::Value << formatDouble(d->tilt);
     out << YAML::Key << "yaw" << YAML::Value << formatDouble(d->yaw);
     out << YAML::Key << "updates" << YAML::Value << d->updates;
-    if (d->between_samples_translation && d->between_samples_rotation) {
-      out << YAML::Key << "between_samples_translation" << YAML::Value
-          << formatDouble(*d->between_samples_translation);
-      out << YAML::Key << "between_samples_rotation" << YAML::Value
-          << formatDouble(*d->between_samples_rotation);
+    if (d->between_samples_velocity_walk && d->between_samples_rate_walk) {
+      out << YAML::Key << "between_samples_velocity_walk" << YAML::Value
+          << formatDouble(*d->between_samples_velocity_walk);
+      out << YAML::Key << "between_samples_rate_walk" << YAML::Value
+          << formatDouble(*d->between_samples_rate_walk);
     }
     out << YAML::EndMap;
   }
@@ -704,7 +704,7 @@ Registration loadRegistration(const std::filesystem::path& dir,
     if (const YAML::Node d = o["drift_model"]; d) {
       r.rejectUnknownKeys(d,
                           {"horizontal", "vertical", "tilt", "yaw", "updates",
-                           "between_samples_translation", "between_samples_rotation"},
+                           "between_samples_velocity_walk", "between_samples_rate_walk"},
                           "observability.drift_model");
       DriftModelEstimate e;
       const std::string at = "observability.drift_model.";
@@ -718,8 +718,8 @@ Registration loadRegistration(const std::filesystem::path& dir,
       if (d["updates"]) e.updates = r.int32(d["updates"], at + "updates");
       for (const auto& [key, target] :
            std::initializer_list<std::pair<const char*, std::optional<double>*>>{
-               {"between_samples_translation", &e.between_samples_translation},
-               {"between_samples_rotation", &e.between_samples_rotation}}) {
+               {"between_samples_velocity_walk", &e.between_samples_velocity_walk},
+               {"between_samples_rate_walk", &e.between_samples_rate_walk}}) {
         if (d[key]) *target = r.number(d[key], at + key);
       }
       reg.observability.drift_model = e;

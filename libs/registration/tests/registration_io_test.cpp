@@ -203,8 +203,8 @@ TEST_F(RegistrationIoTest, RoundTripsEveryField) {
   EXPECT_DOUBLE_EQ(back.observability.drift_model->tilt, 0.0019);
   EXPECT_DOUBLE_EQ(back.observability.drift_model->yaw, 0.079);
   EXPECT_EQ(back.observability.drift_model->updates, 4);
-  EXPECT_EQ(back.observability.drift_model->between_samples_translation, 2.5);
-  EXPECT_EQ(back.observability.drift_model->between_samples_rotation, 0.75);
+  EXPECT_EQ(back.observability.drift_model->between_samples_velocity_walk, 2.5);
+  EXPECT_EQ(back.observability.drift_model->between_samples_rate_walk, 0.75);
   EXPECT_EQ(back.warnings, reg.warnings);
   EXPECT_EQ(back.statistics.detections_total, 1000);
   EXPECT_EQ(back.statistics.detections_associated, 990);

@@ -37,16 +37,17 @@ struct JointOptions {
   double min_sigma_deg = 0.005;  ///< [deg]
   /// Where the input's samples are more than twice node_interval_s apart (a
   /// keyframe trajectory), nodes are added between them every
-  /// node_interval_s: the input is interpolated there, and the true motion
-  /// leaves the interpolation like a random walk of these sigmas per
-  /// sqrt(second) [m/sqrt(s)], [deg/sqrt(s)], pinned at both samples; the
-  /// samples' own relative motion keeps the drift model. With
-  /// estimate_drift_model the data scale both (two more groups). ORB-SLAM's
-  /// keyframes on a tripled hand-held path: the true path given at the
-  /// keyframes alone registered 3.3x off its floor without the added nodes
-  /// (doc/benchmarks.md, "Real drift").
-  double between_samples_m_per_sqrt_s = 0.02;
-  double between_samples_deg_per_sqrt_s = 2.0;
+  /// node_interval_s, started on the input's interpolation, and the motion
+  /// there is held smooth instead: its velocity and angular rate are random
+  /// walks of these sigmas per sqrt(second) (a white-noise acceleration),
+  /// over every three consecutive nodes with an added one among them
+  /// [m/s/sqrt(s)], [deg/s/sqrt(s)]. The samples' own relative motion keeps
+  /// the drift model. With estimate_drift_model the data scale both (two
+  /// more groups). ORB-SLAM's keyframes on a tripled hand-held path: the
+  /// true path given at the keyframes alone registered 3.3x off its floor
+  /// without the added nodes (doc/benchmarks.md, "Real drift").
+  double between_samples_velocity_walk_mps_per_sqrt_s = 0.1;
+  double between_samples_rate_walk_dps_per_sqrt_s = 10.0;
   /// Anisotropy of the drift model, in the trajectory's body frame (z up):
   /// the vertical translation's sigma is `drift_vertical_ratio` times the
   /// horizontal's, roll's and pitch's `drift_tilt_ratio` times yaw's. A ground

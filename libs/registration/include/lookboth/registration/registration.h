@@ -119,9 +119,10 @@ struct DriftModelEstimate {
   double tilt = 1;        ///< Roll and pitch.
   double yaw = 1;
   int updates = 0;  ///< Variance component estimates made (each followed by a round).
-  /// The motion between the input's samples (joint's between_samples_*):
-  /// translation, rotation; only where nodes were added between them.
-  std::optional<double> between_samples_translation, between_samples_rotation;
+  /// The smooth motion between the input's samples (joint's
+  /// between_samples_*): its velocity's and angular rate's random walks;
+  /// only where nodes were added between them.
+  std::optional<double> between_samples_velocity_walk, between_samples_rate_walk;
 };
 
 struct Observability {
