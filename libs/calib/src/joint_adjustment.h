@@ -124,14 +124,14 @@ struct BlobFrame {
   Bracket bracket;
 };
 
-/// A relative-motion cost between two trajectory nodes at consecutive
-/// samples of the input: its motion between them (the drift model).
+/// A relative-motion cost between two consecutive nodes at samples of the
+/// input (the nodes added between samples aside): its motion between them
+/// (the drift model).
 struct TrajectoryEdge {
   std::size_t from = 0, to = 0;  // node indices, from < to
-  bool gap = false;              // the samples are farther apart than the gap limit
+  bool gap = false;              // an interval of the input between them is a gap
   std::size_t segment = 0;       // the scale segment
   double length_m = 0;           // the reference's distance between the nodes [m]
-  double duration_s = 0;
 };
 
 /// A trajectory residual block the drift model is estimated from, with its
@@ -192,7 +192,7 @@ class JointAdjustment {
   void prepareReferenceTrajectory();
   void initFisheyeFromMarker();
   void buildNodes();
-  void pushNode(TimeNs t, const Rigid3d& input_pose, bool between_samples);
+  void pushNode(TimeNs t, const Rigid3d& input_pose, bool between_samples, bool gap_before);
   void buildEdges();
   void initCameras();
   void collectDetections();
@@ -313,6 +313,7 @@ class JointAdjustment {
   std::vector<Rigid3d> node_input_;         // the input (reference) at each node, its own units
   std::vector<Rigid3d> node_ref_;           // Nref (scaled input)
   std::vector<bool> node_between_samples_;  // added between two samples
+  std::vector<bool> node_gap_before_;       // a gap of the input since the node before
   std::vector<std::array<double, 7>> nodes_;
   std::vector<TrajectoryEdge> edges_;
   std::vector<std::size_t> smooth_middles_;  // SmoothMotionCost's middle nodes

@@ -291,7 +291,7 @@ void JointAdjustment::addTrajectory() {
     for (std::size_t j = k - 1; j <= k + 1; ++j) addNode(j);
     const double h0 = nsToSeconds(node_t_[k] - node_t_[k - 1]);
     const double h1 = nsToSeconds(node_t_[k + 1] - node_t_[k]);
-    const double root = std::sqrt(0.5 * (h0 + h1));
+    const double root = std::sqrt((h0 + h1) / 3);  // white-noise acceleration
     const ceres::ResidualBlockId id = Q.AddResidualBlock(
         SmoothMotionCost::Create(
             h0, h1, options_.between_samples_velocity_walk_mps_per_sqrt_s * root * factor[4],

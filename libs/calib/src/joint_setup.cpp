@@ -109,31 +109,40 @@ void JointAdjustment::buildNodes() {
   chosen.push_back(samples.size() - 1);
   for (std::size_t c = 0; c < chosen.size(); ++c) {
     const StampedPose& sample = samples[chosen[c]];
-    if (c > 0 && interval > 0) {
-      const TimeNs t0 = samples[chosen[c - 1]].t, span = sample.t - t0;
-      const TimeNs added = span > 2 * interval && span <= max_gap_ns_ ? span / interval - 1 : 0;
-      for (TimeNs j = 1; j <= added; ++j) {
-        const TimeNs t = t0 + span * j / (added + 1);
-        pushNode(t, reference_->interpolate(t, 0).world_from_body, true);
+    bool gap = false;  // an interval of the input between the two is a gap
+    if (c > 0) {
+      for (std::size_t i = chosen[c - 1]; i < chosen[c]; ++i) {
+        gap |= samples[i + 1].t - samples[i].t > max_gap_ns_;
       }
     }
-    pushNode(sample.t, sample.world_from_body, false);
+    if (c > 0 && interval > 0 && !gap) {
+      const TimeNs t0 = samples[chosen[c - 1]].t, span = sample.t - t0;
+      const TimeNs added = span > 2 * interval ? span / interval - 1 : 0;
+      for (TimeNs j = 1; j <= added; ++j) {
+        const TimeNs t = t0 + span * j / (added + 1);
+        pushNode(t, reference_->interpolate(t, 0).world_from_body, true, false);
+      }
+    }
+    pushNode(sample.t, sample.world_from_body, false, gap);
   }
   buildEdges();
 }
 
-void JointAdjustment::pushNode(TimeNs t, const Rigid3d& input_pose, bool between_samples) {
+void JointAdjustment::pushNode(TimeNs t, const Rigid3d& input_pose, bool between_samples,
+                               bool gap_before) {
   node_t_.push_back(t);
   node_input_.push_back(input_pose);
   node_ref_.push_back(problem_.metricWorldFromFisheye(input_pose));
   node_between_samples_.push_back(between_samples);
+  node_gap_before_.push_back(gap_before);
   nodes_.emplace_back();
   poseToParams(node_ref_.back(), nodes_.back().data());
 }
 
 // The input's motion between consecutive sampled nodes (the drift model),
 // the smooth motion over three consecutive nodes with an added one among
-// them; scale segments by metric distance along the trajectory.
+// them and no gap between them; scale segments by metric distance along the
+// trajectory.
 void JointAdjustment::buildEdges() {
   const std::size_t n_nodes = nodes_.size();
   std::vector<std::size_t> segment_of_node(n_nodes, 0);
@@ -142,29 +151,28 @@ void JointAdjustment::buildEdges() {
     segment_of_node[k] = static_cast<std::size_t>(travelled / options_.scale_segment_m);
     travelled += (node_ref_[k + 1].translation - node_ref_[k].translation).norm();
   }
-  segment_of_node[n_nodes - 1] =
-      n_nodes > 1 ? segment_of_node[n_nodes - 2] : 0;  // the last edge's segment
   auto edge = [&](std::size_t from, std::size_t to) {
     TrajectoryEdge e;
     e.from = from;
     e.to = to;
-    e.duration_s = nsToSeconds(node_t_[to] - node_t_[from]);
-    e.gap = node_t_[to] - node_t_[from] > max_gap_ns_;
+    e.gap = node_gap_before_[to];
     e.segment = segment_of_node[from];
     e.length_m = (node_ref_[to].translation - node_ref_[from].translation).norm();
     edges_.push_back(e);
   };
   std::size_t last_sampled = 0;
   for (std::size_t k = 1; k < n_nodes; ++k) {
-    if (k + 1 < n_nodes && (node_between_samples_[k - 1] || node_between_samples_[k] ||
-                            node_between_samples_[k + 1])) {
+    if (k + 1 < n_nodes && !node_gap_before_[k] && !node_gap_before_[k + 1] &&
+        (node_between_samples_[k - 1] || node_between_samples_[k] ||
+         node_between_samples_[k + 1])) {
       smooth_middles_.push_back(k);
     }
     if (node_between_samples_[k]) continue;
     edge(last_sampled, k);
     last_sampled = k;
   }
-  n_segments_ = n_nodes > 1 ? segment_of_node[n_nodes - 2] + 1 : 1;
+  n_segments_ = 1;
+  for (const TrajectoryEdge& e : edges_) n_segments_ = std::max(n_segments_, e.segment + 1);
   scales_.assign(n_segments_, visual_ ? scale0_ : 1.0);
 }
 

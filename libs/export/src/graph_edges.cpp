@@ -40,7 +40,7 @@ struct NodeAt {
 };
 
 std::optional<NodeAt> nodeAt(const Trajectory& trajectory, TimeNs t, TimeNs max_gap) {
-  const InterpolationResult at = trajectory.interpolate(t, effectiveMaxGap(trajectory, max_gap));
+  const InterpolationResult at = trajectory.interpolate(t, max_gap);
   if (!at.ok()) return std::nullopt;
   NodeAt result;
   result.node = nearestSample(trajectory.samples(), t);

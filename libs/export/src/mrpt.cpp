@@ -137,6 +137,7 @@ class GraphBuilder {
         settings_(graphSettings(reg_)),
         trajectory_(reg_.trajectory) {
     graph_.root = 0;
+    settings_.edges.max_gap_ns = effectiveMaxGap(trajectory_, settings_.edges.max_gap_ns);
   }
 
   void addTrajectory() {

@@ -209,7 +209,9 @@ Eigen::Vector3d trajectoryPoint(const Registration& reg, const ControlPoint& poi
     throw Error({source, point.line, "name", ""},
                 "'" + point.name + "': expected @start, @end or @<unix seconds>");
   }
-  const InterpolationResult pose = Trajectory(reg.trajectory).interpolate(*t, 500'000'000);
+  const Trajectory trajectory(reg.trajectory);
+  const InterpolationResult pose =
+      trajectory.interpolate(*t, effectiveMaxGap(trajectory, 500'000'000));
   if (!pose.ok()) {
     throw Error({source, point.line, "name", ""},
                 "'" + point.name + "': the trajectory has no pose then (it runs from " +

@@ -15,9 +15,11 @@ namespace lookboth {
 
 struct JointOptions {
   // --- trajectory ---
-  /// Trajectory nodes: the input's samples at least this far apart in time [s]
-  /// (0 = every sample); detections and fisheye frames between two nodes are
-  /// interpolated between them inside the cost.
+  /// Trajectory nodes: the input's samples at least this far apart in time,
+  /// and nodes every this often between samples more than twice that apart
+  /// (between_samples_*) [s] (0 = every sample, none added); detections and
+  /// fisheye frames between two nodes are interpolated between them inside
+  /// the cost.
   double node_interval_s = 0.1;
   /// Visual mode: the input trajectory's positions are replaced by a local
   /// quadratic fit in time over +-this many seconds (0 = as given) before they
@@ -36,9 +38,9 @@ struct JointOptions {
   double min_sigma_m = 0.0005;   ///< [m]
   double min_sigma_deg = 0.005;  ///< [deg]
   /// Where the input's samples are more than twice node_interval_s apart (a
-  /// keyframe trajectory), nodes are added between them every
+  /// keyframe trajectory, a slow odometry) and not a gap, nodes are added between them every
   /// node_interval_s, started on the input's interpolation, and the motion
-  /// there is held smooth instead: its velocity and angular rate are random
+  /// through them is held smooth: its velocity and angular rate are random
   /// walks of these sigmas per sqrt(second) (a white-noise acceleration),
   /// over every three consecutive nodes with an added one among them
   /// [m/s/sqrt(s)], [deg/s/sqrt(s)]. The samples' own relative motion keeps
@@ -55,7 +57,8 @@ struct JointOptions {
   double drift_vertical_ratio = 1.0;
   double drift_tilt_ratio = 1.0;
   /// Estimate the drift model from the data: factors on the sigmas above for
-  /// the horizontal translation, the vertical, the tilt and yaw, by variance
+  /// the horizontal translation, the vertical, the tilt and yaw (and on the
+  /// velocity and rate walks between samples, where nodes are added), by variance
   /// component estimation after a round (each update one covariance and one
   /// more round; Observability::drift_model). For an odometry whose drift is
   /// not known, the usual case (lookboth's own VO on the rendered scenarios is
