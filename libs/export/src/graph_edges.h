@@ -27,8 +27,8 @@ struct PoseEdge {
 
 /// How the registration modelled its measurements, as the edges need it.
 struct EdgeModel {
-  /// Longest trajectory gap a measurement may be interpolated across
-  /// (associate.max_gap_s) [ns].
+  /// Longest trajectory gap a measurement may be interpolated across: the
+  /// effectiveMaxGap of associate.max_gap_s on the registered trajectory [ns].
   TimeNs max_gap_ns = 500'000'000;
   Rigid3d fisheye_from_marker;
   /// A detection without an information matrix: this covariance.

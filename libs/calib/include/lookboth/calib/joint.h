@@ -47,7 +47,8 @@ struct JointOptions {
   /// the drift model. With estimate_drift_model the data scale both (two
   /// more groups). ORB-SLAM's keyframes on a tripled hand-held path: the
   /// true path given at the keyframes alone registered 3.3x off its floor
-  /// without the added nodes (doc/benchmarks.md, "Real drift").
+  /// without the added nodes and with a 0.5 s gap limit (doc/benchmarks.md,
+  /// "Real drift").
   double between_samples_velocity_walk_mps_per_sqrt_s = 0.1;
   double between_samples_rate_walk_dps_per_sqrt_s = 10.0;
   /// Anisotropy of the drift model, in the trajectory's body frame (z up):
