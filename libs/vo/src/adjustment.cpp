@@ -343,7 +343,7 @@ int bundleAdjustSampled(Map& map, const std::set<int>& ids, int gauge,
   for (int k : ids) before[k] = map.keyframes[size_t(k)].world_from_camera;
   // The reduced camera system over all keyframes, factorised, grows with
   // them and their covisibility: applied implicitly instead (memory:
-  // doc/benchmarks.md, "the global adjustment on an observation budget").
+  // doc/benchmarks-history.md, "the global adjustment on an observation budget").
   AdjustmentOptions sampled = options;
   sampled.implicit_schur = true;
   const int removed =

@@ -150,7 +150,7 @@ struct JointOptions {
   /// it). The cameras' covariance counts it (a sandwich over the passes, in
   /// computePassCovariance); the estimate is unchanged. 0: independent
   /// detections. Measured by `lookboth detect --evaluate` on rendered
-  /// recordings (doc/benchmarks.md, "Marker detection: errors a pass shares").
+  /// recordings (doc/benchmarks-history.md, "Marker detection: errors a pass shares").
   double pass_error_share = 0.15;
   /// The same for the blobs of a camera's housing in the fisheye's frames,
   /// relative to blob_sigma_px's variance: most of a rendered blob's error is

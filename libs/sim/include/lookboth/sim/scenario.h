@@ -125,7 +125,7 @@ struct DetectionNoiseSpec {
   /// does not average out. Each pass's detections move together by a
   /// perturbation of the camera's pose drawn with share times n the pass's
   /// covariance (n its detections): the model `lookboth detect --evaluate`
-  /// measures on rendered recordings (its pass_error_share; doc/benchmarks.md,
+  /// measures on rendered recordings (its pass_error_share; doc/benchmarks-history.md,
   /// "Marker detection: errors a pass shares") and the joint's
   /// pass_error_share assumes. 0 (the default): independent detections, so
   /// that a scenario and seed give the same dataset with or without the option.

@@ -66,8 +66,8 @@ struct OdometryOptions {
   /// pass over at most this many, spread over the segment), so that its
   /// memory does not grow with the length of the run. 0 = one problem over
   /// all keyframes, bounded by global_max_observations (the default: the
-  /// windows cost accuracy on some recordings, doc/benchmarks.md, "the global adjustment on an
-  /// observation budget").
+  /// windows cost accuracy on some recordings, doc/benchmarks-history.md, "the global adjustment on
+  /// an observation budget").
   int global_window = 0;
   int global_sweeps = 2;  ///< Passes over the windows when the segment is longer than one.
   /// Bound on the observations (residual blocks) of the global adjustment's
