@@ -2,12 +2,13 @@
 // (estimate_drift_model; joint_adjustment.h). Factors on the configured
 // sigmas of the relative motions' horizontal translation, vertical
 // translation, tilt (roll, pitch) and yaw, by Helmert's variance component
-// estimation after a round (and of the motion between the input's samples'
-// translation and rotation, where nodes were added between them): each group's factor is multiplied
-// by sqrt(sum of its squared whitened residuals / its redundancy), the redundancy sum_i (1 - (J_i
-// Cov J_i^T)_cc) over the group's residual components (what the other measurements leave to the
-// relative motions to decide), from the covariance of the nodes and scales on the pattern of the
-// problem (selected inversion). Gap edges are left out.
+// estimation after a round (and of the smooth motion's velocity and rate
+// walks, where nodes were added between the input's samples): each group's
+// factor is multiplied by sqrt(sum of its squared whitened residuals / its
+// redundancy), the redundancy sum_i (1 - (J_i Cov J_i^T)_cc) over the
+// group's residual components (what the other measurements leave to the
+// trajectory's costs to decide), from the covariance of the nodes and scales
+// on the pattern of the problem (selected inversion). Gap edges are left out.
 #include <algorithm>
 #include <cmath>
 #include <iostream>
@@ -22,15 +23,15 @@ namespace lookboth::joint_detail {
 bool JointAdjustment::leverageOf(const DriftResidual& d, const SparseCovariance& cov, double* r,
                                  Eigen::Matrix<double, 6, 6>& leverage) const {
   ceres::Problem& Q = *ceres_problem_;
-  std::vector<double> ambient[3];
+  double ambient[3][6 * 7];  // the blocks are poses (7) or scales (1)
   double* jacobians[3] = {nullptr, nullptr, nullptr};
   int sizes[3] = {0, 0, 0};
   for (int i = 0; i < 3; ++i) {
     if (d.blocks[i] == nullptr) continue;
     sizes[i] = Q.ParameterBlockSize(d.blocks[i]);
+    if (sizes[i] > 7) return false;
     if (Q.IsParameterBlockConstant(d.blocks[i])) continue;
-    ambient[i].resize(6 * static_cast<std::size_t>(sizes[i]));
-    jacobians[i] = ambient[i].data();
+    jacobians[i] = ambient[i];
   }
   if (!Q.GetCostFunctionForResidualBlock(d.id)->Evaluate(d.blocks.data(), r, jacobians)) {
     return false;

@@ -295,13 +295,13 @@ BlobEvaluation evaluateBlobs(const GroundTruthView& truth,
     std::vector<bool> used(obs.blobs.size(), false);
     // The housings the fisheye sees take their blobs first; a hidden one
     // may then take a blob left (its dome's rim past the obstacle).
-    std::vector<std::pair<const std::string*, Eigen::Vector2d>> hidden;
+    std::vector<Eigen::Vector2d> hidden;
     for (const auto& [label, world_from_camera] : truth.manifest.ground_truth.world_from_camera) {
       const Eigen::Vector3d centre = fisheye_from_world * world_from_camera.translation;
       const auto p = sensor->camera->project(centre);
       if (!p || !sensor->camera->isInImage(*p, 2.0)) continue;
       if (truth.manifest.ground_truth.hiddenFromFisheye(label, obs.t)) {
-        hidden.emplace_back(&label, *p);
+        hidden.push_back(*p);
         continue;
       }
       ++out.expected;
@@ -326,7 +326,7 @@ BlobEvaluation evaluateBlobs(const GroundTruthView& truth,
         by_camera[label].push_back({obs.t, Eigen::Vector2d(blob.u, blob.v) - *p});
       }
     }
-    for (const auto& [label, p] : hidden) {
+    for (const Eigen::Vector2d& p : hidden) {
       ++out.hidden;
       const int near = nearestUnused(obs.blobs, used, p, match_px);
       if (near >= 0) {
