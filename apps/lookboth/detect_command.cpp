@@ -161,7 +161,9 @@ int runDetect(const DetectArgs& args) {
       std::cout << "  " << c.camera << ": " << c.frames << " frames";
       if (!c.fisheye && c.examined < c.frames) {
         std::cout << " (" << c.examined << " examined"
-                  << (c.coarse_key_frames ? ", coarsely at its key frames)" : ")");
+                  << (c.coarse_key_frames ? ", coarsely at its key frames" : "");
+        if (c.unchanged) std::cout << ", " << c.unchanged << " of them unchanged, not searched";
+        std::cout << ")";
       }
       if (c.fisheye) {
         std::cout << ", " << c.blobs << " blobs";

@@ -48,6 +48,7 @@ static void fields(MarkerDetectorOptions& o, OptionFields& f) {
   f.number("track_window_s", o.track_window_s);
   f.number("coarse_period_s", o.coarse_period_s);
   f.number("coarse_key_frames_max_s", o.coarse_key_frames_max_s);
+  f.number("coarse_change_grey", o.coarse_change_grey);
   f.numbersByLabel("fixed_marker_sizes_m", o.fixed_marker_sizes_m, "id: side [m]");
   f.integer("fixed_marker_frames", o.fixed_marker_frames);
 }
@@ -168,6 +169,7 @@ struct JobResult {
   std::vector<Record> records;
   std::int64_t skipped = 0, blobs = 0, ambiguous = 0, unresolved = 0, rejected = 0;
   std::int64_t examined = 0;
+  std::int64_t unchanged = 0;      ///< Of `examined`, coarse frames not searched (SceneChange).
   std::int64_t fixed_markers = 0;  ///< Of `records`, the fixed markers' observations.
   bool coarse_key_frames = false;
   MarkerDetectorStats candidates;
@@ -424,17 +426,24 @@ JobResult runMarkerJob(const CameraWork& work, const Job& job, const DetectConfi
   PassSearch search = keys.empty() ? PassSearch(work.frames.size(), step)
                                    : PassSearch(work.frames.size(), step, keys);
   result.coarse_key_frames = !keys.empty();
+  SceneChange view(step > 1 ? config.markers.coarse_change_grey : 0.0);
   search.run(
-      [&](size_t i) {
+      [&](size_t i, bool coarse) {
         // The track (where to look first) holds from one frame to the next only.
         if (!last || (i != *last + 1 && i + 1 != *last)) detector.resetTrack();
         last = i;
         const cv::Mat grey = frames.grey(i);
+        if (grey.empty() || !coarse) view.forget();
         if (grey.empty()) {
           detector.resetTrack();
           return false;
         }
+        if (coarse && !view.changed(grey)) {
+          ++result.unchanged;
+          return false;
+        }
         found[i] = detector.detect(grey);
+        if (coarse && found[i].empty()) view.keep();
         return !found[i].empty();
       },
       stop);
@@ -627,6 +636,7 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
     s.unresolved += r.unresolved;
     s.rejected += r.rejected;
     s.examined += r.examined;
+    s.unchanged += r.unchanged;
     s.coarse_key_frames = s.coarse_key_frames || r.coarse_key_frames;
     addStats(s.marker_candidates, r.candidates);
     s.blob_candidates.add(r.blob_candidates);

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
 namespace lookboth {
 
 std::size_t coarseStep(const std::vector<TimeNs>& times, double period_s) {
@@ -33,9 +36,9 @@ PassSearch::PassSearch(std::size_t frames, std::size_t step, std::vector<std::si
     coarse_.push_back(frames - 1);
 }
 
-bool PassSearch::look(std::size_t i) {
+bool PassSearch::look(std::size_t i, bool coarse) {
   if (state_[i] == kUnseen) {
-    state_[i] = (*examine_)(i) ? kFound : kEmpty;
+    state_[i] = (*examine_)(i, coarse) ? kFound : kEmpty;
     ++examined_;
   }
   return state_[i] == kFound;
@@ -45,13 +48,12 @@ std::ptrdiff_t PassSearch::walk(std::ptrdiff_t from, std::ptrdiff_t to, std::ptr
   std::size_t empty = 0;
   std::ptrdiff_t i = from;
   for (; i != to && empty < step_ && !stop_->load(); i += direction) {
-    empty = look(static_cast<std::size_t>(i)) ? 0 : empty + 1;
+    empty = look(static_cast<std::size_t>(i), false) ? 0 : empty + 1;
   }
   return i;
 }
 
-void PassSearch::run(const std::function<bool(std::size_t)>& examine,
-                     const std::atomic<bool>& stop) {
+void PassSearch::run(const Examine& examine, const std::atomic<bool>& stop) {
   examine_ = &examine;
   stop_ = &stop;
   const auto n = static_cast<std::ptrdiff_t>(state_.size());
@@ -59,12 +61,38 @@ void PassSearch::run(const std::function<bool(std::size_t)>& examine,
   for (const std::size_t c : coarse_) {
     const auto i = static_cast<std::ptrdiff_t>(c);
     if (stop.load()) break;
-    if (i < resume || !look(c)) continue;
+    if (i < resume || !look(c, true)) continue;
     walk(i - 1, -1, -1);
     resume = walk(i + 1, n, 1);
   }
   examine_ = nullptr;
   stop_ = nullptr;
 }
+
+SceneChange::SceneChange(double threshold_grey, int reduction)
+    : threshold_(threshold_grey), reduction_(std::max(1, reduction)) {}
+
+bool SceneChange::changed(const cv::Mat& grey) {
+  candidate_.release();
+  if (!(threshold_ > 0) || grey.empty()) return true;
+  const cv::Size size(std::max(1, grey.cols / reduction_), std::max(1, grey.rows / reduction_));
+  cv::Mat reduced;
+  cv::resize(grey, reduced, size, 0, 0, cv::INTER_AREA);
+  reduced.convertTo(candidate_, CV_32F);
+  if (reference_.empty() || reference_.size() != candidate_.size()) return true;
+  // The exposure (gain and offset) fitted by least squares: an automatic
+  // exposure changes every pixel alike, the robot a part of the view.
+  const cv::Mat now = candidate_ - cv::mean(candidate_)[0];
+  const cv::Mat before = reference_ - cv::mean(reference_)[0];
+  const double spread = before.dot(before);
+  const double gain = spread > 0 ? now.dot(before) / spread : 1.0;
+  return cv::norm(now - gain * before, cv::NORM_INF) > threshold_;
+}
+
+void SceneChange::keep() {
+  if (!candidate_.empty()) reference_ = candidate_;
+}
+
+void SceneChange::forget() { reference_.release(); }
 
 }  // namespace lookboth

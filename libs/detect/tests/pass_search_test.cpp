@@ -6,6 +6,9 @@
 #include <random>
 #include <utility>
 
+#include <opencv2/aruco.hpp>
+#include <opencv2/imgproc.hpp>
+
 namespace lookboth {
 namespace {
 
@@ -28,7 +31,7 @@ PassSearch searchOver(const std::vector<bool>& shows, std::size_t step, std::vec
       coarse ? PassSearch(shows.size(), step, *coarse) : PassSearch(shows.size(), step);
   const std::atomic<bool> stop{false};
   search.run(
-      [&](std::size_t i) {
+      [&](std::size_t i, bool) {
         ++calls[i];
         return static_cast<bool>(shows[i]);
       },
@@ -132,11 +135,95 @@ TEST(PassSearch, GivenCoarseFramesLikeAVideosKeyFrames) {
   EXPECT_EQ(search.examined(), keys.size() + 1 + 40 + 12 - 1);
 }
 
+TEST(PassSearch, SaysWhichFramesAreLookedAtAsCoarseFrames) {
+  const std::vector<bool> shows = framesWith(60, {{20, 30}});
+  PassSearch search(shows.size(), 6);
+  std::vector<int> as_coarse(shows.size(), -1);
+  const std::atomic<bool> stop{false};
+  search.run(
+      [&](std::size_t i, bool coarse) {
+        as_coarse[i] = coarse ? 1 : 0;
+        return static_cast<bool>(shows[i]);
+      },
+      stop);
+  // Coarse frames before the pass, the one that finds it (24), and those
+  // after the walk; every frame of the walk (back to 14, on to 35, coarse
+  // frame 30 among them) is not.
+  for (std::size_t i : {0, 6, 12, 18, 24, 36, 42, 48, 54, 59}) EXPECT_EQ(as_coarse[i], 1) << i;
+  for (std::size_t i = 14; i < 36; ++i) {
+    if (i != 18 && i != 24) {
+      EXPECT_EQ(as_coarse[i], 0) << i;
+    }
+  }
+  EXPECT_EQ(as_coarse[13], -1);
+  EXPECT_EQ(as_coarse[37], -1);
+}
+
+/// A fixed camera's view: a textured floor and its sensor noise.
+cv::Mat floorView(std::mt19937& rng, const cv::Mat& floor, double noise_sigma) {
+  cv::Mat noise(floor.size(), CV_32F);
+  cv::randn(noise, 0.0, noise_sigma);
+  cv::theRNG().state = rng();
+  cv::Mat view;
+  floor.convertTo(view, CV_32F);
+  view += noise;
+  view.convertTo(view, CV_8U);
+  return view;
+}
+
+TEST(SceneChange, QuietViewsAreUnchangedAndTheSmallestMarkerChangesThem) {
+  std::mt19937 rng(7);
+  cv::Mat floor(540, 960, CV_8U);
+  cv::theRNG().state = 11;
+  cv::randu(floor, 90, 170);
+  cv::GaussianBlur(floor, floor, cv::Size(0, 0), 3.0);  // a concrete floor's texture
+  SceneChange view(12);
+  EXPECT_TRUE(view.changed(floorView(rng, floor, 3.0)));  // nothing to compare with
+  view.keep();
+  for (int k = 0; k < 20; ++k) EXPECT_FALSE(view.changed(floorView(rng, floor, 3.0))) << k;
+  // A marker of the smallest side the detector accepts (10 px), on a mid-grey
+  // robot no larger than itself, anywhere in the view, changes it.
+  const auto dictionary = cv::aruco::getPredefinedDictionary(cv::aruco::DICT_4X4_50);
+  cv::Mat marker;
+  cv::aruco::drawMarker(dictionary, 3, 10, marker, 1);
+  std::uniform_int_distribution<int> x(0, floor.cols - 10), y(0, floor.rows - 10);
+  for (int k = 0; k < 50; ++k) {
+    cv::Mat with = floorView(rng, floor, 3.0);
+    marker.copyTo(with(cv::Rect(x(rng), y(rng), 10, 10)));
+    EXPECT_TRUE(view.changed(with)) << k;
+  }
+  // The exposure (gain and offset, up to +-10 % a frame) changes nothing.
+  std::uniform_real_distribution<double> gain(0.9, 1.1), offset(-10, 10);
+  for (int k = 0; k < 20; ++k) {
+    cv::Mat exposed;
+    floor.convertTo(exposed, CV_8U, gain(rng), offset(rng));
+    EXPECT_FALSE(view.changed(floorView(rng, exposed, 3.0))) << k;
+  }
+  // A shadow growing slowly over part of the view adds up against the frame
+  // kept, not the last one looked at.
+  int changed_at = -1;
+  for (int k = 1; k <= 20 && changed_at < 0; ++k) {
+    cv::Mat shaded = floor.clone();
+    shaded(cv::Rect(0, 0, floor.cols / 3, floor.rows)) -= k;
+    if (view.changed(floorView(rng, shaded, 3.0))) changed_at = k;
+  }
+  EXPECT_GE(changed_at, 5);
+  EXPECT_LE(changed_at, 16);
+  // Forgotten (after a pass): the next view counts as changed.
+  view.forget();
+  EXPECT_TRUE(view.changed(floorView(rng, floor, 3.0)));
+  // Threshold 0: always changed.
+  SceneChange always(0);
+  always.changed(floor);
+  always.keep();
+  EXPECT_TRUE(always.changed(floor));
+}
+
 TEST(PassSearch, StopsWhenAsked) {
   PassSearch search(1000, 1);
   std::atomic<bool> stop{false};
   search.run(
-      [&](std::size_t i) {
+      [&](std::size_t i, bool) {
         if (i == 10) stop = true;
         return true;
       },

@@ -75,6 +75,9 @@ struct CameraDetectSummary {
   /// Frames searched for the marker: all of them, or with a coarse search
   /// (MarkerDetectorOptions::coarse_period_s) those around the passes.
   std::int64_t examined = 0;
+  /// Of `examined`, coarse frames decoded but not searched: the view had not
+  /// changed since the last one searched (coarse_change_grey).
+  std::int64_t unchanged = 0;
   /// The coarse frames were its video's key frames (coarse_key_frames_max_s).
   bool coarse_key_frames = false;
   std::int64_t skipped = 0;     ///< Frames that could not be decoded.

@@ -83,6 +83,13 @@ struct MarkerDetectorOptions {
   /// between them are not decoded at all. A pass shorter than the interval
   /// is then what can be missed. 0 = never [s].
   double coarse_key_frames_max_s = 1.0;
+  /// A coarse frame whose view differs from the last coarse frame searched
+  /// (and found empty) by at most this at every pixel, both averaged over
+  /// 4x4 pixels and the exposure matched, is not searched: the robot cannot
+  /// come into a fixed camera's view without changing it
+  /// (detect/pass_search.h, SceneChange). Noise and compression move the
+  /// averages by a few levels. 0 = every coarse frame searched [grey levels of 255].
+  double coarse_change_grey = 12;
   /// Markers fixed in the facility (printed on the floor; the robot
   /// marker's dictionary, other ids): their sides [m] by id ("20": 0.3).
   /// Each camera looks for them, the whole frame, in `fixed_marker_frames`

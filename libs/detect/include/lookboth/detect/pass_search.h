@@ -19,6 +19,8 @@
 #include <functional>
 #include <vector>
 
+#include <opencv2/core/mat.hpp>
+
 #include "lookboth/geometry/time.h"
 
 namespace lookboth {
@@ -38,10 +40,12 @@ class PassSearch {
   /// frames, which decode alone); the last frame is added.
   PassSearch(std::size_t frames, std::size_t step, std::vector<std::size_t> coarse);
 
-  /// Examines frames through `examine(i)` (true: the marker is in frame i),
-  /// each at most once, in the order described above. Returns early when
-  /// `stop` is raised.
-  void run(const std::function<bool(std::size_t)>& examine, const std::atomic<bool>& stop);
+  /// Examines frames through `examine(i, coarse)` (true: the marker is in
+  /// frame i; `coarse`: i is looked at as a coarse frame, not in a walk
+  /// around a pass), each at most once, in the order described above.
+  /// Returns early when `stop` is raised.
+  using Examine = std::function<bool(std::size_t, bool)>;
+  void run(const Examine& examine, const std::atomic<bool>& stop);
 
   /// How many frames were examined.
   std::size_t examined() const { return examined_; }
@@ -52,7 +56,7 @@ class PassSearch {
  private:
   enum State : std::uint8_t { kUnseen, kEmpty, kFound };
   /// Frame i examined (once): whether it shows the marker.
-  bool look(std::size_t i);
+  bool look(std::size_t i, bool coarse);
   /// Every frame from `from` towards `to` (exclusive), one after the other,
   /// until `step_` frames in a row are empty; returns the first index not examined.
   std::ptrdiff_t walk(std::ptrdiff_t from, std::ptrdiff_t to, std::ptrdiff_t direction);
@@ -61,8 +65,42 @@ class PassSearch {
   std::size_t step_;
   std::vector<std::size_t> coarse_;
   std::size_t examined_ = 0;
-  const std::function<bool(std::size_t)>* examine_ = nullptr;
+  const Examine* examine_ = nullptr;
   const std::atomic<bool>* stop_ = nullptr;
+};
+
+/// Whether a fixed camera's view changed since the last coarse frame that
+/// was searched and showed no marker. The marker rides on the robot, which
+/// cannot come into view, or move in it, without changing the view: a
+/// coarse frame that differs from that one by at most `threshold_grey` at
+/// every pixel, both reduced to area averages over `reduction` x
+/// `reduction` pixels, cannot show the marker either, and need not be
+/// searched. The difference is taken after the reference's exposure (a gain
+/// and an offset, fitted by least squares) is made the frame's: an automatic
+/// exposure changes every pixel alike, the robot a part of the view. The
+/// averages keep sensor noise and compression well under the threshold; a
+/// robot coming into view changes some average by far more. Comparing with
+/// the last frame searched, not the last one looked at, lets slow changes
+/// (a shadow, a light) add up until a frame is searched.
+class SceneChange {
+ public:
+  /// `threshold_grey` <= 0: every frame counts as changed.
+  explicit SceneChange(double threshold_grey, int reduction = 4);
+  /// Whether `grey` (8-bit) differs from the reference by more than the
+  /// threshold somewhere; true without a reference. `grey` becomes the
+  /// candidate for keep().
+  bool changed(const cv::Mat& grey);
+  /// The frame last given to changed() becomes the reference: it was
+  /// searched and shows no marker.
+  void keep();
+  /// No reference: the next frame counts as changed (after a pass, a frame
+  /// that could not be decoded).
+  void forget();
+
+ private:
+  double threshold_;
+  int reduction_;
+  cv::Mat reference_, candidate_;
 };
 
 }  // namespace lookboth
