@@ -8,7 +8,8 @@
 #     examining every frame (coarse_period_s: 0) against the coarse search
 #     (the default), from PNG files and from H.264 videos (libx264, crf 23,
 #     a key frame a second: the coarse frames are the key frames; and
-#     without that, coarse_key_frames_max_s: 0);
+#     without that, coarse_key_frames_max_s: 0), and the coarse search with
+#     every coarse frame searched (coarse_change_grey: 0, no SceneChange);
 #     recall of the coarse search against every frame, per format;
 #   - the decoding peers: `ffmpeg -threads 1 -f null` of the same PNG files
 #     and videos (decoding alone, the floor of anything that reads every frame);
@@ -48,6 +49,7 @@ fi
 printf 'detect:\n  markers:\n    coarse_period_s: 0\n' >"$work/every.yaml"
 printf 'detect:\n  markers:\n    coarse_period_s: 0.2\n' >"$work/coarse.yaml"
 printf 'detect:\n  markers:\n    coarse_key_frames_max_s: 0\n' >"$work/no_keys.yaml"
+printf 'detect:\n  markers:\n    coarse_change_grey: 0\n' >"$work/searched.yaml"
 
 wait_for_quiet_machine
 
@@ -84,6 +86,8 @@ for ((r = 0; r < reps; r++)); do
   detect video_every "$work/video" every
   detect video_coarse "$work/video" coarse
   detect video_no_keys "$work/video" no_keys
+  detect png_searched "$work/site" searched
+  detect video_searched "$work/video" searched
   run register_overlapped "$lookboth" register "$work/site" --no-write-back --overwrite \
     --out "$work/reg_overlapped"
   run register_sequential "$lookboth" register "$work/site" --no-write-back --overwrite \
@@ -97,7 +101,8 @@ for c in "${cameras[@]}"; do
 done
 echo "full recording: 6 cameras, $frames frames at 1920x1080 (10 s at 30 Hz); medians of $reps"
 printf '%-44s %8s %10s %10s\n' run "wall s" "ms/frame" "markers"
-for name in ffmpeg_png png_every png_coarse ffmpeg_video video_every video_coarse video_no_keys; do
+for name in ffmpeg_png png_every png_coarse png_searched ffmpeg_video video_every video_coarse \
+  video_searched video_no_keys; do
   ms=$(median <"$work/t_$name")
   markers=-
   [[ -f $work/det_$name/detections/markers.csv ]] &&
@@ -118,7 +123,7 @@ for name in register_overlapped register_sequential; do
   grep "run time" "$work/out_$name.txt" || true
 done
 # Recall of the coarse search against every frame, per format.
-for format in png_coarse video_coarse video_no_keys; do
+for format in png_coarse png_searched video_coarse video_searched video_no_keys; do
   python3 "$here/coarse_recall.py" "$work/det_${format%%_*}_every" "$work/det_$format" "$format"
 done
 grep "examined" "$work/out_png_coarse.txt" "$work/out_video_coarse.txt" || true

@@ -15,6 +15,8 @@
 #     videos, two at a time (2 cores), the floor of anything reading every frame;
 #   - the cost of a key frame alone (decoded and searched) beside ffmpeg
 #     decoding the same key frames;
+#   - the same `register` and `detect` with every coarse frame searched
+#     (coarse_change_grey: 0, no SceneChange), the peer of that test;
 #   - the registration's accuracy (`lookboth evaluate`);
 #   - the same `register` with the fisheye's frames as JPEG (a copy of the
 #     site, its PNG frames re-encoded by `ffmpeg -q:v 3`, the cameras' videos
@@ -42,6 +44,7 @@ if [[ ! -d $work/site ]]; then
     --threads 2 --out "$work/site" >"$work/simulate.txt"
 fi
 printf 'detect:\n  markers:\n    coarse_period_s: 0\n' >"$work/every.yaml"
+printf 'detect:\n  markers:\n    coarse_change_grey: 0\n' >"$work/searched.yaml"
 mapfile -t videos < <(ls "$work"/site/cameras/*/video.mp4)
 
 # The fisheye as JPEG: made once beside the site (again when the site is
@@ -67,6 +70,10 @@ run register_jpeg "$lookboth" register "$work/site_jpeg" --no-write-back --overw
   --out "$work/reg_jpeg"
 run detect_coarse "$lookboth" detect "$work/site" --threads 2 --no-blobs --detections-only \
   --out "$work/det_coarse"
+run register_jpeg_searched "$lookboth" register "$work/site_jpeg" --no-write-back --overwrite \
+  --config "$work/searched.yaml" --out "$work/reg_jpeg_searched"
+run detect_searched "$lookboth" detect "$work/site" --threads 2 --no-blobs --detections-only \
+  --config "$work/searched.yaml" --out "$work/det_searched"
 run ffmpeg_videos bash -c 'printf "%s\n" "$@" |
   xargs -P 2 -I{} ffmpeg -v error -threads 1 -i {} -f null -' _ "${videos[@]}"
 run detect_every "$lookboth" detect "$work/site" --threads 2 --no-blobs --detections-only \
@@ -78,6 +85,9 @@ key_videos=()
 for c in "${empty[@]}"; do key_videos+=("$work/site/cameras/$c/video.mp4"); done
 run keys_detect taskset -c 0 "$lookboth" detect "$work/site" --cameras "$(IFS=,; echo "${empty[*]}")" \
   --threads 1 --no-blobs --detections-only --out "$work/det_keys"
+run keys_detect_searched taskset -c 0 "$lookboth" detect "$work/site" \
+  --cameras "$(IFS=,; echo "${empty[*]}")" --threads 1 --no-blobs --detections-only \
+  --config "$work/searched.yaml" --out "$work/det_keys_searched"
 run keys_ffmpeg taskset -c 0 bash -c 'for v in "$@"; do
   ffmpeg -v error -threads 1 -skip_frame nokey -i "$v" -f null -; done' _ "${key_videos[@]}"
 
@@ -85,7 +95,8 @@ frames=0
 for v in "$work"/site/cameras/*/video.csv; do frames=$((frames + $(tail -n +2 "$v" | grep -c .))); done
 echo "full recording: ${#videos[@]} cameras, $frames frames at 1920x1080 (${drive_s} s at 30 Hz), H.264"
 printf '%-36s %8s %10s %12s\n' run "wall s" "x drive" "ms/frame"
-for name in register register_jpeg detect_coarse ffmpeg_videos detect_every; do
+for name in register register_jpeg register_jpeg_searched detect_coarse detect_searched \
+  ffmpeg_videos detect_every; do
   ms=$(cat "$work/t_$name")
   awk -v l="$name" -v ms="$ms" -v f="$frames" -v d="$drive_s" \
     'BEGIN { printf "%-36s %8.1f %10.2f %12.2f\n", l, ms / 1000, ms / 1000 / d, ms / f }'
@@ -93,11 +104,15 @@ done
 # detect examines each camera's key frames and its last frame (decoded after
 # the frames since the last key frame); the whole command, start-up included.
 examined=$(grep -o "([0-9]* examined" "$work/out_keys_detect.txt" | grep -o "[0-9]*" | paste -sd+ | bc)
-echo "keys_detect: $(cat "$work/t_keys_detect") ms for the $examined frames examined, one core;" \
+echo "keys_detect: $(cat "$work/t_keys_detect") ms for the $examined frames examined, one core" \
+  "($(cat "$work/t_keys_detect_searched") ms with every one searched);" \
   "keys_ffmpeg: $(cat "$work/t_keys_ffmpeg") ms to decode the key frames alone"
-grep -h "run time" "$work/out_register.txt" "$work/out_register_jpeg.txt" || true
+grep -h "examined" "$work/out_keys_detect.txt" | head -5
+grep -h "run time" "$work/out_register.txt" "$work/out_register_jpeg.txt" \
+  "$work/out_register_jpeg_searched.txt" || true
 python3 "$here/coarse_recall.py" "$work/det_every" "$work/det_coarse" recall
-for reg in reg_coarse reg_jpeg; do
+python3 "$here/coarse_recall.py" "$work/det_every" "$work/det_searched" recall_searched
+for reg in reg_coarse reg_jpeg reg_jpeg_searched; do
   "$lookboth" evaluate "$work/$reg" --ground-truth "$work/site" --json "$work/$reg.eval.json" \
     --overwrite >/dev/null
   python3 - "$reg" "$work/$reg.eval.json" <<'PY'
