@@ -50,6 +50,11 @@ cv::Mat FrameDecoder::decode(const ImageFrame& frame, FrameColour colour) {
   return cv::imread(frame.image_file.string(), flags);
 }
 
+cv::Mat FrameDecoder::decodePreview(const ImageFrame& frame) {
+  if (!isVideoFrame(frame)) return decode(frame, FrameColour::kGrey);
+  return video(frame.video_file).keyFramePreview(frame.video_frame);
+}
+
 std::optional<ImageSize> FrameDecoder::size(const ImageFrame& frame) {
   if (frame.encoded) return encodedImageSize(frame.encoded->data(), frame.encoded->size());
   if (isVideoFrame(frame)) {

@@ -13,6 +13,7 @@ extern "C" {
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <mutex>
 #include <opencv2/core.hpp>
 
@@ -177,7 +178,11 @@ struct VideoDecoder::Impl {
   /// The frame returned last (a window repainting asks for it again).
   std::int64_t last_index = -1;
   bool last_colour = false;
+  bool last_unfiltered = false;
   cv::Mat last_image;
+  /// The decoder's reference frames were decoded without the loop filter
+  /// (a preview): the next frame is decoded from a key frame again.
+  bool unfiltered_references = false;
 
   /// Frames further ahead than this are reached by seeking rather than by
   /// decoding every frame in between (a few groups of pictures).
@@ -204,6 +209,7 @@ struct VideoDecoder::Impl {
     if (rc < 0) throw videoError(file, "cannot start the video decoder (" + averror(rc) + ")");
     next_index = 0;
     draining = false;
+    unfiltered_references = false;
   }
 
   /// Decodes the next frame into `frame`; false at the end of the stream.
@@ -245,6 +251,7 @@ struct VideoDecoder::Impl {
         avcodec_flush_buffers(codec.get());
         draining = false;
         next_index = -1;
+        unfiltered_references = false;
         return true;
       }
     }
@@ -258,6 +265,7 @@ struct VideoDecoder::Impl {
     av_frame_unref(frame.get());
     last_index = index;
     last_colour = colour;
+    last_unfiltered = codec->skip_loop_filter == AVDISCARD_ALL;
     return last_image.clone();
   }
 
@@ -381,10 +389,35 @@ int VideoDecoder::width() const { return impl_->codec->width; }
 const std::vector<std::int64_t>& VideoDecoder::keyFrames() const { return impl_->key_frames; }
 int VideoDecoder::height() const { return impl_->codec->height; }
 
+cv::Mat VideoDecoder::keyFramePreview(std::int64_t index) {
+  Impl& d = *impl_;
+  if (!std::binary_search(d.key_frames.begin(), d.key_frames.end(), index))
+    return frame(index, false);
+  if (index == d.last_index && !d.last_colour) return d.last_image.clone();
+  d.codec->skip_loop_filter = AVDISCARD_ALL;
+  cv::Mat image;
+  try {
+    image = frame(index, false);
+  } catch (...) {
+    d.codec->skip_loop_filter = AVDISCARD_DEFAULT;
+    d.unfiltered_references = true;
+    throw;
+  }
+  d.codec->skip_loop_filter = AVDISCARD_DEFAULT;
+  d.unfiltered_references = true;
+  return image;
+}
+
 cv::Mat VideoDecoder::frame(std::int64_t index, bool colour) {
   Impl& d = *impl_;
   if (index < 0 || index >= d.frame_count) return {};
-  if (index == d.last_index && colour == d.last_colour) return d.last_image.clone();
+  if (index == d.last_index && colour == d.last_colour &&
+      (!d.last_unfiltered || d.codec->skip_loop_filter == AVDISCARD_ALL))
+    return d.last_image.clone();
+  // After a preview the decoder holds unfiltered references: no frame is
+  // decoded on from them (the decoder's position made unknown: a seek).
+  if (d.unfiltered_references && d.codec->skip_loop_filter != AVDISCARD_ALL)
+    d.next_index = std::numeric_limits<std::int64_t>::max() / 2;
   bool passed = false;
   // A key frame between the next frame and this one: decoding starts there
   // (a seek) instead of decoding every frame before it.

@@ -372,6 +372,64 @@ TEST(Video, KeyFramesAreListedAndAJumpToOneDecodesItAlone) {
   }
 }
 
+// A key frame's preview skips the loop filter: close to the frame, not it
+// (a strongly compressed, textured video, where deblocking moves pixels);
+// the frames decoded after a preview are exactly those decoded without one.
+TEST(Video, AKeyFramesPreviewIsCloseAndTheFramesAfterItAreExact) {
+  const fs::path folder = scratch("preview") / "cam";
+  fs::create_directories(folder / "frames");
+  std::ofstream csv(folder / "frames.csv");
+  csv << "timestamp_ns,file\n";
+  cv::Mat texture(kHeight * 2, kWidth * 2, CV_8UC1);
+  cv::theRNG().state = 5;
+  cv::randu(texture, 40, 220);
+  cv::GaussianBlur(texture, texture, cv::Size(0, 0), 1.5);
+  for (int i = 0; i < 60; ++i) {
+    cv::Mat image = barCode(i);
+    // The texture slides over the bar code's lowest quarter (it is read
+    // at half height): every frame changes.
+    texture(cv::Rect(i % kWidth, 0, kWidth, kHeight / 4))
+        .copyTo(image.rowRange(kHeight * 3 / 4, kHeight));
+    const std::string name = "frames/" + std::to_string(i) + ".png";
+    cv::imwrite((folder / name).string(), image);
+    csv << kStart + i * kPeriod << "," << name << "\n";
+  }
+  csv.close();
+  const std::string script = std::string(LOOKBOTH_SHARE_DIR) + "/../../scripts/frames_to_video.py";
+  const std::string command =
+      "python3 '" + script + "' '" + folder.string() + "' --timing container --crf 36 --keyint 20";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  VideoDecoder every(folder / "video.mp4");
+  std::vector<cv::Mat> frames;
+  for (int i = 0; i < 60; ++i) frames.push_back(every.frame(i, false));
+  VideoDecoder previewing(folder / "video.mp4");
+  const std::vector<std::int64_t> keys = previewing.keyFrames();
+  ASSERT_GE(keys.size(), 3u);
+  double differs = 0;
+  for (const std::int64_t k : keys) {
+    const auto at = static_cast<std::size_t>(k);
+    const cv::Mat preview = previewing.keyFramePreview(k);
+    ASSERT_FALSE(preview.empty()) << k;
+    EXPECT_EQ(readBarCode(preview), k);
+    EXPECT_LT(cv::norm(preview, frames[at], cv::NORM_L1) / static_cast<double>(preview.total()),
+              3.0)
+        << k;
+    differs += cv::norm(preview, frames[at], cv::NORM_INF);
+    // The frames after it, then the frame itself, exact.
+    for (const std::size_t i : {at + 1, at + 2, at + 3, at}) {
+      const cv::Mat exact = previewing.frame(static_cast<std::int64_t>(i), false);
+      ASSERT_FALSE(exact.empty()) << i;
+      EXPECT_EQ(cv::norm(exact, frames[i], cv::NORM_INF), 0.0)
+          << "frame " << i << " after key " << k;
+    }
+  }
+  EXPECT_GT(differs, 0.0);  // the loop filter was skipped
+  // A frame that is not a key frame comes exact.
+  EXPECT_EQ(cv::norm(previewing.keyFramePreview(keys[1] + 3),
+                     frames[static_cast<std::size_t>(keys[1] + 3)], cv::NORM_INF),
+            0.0);
+}
+
 TEST(Video, AClipCutWithoutReencodingStartsAtItsFirstShownFrame) {
   // Cut at 0.5 s without re-encoding: the container keeps the key frame
   // before the cut and an edit list that hides the frames before 0.5 s.

@@ -223,10 +223,7 @@ class JobFrames {
 
   /// Frame i's pixels; empty when it is skipped.
   cv::Mat grey(size_t i) {
-    if (i >= passed_) {
-      done_ += static_cast<std::int64_t>(i + 1 - passed_);
-      passed_ = i + 1;
-    }
+    pass(i);
     for (const auto& [index, image] : kept_) {
       if (index == i) return image;
     }
@@ -250,7 +247,37 @@ class JobFrames {
     return kept_.back().second;
   }
 
+  /// Frame i as a preview when it is one of the key frames decoded alone
+  /// (FrameDecoder::decodePreview: not its exact pixels, not kept), else as
+  /// grey(i) (`exact`). Enough to tell whether the view changed or shows the marker.
+  cv::Mat preview(size_t i, bool& exact) {
+    exact = true;
+    if (keys_.empty() || !isVideoFrame(work_.frames[i]) ||
+        !std::binary_search(keys_.begin(), keys_.end(), i))
+      return grey(i);
+    pass(i);
+    for (const auto& [index, image] : kept_) {
+      if (index == i) return image;
+    }
+    const Camera* camera = work_.sensor->camera ? &*work_.sensor->camera : nullptr;
+    cv::Mat image = decoder_.decodePreview(work_.frames[i]);
+    if (image.empty() || !sizeMismatch(work_.frames[i], camera, image.cols, image.rows).empty())
+      return grey(i);  // skipped there, with its reason
+    if (i != next_) kept_.clear();
+    next_ = i + 1;
+    exact = false;
+    return image;
+  }
+
  private:
+  /// Frames up to i count as passed.
+  void pass(size_t i) {
+    if (i >= passed_) {
+      done_ += static_cast<std::int64_t>(i + 1 - passed_);
+      passed_ = i + 1;
+    }
+  }
+
   cv::Mat decodeChecked(size_t i) {
     const ImageFrame& frame = work_.frames[i];
     const Camera* camera = work_.sensor->camera ? &*work_.sensor->camera : nullptr;
@@ -432,7 +459,10 @@ JobResult runMarkerJob(const CameraWork& work, const Job& job, const DetectConfi
         // The track (where to look first) holds from one frame to the next only.
         if (!last || (i != *last + 1 && i + 1 != *last)) detector.resetTrack();
         last = i;
-        const cv::Mat grey = frames.grey(i);
+        // A coarse key frame is first seen as a preview; the markers kept
+        // are those of its exact pixels.
+        bool exact = true;
+        const cv::Mat grey = coarse ? frames.preview(i, exact) : frames.grey(i);
         if (grey.empty() || !coarse) view.forget();
         if (grey.empty()) {
           detector.resetTrack();
@@ -444,7 +474,13 @@ JobResult runMarkerJob(const CameraWork& work, const Job& job, const DetectConfi
         }
         found[i] = detector.detect(grey);
         if (coarse && found[i].empty()) view.keep();
-        return !found[i].empty();
+        if (found[i].empty()) return false;
+        if (!exact) {
+          detector.resetTrack();
+          const cv::Mat pixels = frames.grey(i);
+          found[i] = pixels.empty() ? std::vector<MarkerDetection>{} : detector.detect(pixels);
+        }
+        return true;
       },
       stop);
   result.examined = static_cast<std::int64_t>(search.examined());

@@ -40,6 +40,10 @@ class FrameDecoder {
   /// cannot be opened at all.
   cv::Mat decode(const ImageFrame& frame, FrameColour colour);
 
+  /// A key frame of a video as a grey preview (VideoDecoder::keyFramePreview:
+  /// without the loop filter, not the frame's exact pixels); any other frame
+  /// as decode(frame, kGrey).
+  cv::Mat decodePreview(const ImageFrame& frame);
   /// The frame's size without decoding it: from an image's header or a
   /// video's container; nullopt when the format does not tell (decode it then).
   std::optional<ImageSize> size(const ImageFrame& frame);

