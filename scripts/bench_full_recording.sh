@@ -9,7 +9,8 @@
 #     (the default), from PNG files and from H.264 videos (libx264, crf 23,
 #     a key frame a second: the coarse frames are the key frames; and
 #     without that, coarse_key_frames_max_s: 0), and the coarse search with
-#     every coarse frame searched (coarse_change_grey: 0, no SceneChange);
+#     every coarse frame searched, exactly (coarse_change_grey: 0, no
+#     SceneChange; coarse_key_frame_previews: false);
 #     recall of the coarse search against every frame, per format;
 #   - the decoding peers: `ffmpeg -threads 1 -f null` of the same PNG files
 #     and videos (decoding alone, the floor of anything that reads every frame);
@@ -49,7 +50,8 @@ fi
 printf 'detect:\n  markers:\n    coarse_period_s: 0\n' >"$work/every.yaml"
 printf 'detect:\n  markers:\n    coarse_period_s: 0.2\n' >"$work/coarse.yaml"
 printf 'detect:\n  markers:\n    coarse_key_frames_max_s: 0\n' >"$work/no_keys.yaml"
-printf 'detect:\n  markers:\n    coarse_change_grey: 0\n' >"$work/searched.yaml"
+printf 'detect:\n  markers:\n    coarse_change_grey: 0\n    coarse_key_frame_previews: false\n' \
+  >"$work/searched.yaml"
 
 wait_for_quiet_machine
 
@@ -126,4 +128,5 @@ done
 for format in png_coarse png_searched video_coarse video_searched video_no_keys; do
   python3 "$here/coarse_recall.py" "$work/det_${format%%_*}_every" "$work/det_$format" "$format"
 done
-grep "examined" "$work/out_png_coarse.txt" "$work/out_video_coarse.txt" || true
+grep "examined" "$work/out_png_coarse.txt" "$work/out_video_coarse.txt" \
+  "$work/out_png_searched.txt" "$work/out_video_searched.txt" || true

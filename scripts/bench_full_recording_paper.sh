@@ -13,10 +13,14 @@
 #     the markers each finds (the coarse search's recall against every frame);
 #   - the peer: `ffmpeg -threads 1 -f null` decoding every frame of the 43
 #     videos, two at a time (2 cores), the floor of anything reading every frame;
-#   - the cost of a key frame alone (decoded and searched) beside ffmpeg
-#     decoding the same key frames;
-#   - the same `register` and `detect` with every coarse frame searched
-#     (coarse_change_grey: 0, no SceneChange), the peer of that test;
+#   - the cost of the key frames of five cameras the robot does not pass
+#     (decoded as previews, compared, searched when the view changed; and
+#     every one searched exactly) beside ffmpeg decoding the same key frames
+#     (with and without the loop filter);
+#   - `register` (fisheye JPEG) and `detect` with every coarse frame
+#     searched, exactly (coarse_change_grey: 0, no SceneChange;
+#     coarse_key_frame_previews: false): the peers of the default's skipping
+#     of unchanged views and its key-frame previews;
 #   - the registration's accuracy (`lookboth evaluate`);
 #   - the same `register` with the fisheye's frames as JPEG (a copy of the
 #     site, its PNG frames re-encoded by `ffmpeg -q:v 3`, the cameras' videos
@@ -44,7 +48,8 @@ if [[ ! -d $work/site ]]; then
     --threads 2 --out "$work/site" >"$work/simulate.txt"
 fi
 printf 'detect:\n  markers:\n    coarse_period_s: 0\n' >"$work/every.yaml"
-printf 'detect:\n  markers:\n    coarse_change_grey: 0\n' >"$work/searched.yaml"
+printf 'detect:\n  markers:\n    coarse_change_grey: 0\n    coarse_key_frame_previews: false\n' \
+  >"$work/searched.yaml"
 mapfile -t videos < <(ls "$work"/site/cameras/*/video.mp4)
 
 # The fisheye as JPEG: made once beside the site (again when the site is
@@ -90,6 +95,9 @@ run keys_detect_searched taskset -c 0 "$lookboth" detect "$work/site" \
   --config "$work/searched.yaml" --out "$work/det_keys_searched"
 run keys_ffmpeg taskset -c 0 bash -c 'for v in "$@"; do
   ffmpeg -v error -threads 1 -skip_frame nokey -i "$v" -f null -; done' _ "${key_videos[@]}"
+run keys_ffmpeg_unfiltered taskset -c 0 bash -c 'for v in "$@"; do
+  ffmpeg -v error -threads 1 -skip_loop_filter all -skip_frame nokey -i "$v" -f null -; done' \
+  _ "${key_videos[@]}"
 
 frames=0
 for v in "$work"/site/cameras/*/video.csv; do frames=$((frames + $(tail -n +2 "$v" | grep -c .))); done
@@ -106,8 +114,9 @@ done
 examined=$(grep -o "([0-9]* examined" "$work/out_keys_detect.txt" | grep -o "[0-9]*" | paste -sd+ | bc)
 echo "keys_detect: $(cat "$work/t_keys_detect") ms for the $examined frames examined, one core" \
   "($(cat "$work/t_keys_detect_searched") ms with every one searched);" \
-  "keys_ffmpeg: $(cat "$work/t_keys_ffmpeg") ms to decode the key frames alone"
-grep -h "examined" "$work/out_keys_detect.txt" | head -5
+  "keys_ffmpeg: $(cat "$work/t_keys_ffmpeg") ms to decode the key frames alone" \
+  "($(cat "$work/t_keys_ffmpeg_unfiltered") ms without the loop filter)"
+grep -h "examined" "$work/out_keys_detect.txt" | head -5 || true
 grep -h "run time" "$work/out_register.txt" "$work/out_register_jpeg.txt" \
   "$work/out_register_jpeg_searched.txt" || true
 python3 "$here/coarse_recall.py" "$work/det_every" "$work/det_coarse" recall

@@ -162,7 +162,8 @@ int runDetect(const DetectArgs& args) {
       if (!c.fisheye && c.examined < c.frames) {
         std::cout << " (" << c.examined << " examined"
                   << (c.coarse_key_frames ? ", coarsely at its key frames" : "");
-        if (c.unchanged) std::cout << ", " << c.unchanged << " of them unchanged, not searched";
+        if (c.unchanged) std::cout << "; " << c.unchanged << " unchanged, not searched";
+        if (c.previews) std::cout << "; " << c.previews << " key frames searched as previews";
         std::cout << ")";
       }
       if (c.fisheye) {

@@ -394,18 +394,17 @@ cv::Mat VideoDecoder::keyFramePreview(std::int64_t index) {
   if (!std::binary_search(d.key_frames.begin(), d.key_frames.end(), index))
     return frame(index, false);
   if (index == d.last_index && !d.last_colour) return d.last_image.clone();
+  // Whatever happens, the filter is back on after the preview and the
+  // decoder's references are taken as unfiltered.
+  struct Restore {
+    Impl& d;
+    ~Restore() {
+      if (d.codec) d.codec->skip_loop_filter = AVDISCARD_DEFAULT;
+      d.unfiltered_references = true;
+    }
+  } restore{d};
   d.codec->skip_loop_filter = AVDISCARD_ALL;
-  cv::Mat image;
-  try {
-    image = frame(index, false);
-  } catch (...) {
-    d.codec->skip_loop_filter = AVDISCARD_DEFAULT;
-    d.unfiltered_references = true;
-    throw;
-  }
-  d.codec->skip_loop_filter = AVDISCARD_DEFAULT;
-  d.unfiltered_references = true;
-  return image;
+  return frame(index, false);
 }
 
 cv::Mat VideoDecoder::frame(std::int64_t index, bool colour) {

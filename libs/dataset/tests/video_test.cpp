@@ -415,8 +415,13 @@ TEST(Video, AKeyFramesPreviewIsCloseAndTheFramesAfterItAreExact) {
               3.0)
         << k;
     differs += cv::norm(preview, frames[at], cv::NORM_INF);
-    // The frames after it, then the frame itself, exact.
-    for (const std::size_t i : {at + 1, at + 2, at + 3, at}) {
+    // The frames after it, then the frame itself, exact; on every other
+    // key frame the frame itself first (not the preview kept for a repeat).
+    const std::vector<std::size_t> order = k % 2 == 0
+                                               ? std::vector<std::size_t>{at, at + 1, at + 2}
+                                               : std::vector<std::size_t>{at + 1, at + 2, at};
+    for (const std::size_t i : order) {
+      if (i >= frames.size()) continue;
       const cv::Mat exact = previewing.frame(static_cast<std::int64_t>(i), false);
       ASSERT_FALSE(exact.empty()) << i;
       EXPECT_EQ(cv::norm(exact, frames[i], cv::NORM_INF), 0.0)
@@ -425,8 +430,11 @@ TEST(Video, AKeyFramesPreviewIsCloseAndTheFramesAfterItAreExact) {
   }
   EXPECT_GT(differs, 0.0);  // the loop filter was skipped
   // A frame that is not a key frame comes exact.
-  EXPECT_EQ(cv::norm(previewing.keyFramePreview(keys[1] + 3),
-                     frames[static_cast<std::size_t>(keys[1] + 3)], cv::NORM_INF),
+  std::int64_t other = keys[1] + 1;
+  while (std::binary_search(keys.begin(), keys.end(), other)) ++other;
+  ASSERT_LT(other, 60);
+  EXPECT_EQ(cv::norm(previewing.keyFramePreview(other), frames[static_cast<std::size_t>(other)],
+                     cv::NORM_INF),
             0.0);
 }
 

@@ -49,6 +49,8 @@ static void fields(MarkerDetectorOptions& o, OptionFields& f) {
   f.number("coarse_period_s", o.coarse_period_s);
   f.number("coarse_key_frames_max_s", o.coarse_key_frames_max_s);
   f.number("coarse_change_grey", o.coarse_change_grey);
+  f.number("coarse_change_max_s", o.coarse_change_max_s);
+  f.flag("coarse_key_frame_previews", o.coarse_key_frame_previews);
   f.numbersByLabel("fixed_marker_sizes_m", o.fixed_marker_sizes_m, "id: side [m]");
   f.integer("fixed_marker_frames", o.fixed_marker_frames);
 }
@@ -169,8 +171,10 @@ struct JobResult {
   std::vector<Record> records;
   std::int64_t skipped = 0, blobs = 0, ambiguous = 0, unresolved = 0, rejected = 0;
   std::int64_t examined = 0;
-  std::int64_t unchanged = 0;      ///< Of `examined`, coarse frames not searched (SceneChange).
-  std::int64_t fixed_markers = 0;  ///< Of `records`, the fixed markers' observations.
+  std::int64_t unchanged = 0;        ///< Of `examined`, coarse frames not searched (SceneChange).
+  std::int64_t previews = 0;         ///< Coarse key frames searched as previews ...
+  std::int64_t previews_redone = 0;  ///< ... and again exactly (a candidate seen).
+  std::int64_t fixed_markers = 0;    ///< Of `records`, the fixed markers' observations.
   bool coarse_key_frames = false;
   MarkerDetectorStats candidates;
   BlobDetectorStats blob_candidates;
@@ -208,12 +212,14 @@ std::string sizeMismatch(const ImageFrame& frame, const Camera* camera, int widt
 class JobFrames {
  public:
   JobFrames(const CameraWork& work, const Job& job, JobResult& result,
-            std::atomic<std::int64_t>& done, size_t keep, std::vector<size_t> keys = {})
+            std::atomic<std::int64_t>& done, size_t keep, std::vector<size_t> keys = {},
+            bool previews = false)
       : work_(work),
         result_(result),
         done_(done),
         keep_(keep),
         eager_(keys.empty()),
+        previews_(previews),
         keys_(std::move(keys)),
         end_(job.end),
         passed_(job.begin) {}
@@ -224,9 +230,7 @@ class JobFrames {
   /// Frame i's pixels; empty when it is skipped.
   cv::Mat grey(size_t i) {
     pass(i);
-    for (const auto& [index, image] : kept_) {
-      if (index == i) return image;
-    }
+    if (const cv::Mat* image = findKept(i)) return *image;
     if (!isVideoFrame(work_.frames[i]) || keep_ == 0) return decodeChecked(i);
     const size_t window = i + 1 > keep_ ? i + 1 - keep_ : 0;
     size_t from = i;  // a jump ahead: that frame alone
@@ -252,17 +256,16 @@ class JobFrames {
   /// grey(i) (`exact`). Enough to tell whether the view changed or shows the marker.
   cv::Mat preview(size_t i, bool& exact) {
     exact = true;
-    if (keys_.empty() || !isVideoFrame(work_.frames[i]) ||
+    if (!previews_ || keys_.empty() || !isVideoFrame(work_.frames[i]) ||
         !std::binary_search(keys_.begin(), keys_.end(), i))
       return grey(i);
     pass(i);
-    for (const auto& [index, image] : kept_) {
-      if (index == i) return image;
-    }
-    const Camera* camera = work_.sensor->camera ? &*work_.sensor->camera : nullptr;
-    cv::Mat image = decoder_.decodePreview(work_.frames[i]);
-    if (image.empty() || !sizeMismatch(work_.frames[i], camera, image.cols, image.rows).empty())
+    if (const cv::Mat* image = findKept(i)) return *image;
+    const std::optional<ImageSize> size = decoder_.size(work_.frames[i]);
+    if (!size || !sizeMismatch(work_.frames[i], camera(), size->width, size->height).empty())
       return grey(i);  // skipped there, with its reason
+    cv::Mat image = decoder_.decodePreview(work_.frames[i]);
+    if (image.empty()) return grey(i);
     if (i != next_) kept_.clear();
     next_ = i + 1;
     exact = false;
@@ -278,9 +281,18 @@ class JobFrames {
     }
   }
 
+  const Camera* camera() const { return work_.sensor->camera ? &*work_.sensor->camera : nullptr; }
+
+  const cv::Mat* findKept(size_t i) const {
+    for (const auto& [index, image] : kept_) {
+      if (index == i) return &image;
+    }
+    return nullptr;
+  }
+
   cv::Mat decodeChecked(size_t i) {
     const ImageFrame& frame = work_.frames[i];
-    const Camera* camera = work_.sensor->camera ? &*work_.sensor->camera : nullptr;
+    const Camera* camera = this->camera();
     // A frame of the wrong size would give detections at pixels the camera
     // does not have; a huge one would be decoded into gigabytes first.
     if (const std::optional<ImageSize> size = decoder_.size(frame)) {
@@ -308,6 +320,7 @@ class JobFrames {
   std::atomic<std::int64_t>& done_;
   size_t keep_;
   bool eager_;
+  bool previews_;
   std::vector<size_t> keys_;
   std::set<size_t> skipped_;
   size_t end_;
@@ -430,9 +443,100 @@ void detectFixedMarkers(const CameraWork& work, const DetectConfig& config, cons
   }
 }
 
+/// Examines a camera's frames for the marker, one at a time as PassSearch
+/// asks. A coarse frame is first compared with the last coarse frame searched
+/// and found without a candidate (SceneChange) and, a video's key frame, seen
+/// as a preview (decoded without the loop filter); the markers kept are
+/// always those of the exact frame, decoded when the preview shows a candidate.
+class MarkerExaminer {
+ public:
+  MarkerExaminer(MarkerDetector& detector, JobFrames& frames, const std::vector<TimeNs>& times,
+                 const MarkerDetectorOptions& options, size_t step, JobResult& result)
+      : detector_(detector),
+        frames_(frames),
+        times_(times),
+        view_(step > 1 ? options.coarse_change_grey : 0.0),
+        max_unchanged_ns_(static_cast<TimeNs>(std::llround(options.coarse_change_max_s * 1e9))),
+        result_(result),
+        found_(times.size()) {}
+
+  /// PassSearch's examine(i, coarse): whether frame i shows the marker.
+  bool operator()(size_t i, bool coarse) {
+    // The track (where to look first) holds from one frame to the next only.
+    if (!last_ || (i != *last_ + 1 && i + 1 != *last_)) detector_.resetTrack();
+    last_ = i;
+    if (!coarse) {
+      view_.forget();
+      const cv::Mat grey = frames_.grey(i);
+      if (grey.empty()) return lost();
+      found_[i] = detector_.detect(grey);
+      return !found_[i].empty();
+    }
+    bool exact = true;
+    const cv::Mat grey = frames_.preview(i, exact);
+    if (grey.empty()) {
+      view_.forget();
+      return lost();
+    }
+    return examineCoarse(i, grey, exact);
+  }
+
+  /// The markers found in each frame, taken.
+  std::vector<std::vector<MarkerDetection>> takeFound() { return std::move(found_); }
+
+ private:
+  bool lost() {
+    detector_.resetTrack();
+    return false;
+  }
+
+  /// A coarse frame: not searched while the view is unchanged (for at most
+  /// coarse_change_max_s after the frame compared with); else searched on
+  /// its preview, and on its exact pixels when the preview shows a candidate.
+  bool examineCoarse(size_t i, const cv::Mat& grey, bool exact) {
+    const bool changed = view_.changed(grey);
+    if (!changed && times_[i] - reference_t_ <= max_unchanged_ns_) {
+      ++result_.unchanged;
+      return false;
+    }
+    const MarkerDetectorStats before = detector_.stats();
+    found_[i] = detector_.detect(grey);
+    const bool candidate = detector_.stats().candidates > before.candidates;
+    result_.previews += exact ? 0 : 1;
+    if (!exact && candidate) {
+      // The preview's search counts once: the exact frame's is the one kept.
+      detector_.setStats(before);
+      detector_.resetTrack();
+      ++result_.previews_redone;
+      const cv::Mat pixels = frames_.grey(i);
+      if (pixels.empty()) return lost();
+      found_[i] = detector_.detect(pixels);
+    }
+    // Only a view without a square of the marker's id is compared with: a
+    // marker barely seen is searched for again in the frames after it.
+    if (candidate) {
+      view_.forget();
+    } else {
+      view_.keep();
+      reference_t_ = times_[i];
+    }
+    return !found_[i].empty();
+  }
+
+  MarkerDetector& detector_;
+  JobFrames& frames_;
+  const std::vector<TimeNs>& times_;
+  SceneChange view_;
+  TimeNs max_unchanged_ns_;
+  TimeNs reference_t_ = 0;
+  JobResult& result_;
+  std::vector<std::vector<MarkerDetection>> found_;
+  std::optional<size_t> last_;
+};
+
 /// One environment camera's frames searched for the marker (PassSearch: one
-/// frame in `coarse_period_s`, every frame around the passes), then its
-/// track: outliers rejected, the pose ambiguity resolved.
+/// frame in `coarse_period_s`, every frame around the passes; MarkerExaminer),
+/// then its track: outliers rejected, the pose ambiguity resolved.
 JobResult runMarkerJob(const CameraWork& work, const Job& job, const DetectConfig& config,
                        const MarkerSpec& marker, std::atomic<std::int64_t>& done,
                        const std::atomic<bool>& stop) {
@@ -447,42 +551,13 @@ JobResult runMarkerJob(const CameraWork& work, const Job& job, const DetectConfi
       keyFrameCoarse(work, times, step, config.markers.coarse_key_frames_max_s);
   const size_t interval = keys.size() > 1 ? (keys.back() - keys.front()) / (keys.size() - 1) : 0;
   const size_t keep = step <= 1 ? 1 : std::min<size_t>(64, std::max(2 * step + 1, interval + step));
-  JobFrames frames(work, job, result, done, keep, keys);
-  std::vector<std::vector<MarkerDetection>> found(work.frames.size());
-  std::optional<size_t> last;
+  JobFrames frames(work, job, result, done, keep, keys, config.markers.coarse_key_frame_previews);
   PassSearch search = keys.empty() ? PassSearch(work.frames.size(), step)
                                    : PassSearch(work.frames.size(), step, keys);
   result.coarse_key_frames = !keys.empty();
-  SceneChange view(step > 1 ? config.markers.coarse_change_grey : 0.0);
-  search.run(
-      [&](size_t i, bool coarse) {
-        // The track (where to look first) holds from one frame to the next only.
-        if (!last || (i != *last + 1 && i + 1 != *last)) detector.resetTrack();
-        last = i;
-        // A coarse key frame is first seen as a preview; the markers kept
-        // are those of its exact pixels.
-        bool exact = true;
-        const cv::Mat grey = coarse ? frames.preview(i, exact) : frames.grey(i);
-        if (grey.empty() || !coarse) view.forget();
-        if (grey.empty()) {
-          detector.resetTrack();
-          return false;
-        }
-        if (coarse && !view.changed(grey)) {
-          ++result.unchanged;
-          return false;
-        }
-        found[i] = detector.detect(grey);
-        if (coarse && found[i].empty()) view.keep();
-        if (found[i].empty()) return false;
-        if (!exact) {
-          detector.resetTrack();
-          const cv::Mat pixels = frames.grey(i);
-          found[i] = pixels.empty() ? std::vector<MarkerDetection>{} : detector.detect(pixels);
-        }
-        return true;
-      },
-      stop);
+  MarkerExaminer examiner(detector, frames, times, config.markers, step, result);
+  search.run([&](size_t i, bool coarse) { return examiner(i, coarse); }, stop);
+  std::vector<std::vector<MarkerDetection>> found = examiner.takeFound();
   result.examined = static_cast<std::int64_t>(search.examined());
   std::vector<std::pair<TimeNs, MarkerDetection>> detections;
   for (size_t i = 0; i < found.size(); ++i) {
@@ -673,6 +748,8 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
     s.rejected += r.rejected;
     s.examined += r.examined;
     s.unchanged += r.unchanged;
+    s.previews += r.previews;
+    s.previews_redone += r.previews_redone;
     s.coarse_key_frames = s.coarse_key_frames || r.coarse_key_frames;
     addStats(s.marker_candidates, r.candidates);
     s.blob_candidates.add(r.blob_candidates);

@@ -175,8 +175,10 @@ std::string MarkerDetectorOptions::check() const {
     return "'coarse_period_s': must be between 0 (every frame) and 60 s";
   if (!(coarse_key_frames_max_s >= 0) || coarse_key_frames_max_s > 60)
     return "'coarse_key_frames_max_s': must be between 0 (never) and 60 s";
-  if (!(coarse_change_grey >= 0) || coarse_change_grey > 255)
-    return "'coarse_change_grey': must be between 0 (search every coarse frame) and 255";
+  if (!(coarse_change_grey >= 0) || coarse_change_grey > 100)
+    return "'coarse_change_grey': must be between 0 (search every coarse frame) and 100";
+  if (!(coarse_change_max_s >= 0) || coarse_change_max_s > 3600)
+    return "'coarse_change_max_s': must be between 0 and 3600 s";
   std::set<int> fixed_ids;
   for (const auto& [id, size] : fixed_marker_sizes_m) {
     const std::optional<int> number = parseFixedMarkerId(id);

@@ -74,16 +74,20 @@ SceneChange::SceneChange(double threshold_grey, int reduction)
 
 bool SceneChange::changed(const cv::Mat& grey) {
   candidate_.release();
-  if (!(threshold_ > 0) || grey.empty()) return true;
+  if (!(threshold_ > 0) || grey.empty() || grey.channels() != 1) return true;
   const cv::Size size(std::max(1, grey.cols / reduction_), std::max(1, grey.rows / reduction_));
   cv::Mat reduced;
   cv::resize(grey, reduced, size, 0, 0, cv::INTER_AREA);
   reduced.convertTo(candidate_, CV_32F);
   if (reference_.empty() || reference_.size() != candidate_.size()) return true;
+  // Far darker or brighter (the means' ratio): a marker's contrast may have
+  // shrunk with the light; searched.
+  const double mean_now = cv::mean(candidate_)[0], mean_before = cv::mean(reference_)[0];
+  if (!(mean_now > kMinGain * mean_before && mean_before > kMinGain * mean_now)) return true;
   // The exposure (gain and offset) fitted by least squares: an automatic
   // exposure changes every pixel alike, the robot a part of the view.
-  const cv::Mat now = candidate_ - cv::mean(candidate_)[0];
-  const cv::Mat before = reference_ - cv::mean(reference_)[0];
+  const cv::Mat now = candidate_ - mean_now;
+  const cv::Mat before = reference_ - mean_before;
   const double spread = before.dot(before);
   const double gain = spread > 0 ? now.dot(before) / spread : 1.0;
   return cv::norm(now - gain * before, cv::NORM_INF) > threshold_;

@@ -280,7 +280,7 @@ TEST_F(DetectDatasetTest, WritesInPlaceReplacesOnRerunAndSkipsCorruptImages) {
 /// `coarse_period_s` is 0), by (camera, time), and the frames it examined.
 struct Searched {
   std::map<std::pair<std::string, TimeNs>, Eigen::Vector3d> markers;
-  std::int64_t frames = 0, examined = 0, unchanged = 0;
+  std::int64_t frames = 0, examined = 0, unchanged = 0, previews = 0;
   bool key_frames = false;
 };
 Searched searchMarkers(const fs::path& dataset, double coarse_period_s) {
@@ -299,6 +299,7 @@ Searched searchMarkers(const fs::path& dataset, double coarse_period_s) {
     searched.frames += c.frames;
     searched.examined += c.examined;
     searched.unchanged += c.unchanged;
+    searched.previews += c.previews;
     searched.key_frames = searched.key_frames || c.coarse_key_frames;
   }
   return searched;
@@ -307,11 +308,11 @@ Searched searchMarkers(const fs::path& dataset, double coarse_period_s) {
 /// Every marker that examining every frame finds is in `coarse` too, at the same pose.
 void expectSameMarkers(const Searched& every, const Searched& coarse, const std::string& what) {
   std::printf(
-      "%s: %zu markers examining every frame, %zu examining %lld of %lld (%lld of them "
-      "unchanged, not searched)\n",
+      "%s: %zu markers examining every frame, %zu examining %lld of %lld (%lld unchanged, "
+      "not searched; %lld previews)\n",
       what.c_str(), every.markers.size(), coarse.markers.size(),
       static_cast<long long>(coarse.examined), static_cast<long long>(coarse.frames),
-      static_cast<long long>(coarse.unchanged));
+      static_cast<long long>(coarse.unchanged), static_cast<long long>(coarse.previews));
   EXPECT_GT(every.markers.size(), 40u) << what;
   EXPECT_EQ(coarse.markers.size(), every.markers.size()) << what;
   for (const auto& [key, position] : every.markers) {
@@ -324,6 +325,8 @@ void expectSameMarkers(const Searched& every, const Searched& coarse, const std:
   EXPECT_LT(coarse.examined, coarse.frames / 2) << what;
   EXPECT_GT(coarse.unchanged, 0) << what;
   EXPECT_EQ(every.unchanged, 0) << what;
+  // A video's coarse key frames are searched as previews first.
+  EXPECT_EQ(coarse.previews > 0, coarse.key_frames) << what;
 }
 
 /// Every marker that examining every frame finds, the coarse search finds

@@ -162,8 +162,8 @@ TEST(PassSearch, SaysWhichFramesAreLookedAtAsCoarseFrames) {
 /// A fixed camera's view: a textured floor and its sensor noise.
 cv::Mat floorView(std::mt19937& rng, const cv::Mat& floor, double noise_sigma) {
   cv::Mat noise(floor.size(), CV_32F);
-  cv::randn(noise, 0.0, noise_sigma);
   cv::theRNG().state = rng();
+  cv::randn(noise, 0.0, noise_sigma);
   cv::Mat view;
   floor.convertTo(view, CV_32F);
   view += noise;
@@ -193,7 +193,7 @@ TEST(SceneChange, QuietViewsAreUnchangedAndTheSmallestMarkerChangesThem) {
     EXPECT_TRUE(view.changed(with)) << k;
   }
   // The exposure (gain and offset, up to +-10 % a frame) changes nothing.
-  std::uniform_real_distribution<double> gain(0.9, 1.1), offset(-10, 10);
+  std::uniform_real_distribution<double> gain(0.9, 1.1), offset(-5, 5);
   for (int k = 0; k < 20; ++k) {
     cv::Mat exposed;
     floor.convertTo(exposed, CV_8U, gain(rng), offset(rng));
@@ -209,6 +209,14 @@ TEST(SceneChange, QuietViewsAreUnchangedAndTheSmallestMarkerChangesThem) {
   }
   EXPECT_GE(changed_at, 5);
   EXPECT_LE(changed_at, 16);
+  // Far darker (the light dimmed by more than a fifth): searched.
+  cv::Mat dimmed;
+  floor.convertTo(dimmed, CV_8U, 0.7);
+  EXPECT_TRUE(view.changed(floorView(rng, dimmed, 3.0)));
+  // A colour image is not compared: searched.
+  cv::Mat colour;
+  cv::cvtColor(floor, colour, cv::COLOR_GRAY2BGR);
+  EXPECT_TRUE(view.changed(colour));
   // Forgotten (after a pass): the next view counts as changed.
   view.forget();
   EXPECT_TRUE(view.changed(floorView(rng, floor, 3.0)));

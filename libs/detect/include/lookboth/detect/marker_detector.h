@@ -90,6 +90,14 @@ struct MarkerDetectorOptions {
   /// (detect/pass_search.h, SceneChange). Noise and compression move the
   /// averages by a few levels. 0 = every coarse frame searched [grey levels of 255].
   double coarse_change_grey = 12;
+  /// ... for at most this long after the frame compared with, which is then
+  /// searched again: a marker at the edge of detection, still, gets a new
+  /// chance with new noise [s].
+  double coarse_change_max_s = 5.0;
+  /// A video's coarse key frames are first decoded as previews, without the
+  /// codec's loop filter (about 15 % faster), and exactly only when the
+  /// preview shows a candidate of the marker; false = always exactly.
+  bool coarse_key_frame_previews = true;
   /// Markers fixed in the facility (printed on the floor; the robot
   /// marker's dictionary, other ids): their sides [m] by id ("20": 0.3).
   /// Each camera looks for them, the whole frame, in `fixed_marker_frames`
@@ -195,6 +203,9 @@ class MarkerDetector {
   const MarkerDetectorOptions& options() const { return options_; }
   /// Counts over every frame detect() saw.
   const MarkerDetectorStats& stats() const { return stats_; }
+  /// Sets the counts back (a frame searched twice, as a preview and then
+  /// exactly, counts once).
+  void setStats(MarkerDetectorStats stats) { stats_ = std::move(stats); }
 
  private:
   /// OpenCV's corners refined by cv::cornerSubPix at full resolution, and

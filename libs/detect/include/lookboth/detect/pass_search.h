@@ -86,9 +86,9 @@ class SceneChange {
  public:
   /// `threshold_grey` <= 0: every frame counts as changed.
   explicit SceneChange(double threshold_grey, int reduction = 4);
-  /// Whether `grey` (8-bit) differs from the reference by more than the
-  /// threshold somewhere; true without a reference. `grey` becomes the
-  /// candidate for keep().
+  /// Whether `grey` (8-bit, one channel) differs from the reference by more
+  /// than the threshold somewhere, or its exposure by more than 25 %; true
+  /// without a reference. `grey` becomes the candidate for keep().
   bool changed(const cv::Mat& grey);
   /// The frame last given to changed() becomes the reference: it was
   /// searched and shows no marker.
@@ -98,6 +98,8 @@ class SceneChange {
   void forget();
 
  private:
+  /// Exposure gains outside [kMinGain, 1 / kMinGain] count as a change.
+  static constexpr double kMinGain = 0.8;
   double threshold_;
   int reduction_;
   cv::Mat reference_, candidate_;
