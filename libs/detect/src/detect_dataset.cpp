@@ -171,10 +171,9 @@ struct JobResult {
   std::vector<Record> records;
   std::int64_t skipped = 0, blobs = 0, ambiguous = 0, unresolved = 0, rejected = 0;
   std::int64_t examined = 0;
-  std::int64_t unchanged = 0;        ///< Of `examined`, coarse frames not searched (SceneChange).
-  std::int64_t previews = 0;         ///< Coarse key frames searched as previews ...
-  std::int64_t previews_redone = 0;  ///< ... and again exactly (a candidate seen).
-  std::int64_t fixed_markers = 0;    ///< Of `records`, the fixed markers' observations.
+  std::int64_t unchanged = 0;      ///< Of `examined`, coarse frames not searched (SceneChange).
+  std::int64_t previews = 0;       ///< Coarse key frames searched as previews.
+  std::int64_t fixed_markers = 0;  ///< Of `records`, the fixed markers' observations.
   bool coarse_key_frames = false;
   MarkerDetectorStats candidates;
   BlobDetectorStats blob_candidates;
@@ -507,7 +506,6 @@ class MarkerExaminer {
       // The preview's search counts once: the exact frame's is the one kept.
       detector_.setStats(before);
       detector_.resetTrack();
-      ++result_.previews_redone;
       const cv::Mat pixels = frames_.grey(i);
       if (pixels.empty()) return lost();
       found_[i] = detector_.detect(pixels);
@@ -749,7 +747,6 @@ std::vector<Record> runDetection(const DetectOptions& options, const ProgressRep
     s.examined += r.examined;
     s.unchanged += r.unchanged;
     s.previews += r.previews;
-    s.previews_redone += r.previews_redone;
     s.coarse_key_frames = s.coarse_key_frames || r.coarse_key_frames;
     addStats(s.marker_candidates, r.candidates);
     s.blob_candidates.add(r.blob_candidates);

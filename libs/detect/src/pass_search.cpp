@@ -82,19 +82,21 @@ bool SceneChange::changed(const cv::Mat& grey) {
   if (reference_.empty() || reference_.size() != candidate_.size()) return true;
   // Far darker or brighter (the means' ratio): a marker's contrast may have
   // shrunk with the light; searched.
-  const double mean_now = cv::mean(candidate_)[0], mean_before = cv::mean(reference_)[0];
-  if (!(mean_now > kMinGain * mean_before && mean_before > kMinGain * mean_now)) return true;
+  const double mean_now = cv::mean(candidate_)[0];
+  if (!(mean_now > kMinGain * reference_mean_ && reference_mean_ > kMinGain * mean_now))
+    return true;
   // The exposure (gain and offset) fitted by least squares: an automatic
   // exposure changes every pixel alike, the robot a part of the view.
   const cv::Mat now = candidate_ - mean_now;
-  const cv::Mat before = reference_ - mean_before;
-  const double spread = before.dot(before);
-  const double gain = spread > 0 ? now.dot(before) / spread : 1.0;
-  return cv::norm(now - gain * before, cv::NORM_INF) > threshold_;
+  const double gain = reference_spread_ > 0 ? now.dot(reference_) / reference_spread_ : 1.0;
+  return cv::norm(now - gain * reference_, cv::NORM_INF) > threshold_;
 }
 
 void SceneChange::keep() {
-  if (!candidate_.empty()) reference_ = candidate_;
+  if (candidate_.empty()) return;
+  reference_mean_ = cv::mean(candidate_)[0];
+  reference_ = candidate_ - reference_mean_;
+  reference_spread_ = reference_.dot(reference_);
 }
 
 void SceneChange::forget() { reference_.release(); }

@@ -78,9 +78,8 @@ struct CameraDetectSummary {
   /// Of `examined`, coarse frames decoded but not searched: the view had not
   /// changed since the last one searched (coarse_change_grey).
   std::int64_t unchanged = 0;
-  /// Coarse key frames searched as previews (coarse_key_frame_previews), and
-  /// of those, searched again exactly (the preview showed a candidate).
-  std::int64_t previews = 0, previews_redone = 0;
+  /// Coarse key frames searched as previews (coarse_key_frame_previews).
+  std::int64_t previews = 0;
   /// The coarse frames were its video's key frames (coarse_key_frames_max_s).
   bool coarse_key_frames = false;
   std::int64_t skipped = 0;     ///< Frames that could not be decoded.

@@ -102,7 +102,11 @@ class SceneChange {
   static constexpr double kMinGain = 0.8;
   double threshold_;
   int reduction_;
+  /// The reference's reduction less its mean, kept with that mean and its
+  /// sum of squares (compared with many frames, computed once); the last
+  /// frame's reduction.
   cv::Mat reference_, candidate_;
+  double reference_mean_ = 0, reference_spread_ = 0;
 };
 
 }  // namespace lookboth
