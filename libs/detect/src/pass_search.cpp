@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -73,23 +74,32 @@ SceneChange::SceneChange(double threshold_grey, int reduction)
     : threshold_(threshold_grey), reduction_(std::max(1, reduction)) {}
 
 bool SceneChange::changed(const cv::Mat& grey) {
+  if (!(threshold_ > 0)) {
+    candidate_.release();
+    return true;
+  }
+  return difference(grey) > threshold_;
+}
+
+double SceneChange::difference(const cv::Mat& grey) {
+  constexpr double kIncomparable = std::numeric_limits<double>::infinity();
   candidate_.release();
-  if (!(threshold_ > 0) || grey.empty() || grey.channels() != 1) return true;
+  if (grey.empty() || grey.channels() != 1) return kIncomparable;
   const cv::Size size(std::max(1, grey.cols / reduction_), std::max(1, grey.rows / reduction_));
   cv::Mat reduced;
   cv::resize(grey, reduced, size, 0, 0, cv::INTER_AREA);
   reduced.convertTo(candidate_, CV_32F);
-  if (reference_.empty() || reference_.size() != candidate_.size()) return true;
+  if (reference_.empty() || reference_.size() != candidate_.size()) return kIncomparable;
   // Far darker or brighter (the means' ratio): a marker's contrast may have
   // shrunk with the light; searched.
   const double mean_now = cv::mean(candidate_)[0];
   if (!(mean_now > kMinGain * reference_mean_ && reference_mean_ > kMinGain * mean_now))
-    return true;
+    return kIncomparable;
   // The exposure (gain and offset) fitted by least squares: an automatic
   // exposure changes every pixel alike, the robot a part of the view.
   const cv::Mat now = candidate_ - mean_now;
   const double gain = reference_spread_ > 0 ? now.dot(reference_) / reference_spread_ : 1.0;
-  return cv::norm(now - gain * reference_, cv::NORM_INF) > threshold_;
+  return cv::norm(now - gain * reference_, cv::NORM_INF);
 }
 
 void SceneChange::keep() {

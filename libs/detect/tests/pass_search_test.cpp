@@ -2,11 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <filesystem>
 #include <optional>
 #include <random>
 #include <utility>
 
 #include <opencv2/aruco.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace lookboth {
@@ -225,6 +228,38 @@ TEST(SceneChange, QuietViewsAreUnchangedAndTheSmallestMarkerChangesThem) {
   always.changed(floor);
   always.keep();
   EXPECT_TRUE(always.changed(floor));
+}
+
+/// A frame of the real fixed camera (tests/data/views/bgslibrary_road/SOURCE.md).
+cv::Mat roadFrame(int n) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "frame_%03d.png", n);
+  const auto path =
+      std::filesystem::path(LOOKBOTH_TEST_DATA_DIR) / "views" / "bgslibrary_road" / name;
+  cv::Mat grey = cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
+  EXPECT_FALSE(grey.empty()) << path;
+  return grey;
+}
+
+TEST(SceneChange, ARealFixedCamerasEmptyViewsAreUnchangedAndAVehicleEnteringChangesThem) {
+  SceneChange view(12);
+  EXPECT_TRUE(view.changed(roadFrame(0)));
+  view.keep();
+  // The road empty 1.9 s and 9.6 s later: the sensor's noise and the codec's.
+  EXPECT_FALSE(view.changed(roadFrame(57)));
+  EXPECT_FALSE(view.changed(roadFrame(288)));
+  // The same view a tenth brighter and darker: the exposure.
+  for (const double gain : {0.9, 1.1}) {
+    cv::Mat exposed;
+    roadFrame(288).convertTo(exposed, CV_8U, gain, 3.0);
+    EXPECT_FALSE(view.changed(exposed)) << gain;
+  }
+  // A vehicle's first frames at the view's left edge, and the last of one at
+  // its right edge.
+  for (const int n : {58, 188, 195}) EXPECT_TRUE(view.changed(roadFrame(n))) << n;
+  // The empty road after a car passed, the camera still moving (0.4 px from
+  // frame 0, by phase correlation): searched, which costs a search, not a pass.
+  EXPECT_TRUE(view.changed(roadFrame(373)));
 }
 
 TEST(PassSearch, StopsWhenAsked) {

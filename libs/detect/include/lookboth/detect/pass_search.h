@@ -90,6 +90,12 @@ class SceneChange {
   /// than the threshold somewhere, or its exposure by more than 25 %; true
   /// without a reference. `grey` becomes the candidate for keep().
   bool changed(const cv::Mat& grey);
+  /// The largest difference of `grey` from the reference [grey levels],
+  /// after the exposure is matched; infinity without a reference, for a
+  /// frame of another size or not grey, or an exposure more than 25 % off
+  /// (what changed() compares with the threshold). `grey` becomes the
+  /// candidate for keep().
+  double difference(const cv::Mat& grey);
   /// The frame last given to changed() becomes the reference: it was
   /// searched and shows no marker.
   void keep();
