@@ -15,7 +15,8 @@
 #   - the decoding peers: `ffmpeg -threads 1 -f null` of the same PNG files
 #     and videos (decoding alone, the floor of anything that reads every frame);
 #   - the whole `register` on 2 cores (detection, odometry, the stages),
-#     overlapped (the default) and --sequential, against the drive's span.
+#     overlapped (the default) and --sequential from the PNG files, and
+#     from the videos, against the drive's span.
 # Usage: LOOKBOTH_BENCH_DIR=/tmp/fr scripts/bench_full_recording.sh  (keeps the
 # rendered recording, about 15 min on 2 cores, for the next run); REPS=3.
 set -euo pipefail
@@ -41,9 +42,11 @@ fi
 cameras=(cam00 cam01 cam02 cam03 cam04 cam05)
 if [[ ! -d $work/video ]]; then
   "$lookboth" convert --from "$work/site" --to "$work/video_tmp" >/dev/null
-  # A key frame a second, as network cameras are usually set up.
+  # A key frame a second, as network cameras are usually set up; crf 23 (the
+  # simulator's own videos' quality) gives about 3 Mbit/s, within the 2-8
+  # Mbit/s network cameras use at 1080p30.
   for c in "${cameras[@]}"; do
-    python3 "$here/frames_to_video.py" "$work/video_tmp/cameras/$c" --keyint 30
+    python3 "$here/frames_to_video.py" "$work/video_tmp/cameras/$c" --keyint 30 --crf 23
   done
   mv "$work/video_tmp" "$work/video"
 fi
@@ -94,6 +97,8 @@ for ((r = 0; r < reps; r++)); do
     --out "$work/reg_overlapped"
   run register_sequential "$lookboth" register "$work/site" --no-write-back --overwrite \
     --out "$work/reg_sequential" --sequential
+  run register_video "$lookboth" register "$work/video" --no-write-back --overwrite \
+    --out "$work/reg_video"
 done
 
 median() { sort -n | sed -n "$(( (reps + 1) / 2 ))p"; }
@@ -118,7 +123,7 @@ for name in ffmpeg_png_empty png_empty ffmpeg_video_empty video_empty; do
   ms=$(median <"$work/t_$name")
   awk -v l="$name" -v ms="$ms" -v f="$empty" 'BEGIN { printf "  %-40s %8.2f\n", l, ms / f }'
 done
-for name in register_overlapped register_sequential; do
+for name in register_overlapped register_sequential register_video; do
   ms=$(median <"$work/t_$name")
   awk -v l="$name (2 cores)" -v ms="$ms" \
     'BEGIN { printf "%-44s %8.2f   %.2fx the drive (10 s)\n", l, ms / 1000, ms / 10000 }'
