@@ -40,15 +40,20 @@ if [[ ! -d $work/site ]]; then
     --out "$work/site" >/dev/null
 fi
 cameras=(cam00 cam01 cam02 cam03 cam04 cam05)
-if [[ ! -d $work/video ]]; then
-  "$lookboth" convert --from "$work/site" --to "$work/video_tmp" >/dev/null
+# The videos' folder is named by their quality: one kept from another run at
+# another quality is not taken for them.
+crf=23
+video="$work/video_crf$crf"
+if [[ ! -d $video ]]; then
+  "$lookboth" convert --from "$work/site" --to "${video}_tmp" >/dev/null
   # A key frame a second, as network cameras are usually set up; crf 23 (the
-  # simulator's own videos' quality) gives about 3 Mbit/s, within the 2-8
-  # Mbit/s network cameras use at 1080p30.
+  # simulator's own videos' quality) gives about 3.1 Mbit/s here, near the 4
+  # Mbit/s a camera vendor's guide recommends for H.264 at 1080p30
+  # (doc/benchmarks.md, "Full recordings").
   for c in "${cameras[@]}"; do
-    python3 "$here/frames_to_video.py" "$work/video_tmp/cameras/$c" --keyint 30 --crf 23
+    python3 "$here/frames_to_video.py" "${video}_tmp/cameras/$c" --keyint 30 --crf "$crf"
   done
-  mv "$work/video_tmp" "$work/video"
+  mv "${video}_tmp" "$video"
 fi
 printf 'detect:\n  markers:\n    coarse_period_s: 0\n' >"$work/every.yaml"
 printf 'detect:\n  markers:\n    coarse_period_s: 0.2\n' >"$work/coarse.yaml"
@@ -67,7 +72,7 @@ detect() {  # detect NAME DATASET CONFIG
 png_dirs=() video_files=()
 for c in "${cameras[@]}"; do
   png_dirs+=("$work/site/cameras/$c/frames")
-  video_files+=("$work/video/cameras/$c/video.mp4")
+  video_files+=("$video/cameras/$c/video.mp4")
 done
 ffmpeg_each='for input in "$@"; do
   case $input in
@@ -84,20 +89,20 @@ for ((r = 0; r < reps; r++)); do
   rm -rf "$work/det_png_empty" "$work/det_video_empty"
   run png_empty taskset -c 0 "$lookboth" detect "$work/site" --cameras cam00 --threads 1 \
     --detections-only --config "$work/every.yaml" --out "$work/det_png_empty"
-  run video_empty taskset -c 0 "$lookboth" detect "$work/video" --cameras cam00 --threads 1 \
+  run video_empty taskset -c 0 "$lookboth" detect "$video" --cameras cam00 --threads 1 \
     --detections-only --config "$work/every.yaml" --out "$work/det_video_empty"
   detect png_every "$work/site" every
   detect png_coarse "$work/site" coarse
-  detect video_every "$work/video" every
-  detect video_coarse "$work/video" coarse
-  detect video_no_keys "$work/video" no_keys
+  detect video_every "$video" every
+  detect video_coarse "$video" coarse
+  detect video_no_keys "$video" no_keys
   detect png_searched "$work/site" searched
-  detect video_searched "$work/video" searched
+  detect video_searched "$video" searched
   run register_overlapped "$lookboth" register "$work/site" --no-write-back --overwrite \
     --out "$work/reg_overlapped"
   run register_sequential "$lookboth" register "$work/site" --no-write-back --overwrite \
     --out "$work/reg_sequential" --sequential
-  run register_video "$lookboth" register "$work/video" --no-write-back --overwrite \
+  run register_video "$lookboth" register "$video" --no-write-back --overwrite \
     --out "$work/reg_video"
 done
 

@@ -89,8 +89,8 @@ struct MarkerDetectorOptions {
   /// come into a fixed camera's view without changing it
   /// (detect/pass_search.h, SceneChange). On a real fixed camera's
   /// recording (tests/data/views/bgslibrary_road) empty views differed by 6
-  /// (median) and 9 (99th percentile), a vehicle coming into view by 27 or
-  /// more. 0 = every coarse frame searched [grey levels of 255].
+  /// (median) and 9 (99th percentile), a vehicle coming into view by 26.9
+  /// or more. 0 = every coarse frame searched [grey levels of 255].
   double coarse_change_grey = 12;
   /// ... for at most this long after the frame compared with, which is then
   /// searched again: a marker at the edge of detection, still, gets a new
