@@ -77,6 +77,7 @@ std::vector<What> readLabels(const std::string& path, std::size_t frames) {
   return what;
 }
 
+/// A command-line number >= 0; throws naming the argument otherwise.
 double number(const char* text, const char* what) {
   std::size_t used = 0;
   double value = std::numeric_limits<double>::quiet_NaN();
@@ -98,7 +99,7 @@ std::vector<double> differencesFromEarlierEmpty(const std::vector<cv::Mat>& grey
   double smallest = std::numeric_limits<double>::infinity();
   for (std::size_t a = 0; a < grey.size(); ++a) {
     if (what[a] != What::kEmpty) continue;
-    SceneChange view(1.0);
+    SceneChange view(1.0);  // difference() does not use the threshold
     view.difference(grey[a]);
     view.keep();
     for (std::size_t b = a + 1; b < grey.size(); ++b) {

@@ -248,7 +248,7 @@ TEST(SceneChange, ARealFixedCamerasEmptyViewsAreUnchangedAndAVehicleEnteringChan
   // The road empty 1.9 s and 9.6 s later: the sensor's noise and the codec's.
   EXPECT_FALSE(view.changed(roadFrame(57)));
   EXPECT_FALSE(view.changed(roadFrame(288)));
-  // The same view a tenth brighter and darker: the exposure.
+  // The same view a tenth darker and brighter, 3 levels up: the exposure.
   for (const double gain : {0.9, 1.1}) {
     cv::Mat exposed;
     roadFrame(288).convertTo(exposed, CV_8U, gain, 3.0);

@@ -96,8 +96,8 @@ class SceneChange {
   /// (what changed() compares with the threshold). `grey` becomes the
   /// candidate for keep().
   double difference(const cv::Mat& grey);
-  /// The frame last given to changed() or difference() becomes the reference: it was
-  /// searched and shows no marker.
+  /// The frame last given to changed() or difference() becomes the
+  /// reference: it was searched and shows no marker.
   void keep();
   /// No reference: the next frame counts as changed (after a pass, a frame
   /// that could not be decoded).
