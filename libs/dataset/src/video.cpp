@@ -175,6 +175,10 @@ struct VideoDecoder::Impl {
   std::int64_t frame_count = 0;
   std::int64_t next_index = 0;  ///< Index of the frame the decoder gives next.
   bool draining = false;        ///< End of file reached: the decoder is being emptied.
+  /// Presentation time of the frame being decoded to; frames before it are
+  /// not wanted (none without timestamps).
+  std::int64_t wanted_pts = AV_NOPTS_VALUE;
+  std::int64_t decoded = 0;  ///< Frames the codec gave out.
   /// The frame returned last (a window repainting asks for it again).
   std::int64_t last_index = -1;
   bool last_colour = false;
@@ -216,7 +220,10 @@ struct VideoDecoder::Impl {
   bool receive() {
     for (;;) {
       int rc = avcodec_receive_frame(codec.get(), frame.get());
-      if (rc == 0) return true;
+      if (rc == 0) {
+        ++decoded;
+        return true;
+      }
       if (rc != AVERROR(EAGAIN) || draining) return false;
       rc = av_read_frame(format.get(), packet.get());
       if (rc < 0) {
@@ -225,9 +232,22 @@ struct VideoDecoder::Impl {
         continue;
       }
       // A damaged packet is not sent on: its frame is missing, the others stay.
-      if (packet->stream_index == stream) avcodec_send_packet(codec.get(), packet.get());
+      if (packet->stream_index == stream) {
+        skipUnwanted();
+        avcodec_send_packet(codec.get(), packet.get());
+      }
       av_packet_unref(packet.get());
     }
+  }
+
+  /// A frame shown before the one wanted, and that no other frame is
+  /// predicted from (a non-reference B-frame), is not decoded at all: it
+  /// would be dropped, and leaving it out changes no other frame's pixels.
+  /// Frames after the one wanted are decoded: they may be asked for next.
+  void skipUnwanted() {
+    const bool unwanted =
+        wanted_pts != AV_NOPTS_VALUE && packet->pts != AV_NOPTS_VALUE && packet->pts < wanted_pts;
+    codec->skip_frame = unwanted ? AVDISCARD_NONREF : AVDISCARD_DEFAULT;
   }
 
   /// The decoded frame's index: the position of its time, else (a stream
@@ -246,8 +266,14 @@ struct VideoDecoder::Impl {
   /// before that); false when it cannot seek and starts the file again instead.
   bool seekBefore(std::int64_t index, std::int64_t back) {
     if (!pts.empty()) {
-      const std::int64_t target = pts[static_cast<size_t>(std::max<std::int64_t>(0, index - back))];
-      if (av_seek_frame(format.get(), stream, target, AVSEEK_FLAG_BACKWARD) >= 0) {
+      const auto at = static_cast<size_t>(std::max<std::int64_t>(0, index - back));
+      // Halfway to the next frame's time, not the frame's own: a demuxer
+      // that seeks on decoding times takes the presentation time less the
+      // streams' reordering shift, and a shift rounded one tick up (MP4 with
+      // B-frames in FFmpeg 5.1) lands before the key frame at exactly that
+      // time, at the one before it: a key interval decoded for nothing.
+      const std::int64_t half = at + 1 < pts.size() ? (pts[at + 1] - pts[at]) / 2 : 0;
+      if (av_seek_frame(format.get(), stream, pts[at] + half, AVSEEK_FLAG_BACKWARD) >= 0) {
         avcodec_flush_buffers(codec.get());
         draining = false;
         next_index = -1;
@@ -273,6 +299,7 @@ struct VideoDecoder::Impl {
   /// (`passed` tells whether the decoder went past it: a seek landed too late).
   bool decodeTo(std::int64_t index, bool& passed) {
     passed = false;
+    wanted_pts = pts.empty() ? AV_NOPTS_VALUE : pts[static_cast<size_t>(index)];
     while (receive()) {
       const std::int64_t at = indexOfDecoded();
       if (at < 0) {  // a time the table lacks just after a seek: position unknown
@@ -387,6 +414,7 @@ bool VideoDecoder::isCurrent() const {
 }
 int VideoDecoder::width() const { return impl_->codec->width; }
 const std::vector<std::int64_t>& VideoDecoder::keyFrames() const { return impl_->key_frames; }
+std::int64_t VideoDecoder::framesDecoded() const { return impl_->decoded; }
 int VideoDecoder::height() const { return impl_->codec->height; }
 
 cv::Mat VideoDecoder::keyFramePreview(std::int64_t index) {

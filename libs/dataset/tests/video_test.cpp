@@ -59,13 +59,14 @@ fs::path scratch(const std::string& name) {
 /// as `timing` says; `extra` goes to the script (--drop, --codec). Returns
 /// the frames' times (all of them, dropped ones too).
 std::vector<TimeNs> makeCameraVideo(const fs::path& folder, int count, const std::string& timing,
-                                    const std::string& extra = "") {
+                                    const std::string& extra = "",
+                                    TimeNs (*offset)(int) = nullptr) {
   fs::create_directories(folder / "frames");
   std::ofstream csv(folder / "frames.csv");
   csv << "timestamp_ns,file\n";
   std::vector<TimeNs> times;
   for (int i = 0; i < count; ++i) {
-    const TimeNs t = kStart + i * kPeriod;
+    const TimeNs t = kStart + (offset ? offset(i) : i * kPeriod);
     times.push_back(t);
     const std::string name = "frames/" + std::to_string(i) + ".png";
     cv::imwrite((folder / name).string(), barCode(i));
@@ -370,6 +371,47 @@ TEST(Video, KeyFramesAreListedAndAJumpToOneDecodesItAlone) {
     EXPECT_EQ(readBarCode(grey), i);
     EXPECT_EQ(cv::norm(grey, frames[static_cast<std::size_t>(i)], cv::NORM_INF), 0.0) << i;
   }
+}
+
+// What a jump costs, at 30 Hz on a microsecond clock (intervals of 33,334,
+// 33,333 and 33,333 us, as the simulator's cameras; B-frames shift decoding
+// times by two frames, 66,667 us, and a key frame's by 66,666): a key frame ahead
+// decodes alone, not from the key frame before it; the frame before the next
+// key frame decodes its references, not the B-frames shown before it that
+// nothing refers to; every frame still comes out exact.
+TEST(Video, AJumpDecodesOnlyWhatTheFrameNeeds) {
+  const fs::path folder = scratch("jump_cost") / "cam";
+  makeCameraVideo(folder, 120, "container", "--keyint 30",
+                  [](int i) -> TimeNs { return (i * 100'000'000LL + 2) / 3 * 1000; });
+  VideoDecoder every(folder / "video.mp4");
+  std::vector<cv::Mat> frames;
+  for (int i = 0; i < 120; ++i) frames.push_back(every.frame(i, false));
+  EXPECT_EQ(every.framesDecoded(), 120);
+  VideoDecoder jumping(folder / "video.mp4");
+  const std::vector<std::int64_t> keys = jumping.keyFrames();
+  // Every 30 frames, and where libx264 sees a scene cut.
+  ASSERT_GE(keys.size(), 4u);
+  ASSERT_LE(keys.back(), 100);
+  for (const std::int64_t key : keys) {
+    const std::int64_t before = jumping.framesDecoded();
+    const cv::Mat grey = jumping.frame(key, false);
+    ASSERT_FALSE(grey.empty()) << key;
+    EXPECT_EQ(cv::norm(grey, frames[static_cast<std::size_t>(key)], cv::NORM_INF), 0.0) << key;
+    EXPECT_EQ(jumping.framesDecoded() - before, 1) << "jump to key frame " << key;
+  }
+  const std::int64_t before = jumping.framesDecoded();
+  const cv::Mat last = jumping.frame(119, false);
+  ASSERT_FALSE(last.empty());
+  EXPECT_EQ(cv::norm(last, frames[119], cv::NORM_INF), 0.0);
+  EXPECT_LT(jumping.framesDecoded() - before, 119 - keys.back()) << "B-frames decoded on the way";
+  // The frames after the one asked for are decoded: the next is exact.
+  const cv::Mat after = jumping.frame(45, false);
+  for (std::int64_t i = 46; i < 54; ++i) {
+    const cv::Mat grey = jumping.frame(i, false);
+    ASSERT_FALSE(grey.empty()) << i;
+    EXPECT_EQ(cv::norm(grey, frames[static_cast<std::size_t>(i)], cv::NORM_INF), 0.0) << i;
+  }
+  EXPECT_EQ(cv::norm(after, frames[45], cv::NORM_INF), 0.0);
 }
 
 // A key frame's preview skips the loop filter: close to the frame, not it

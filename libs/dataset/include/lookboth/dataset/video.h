@@ -86,6 +86,12 @@ class VideoDecoder {
   /// predicted from unfiltered pixels.
   cv::Mat keyFramePreview(std::int64_t index);
 
+  /// Frames the codec has decoded since the file was opened, those returned
+  /// and those decoded only on the way to them: what the requests cost. A
+  /// frame shown before the one asked for, that no other frame is predicted
+  /// from (a B-frame no other refers to), is not decoded at all.
+  std::int64_t framesDecoded() const;
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
