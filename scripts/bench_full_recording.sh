@@ -16,7 +16,10 @@
 #     and videos (decoding alone, the floor of anything that reads every frame);
 #   - the whole `register` on 2 cores (detection, odometry, the stages),
 #     overlapped (the default) and --sequential from the PNG files, and
-#     from the videos, against the drive's span.
+#     from the videos, against the drive's span;
+#   - the floor of that `register` from the videos on 2 cores: the work it
+#     cannot leave out (the cameras the robot passes, the odometry, the blob
+#     search), each part alone on one core, shared perfectly over two.
 # Usage: LOOKBOTH_BENCH_DIR=/tmp/fr scripts/bench_full_recording.sh  (keeps the
 # rendered recording, about 15 min on 2 cores, for the next run); REPS=3.
 set -euo pipefail
@@ -80,6 +83,31 @@ ffmpeg_each='for input in "$@"; do
     *) ffmpeg -v error -threads 1 -pattern_type glob -i "$input/*.png" -f null - ;;
   esac
 done'
+# The work `register` cannot leave out, each part alone on one core: the
+# cameras the robot passes (every frame of their passes decoded and
+# searched; their coarse frames too), the fisheye's odometry, its blob search;
+# less the fisheye's decoding (done once in register, twice here: `ffmpeg`'s
+# figure, with its own start-up, so the floor errs low) and the start-up of
+# the program (`lookboth --version`) but one.
+# passed_cameras SEPARATOR: the cameras in which examining every frame of
+# the videos found the marker.
+passed_cameras() {
+  tail -n +2 "$work/det_video_every/detections/markers.csv" | cut -d, -f2 | sort -u | paste -sd"$1" -
+}
+register_floor_runs() {
+  local passed
+  passed=$(passed_cameras ,)
+  [[ -n $passed ]] || { echo "no camera saw the marker: no floor" >&2; return 0; }
+  rm -rf "$work/det_floor_passes" "$work/det_floor_blobs"
+  run floor_passes taskset -c 0 "$lookboth" detect "$video" --cameras "$passed" --threads 1 \
+    --no-blobs --detections-only --out "$work/det_floor_passes"
+  run floor_odometry taskset -c 0 "$lookboth" odometry "$video" --dry-run
+  run floor_blobs taskset -c 0 "$lookboth" detect "$video" --cameras fisheye --no-markers \
+    --threads 1 --detections-only --out "$work/det_floor_blobs"
+  run floor_fisheye_decoding taskset -c 0 bash -c "$ffmpeg_each" _ "$video/fisheye/frames"
+  run start_up "$lookboth" --version
+}
+
 for ((r = 0; r < reps; r++)); do
   run ffmpeg_png taskset -c 0 bash -c "$ffmpeg_each" _ "${png_dirs[@]}"
   run ffmpeg_video taskset -c 0 bash -c "$ffmpeg_each" _ "${video_files[@]}"
@@ -104,6 +132,7 @@ for ((r = 0; r < reps; r++)); do
     --out "$work/reg_sequential" --sequential
   run register_video "$lookboth" register "$video" --no-write-back --overwrite \
     --out "$work/reg_video"
+  register_floor_runs
 done
 
 median() { sort -n | sed -n "$(( (reps + 1) / 2 ))p"; }
@@ -134,6 +163,18 @@ for name in register_overlapped register_sequential register_video; do
     'BEGIN { printf "%-44s %8.2f   %.2fx the drive (10 s)\n", l, ms / 1000, ms / 10000 }'
   grep "run time" "$work/out_$name.txt" || true
 done
+if [[ -f $work/t_floor_passes ]]; then
+  echo "register's floor on 2 cores (from the videos; each part alone on one core, ms):"
+  for name in floor_passes floor_odometry floor_blobs floor_fisheye_decoding start_up; do
+    printf '  %-42s %8s\n' "$name" "$(median <"$work/t_$name")"
+  done
+  echo "  (floor_passes: $(passed_cameras ' '))"
+  awk -v p="$(median <"$work/t_floor_passes")" -v o="$(median <"$work/t_floor_odometry")" \
+    -v b="$(median <"$work/t_floor_blobs")" -v f="$(median <"$work/t_floor_fisheye_decoding")" \
+    -v s="$(median <"$work/t_start_up")" 'BEGIN {
+      w = (p + o + b - f - 3 * s) / 2 + s
+      printf "  (passes + odometry + blobs - fisheye decoding - 3 start-ups) / 2 + 1 start-up: %.2f s, %.2fx the drive (10 s)\n", w / 1000, w / 10000 }'
+fi
 # Recall of the coarse search against every frame, per format.
 for format in png_coarse png_searched video_coarse video_searched video_no_keys; do
   python3 "$here/coarse_recall.py" "$work/det_${format%%_*}_every" "$work/det_$format" "$format"

@@ -3,7 +3,8 @@
 file, as a camera's recorder or NVR would have written it, with ffmpeg.
 
     frames_to_video.py <camera folder> [--timing container|sidecar] [--drop N,M,...]
-                       [--codec libx264] [--crf 18] [--keyint N] [--fragmented] [--keep-frames]
+                       [--codec libx264] [--crf 18] [--keyint N] [--bframes N]
+                       [--no-scene-cuts] [--fragmented] [--keep-frames]
 
 - container (default): the video's own timestamps carry the frame times
   (variable frame rate, microsecond time scale) and video.yaml holds the
@@ -39,6 +40,9 @@ def main():
     parser.add_argument("--codec", default="libx264")
     parser.add_argument("--crf", default="18")
     parser.add_argument("--keyint", help="frames between key frames (the codec's default otherwise)")
+    parser.add_argument("--bframes", help="B-frames in a row at most (the codec's default otherwise)")
+    parser.add_argument("--no-scene-cuts", action="store_true",
+                        help="key frames at the interval only, none where the picture changes")
     parser.add_argument("--fragmented", action="store_true",
                         help="a fragmented MP4 (readable up to where a recording was cut)")
     parser.add_argument("--keep-frames", action="store_true")
@@ -66,6 +70,10 @@ def main():
             codec += ["-crf", args.crf, "-pix_fmt", "yuv420p"]
         if args.keyint:
             codec += ["-g", args.keyint]
+        if args.bframes:
+            codec += ["-bf", args.bframes]
+        if args.no_scene_cuts:
+            codec += ["-sc_threshold", "0"]
         if args.fragmented:
             codec += ["-movflags", "frag_keyframe+empty_moov"]
         subprocess.run(["ffmpeg", "-v", "error", "-y", "-f", "concat", "-safe", "0", "-i", listing,

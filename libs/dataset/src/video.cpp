@@ -178,7 +178,10 @@ struct VideoDecoder::Impl {
   /// Presentation time of the frame being decoded to; frames before it are
   /// not wanted (none without timestamps).
   std::int64_t wanted_pts = AV_NOPTS_VALUE;
-  std::int64_t decoded = 0;  ///< Frames the codec gave out.
+  /// The codec's non-reference frames are referred to by no frame at all
+  /// (not so for HEVC's, which higher temporal layers may refer to).
+  bool nonref_unused = false;
+  std::int64_t output = 0;  ///< Frames the codec put out.
   /// The frame returned last (a window repainting asks for it again).
   std::int64_t last_index = -1;
   bool last_colour = false;
@@ -207,6 +210,10 @@ struct VideoDecoder::Impl {
     codec.reset(avcodec_alloc_context3(decoder));
     if (!codec || avcodec_parameters_to_context(codec.get(), parameters) < 0)
       throw videoError(file, "cannot set up the video decoder (out of memory?)");
+    const AVCodecID id = parameters->codec_id;
+    nonref_unused = id == AV_CODEC_ID_H264 || id == AV_CODEC_ID_MPEG1VIDEO ||
+                    id == AV_CODEC_ID_MPEG2VIDEO || id == AV_CODEC_ID_MPEG4 ||
+                    id == AV_CODEC_ID_VP8 || id == AV_CODEC_ID_VP9;
     codec->thread_count = threads;
     codec->thread_type = FF_THREAD_FRAME | FF_THREAD_SLICE;
     const int rc = avcodec_open2(codec.get(), decoder, nullptr);
@@ -221,7 +228,7 @@ struct VideoDecoder::Impl {
     for (;;) {
       int rc = avcodec_receive_frame(codec.get(), frame.get());
       if (rc == 0) {
-        ++decoded;
+        ++output;
         return true;
       }
       if (rc != AVERROR(EAGAIN) || draining) return false;
@@ -245,8 +252,8 @@ struct VideoDecoder::Impl {
   /// would be dropped, and leaving it out changes no other frame's pixels.
   /// Frames after the one wanted are decoded: they may be asked for next.
   void skipUnwanted() {
-    const bool unwanted =
-        wanted_pts != AV_NOPTS_VALUE && packet->pts != AV_NOPTS_VALUE && packet->pts < wanted_pts;
+    const bool unwanted = nonref_unused && wanted_pts != AV_NOPTS_VALUE &&
+                          packet->pts != AV_NOPTS_VALUE && packet->pts < wanted_pts;
     codec->skip_frame = unwanted ? AVDISCARD_NONREF : AVDISCARD_DEFAULT;
   }
 
@@ -268,10 +275,11 @@ struct VideoDecoder::Impl {
     if (!pts.empty()) {
       const auto at = static_cast<size_t>(std::max<std::int64_t>(0, index - back));
       // Halfway to the next frame's time, not the frame's own: a demuxer
-      // that seeks on decoding times takes the presentation time less the
-      // streams' reordering shift, and a shift rounded one tick up (MP4 with
-      // B-frames in FFmpeg 5.1) lands before the key frame at exactly that
-      // time, at the one before it: a key interval decoded for nothing.
+      // that seeks on decoding times (MP4) takes the presentation time less
+      // one reordering shift for the whole stream, its first frame's; a later
+      // key frame's own shift may be a tick smaller (times rounded to the
+      // file's clock), and a seek to its exact time lands on the key frame
+      // before it: a key interval decoded for nothing.
       const std::int64_t half = at + 1 < pts.size() ? (pts[at + 1] - pts[at]) / 2 : 0;
       if (av_seek_frame(format.get(), stream, pts[at] + half, AVSEEK_FLAG_BACKWARD) >= 0) {
         avcodec_flush_buffers(codec.get());
@@ -414,7 +422,7 @@ bool VideoDecoder::isCurrent() const {
 }
 int VideoDecoder::width() const { return impl_->codec->width; }
 const std::vector<std::int64_t>& VideoDecoder::keyFrames() const { return impl_->key_frames; }
-std::int64_t VideoDecoder::framesDecoded() const { return impl_->decoded; }
+std::int64_t VideoDecoder::framesOutput() const { return impl_->output; }
 int VideoDecoder::height() const { return impl_->codec->height; }
 
 cv::Mat VideoDecoder::keyFramePreview(std::int64_t index) {

@@ -374,38 +374,40 @@ TEST(Video, KeyFramesAreListedAndAJumpToOneDecodesItAlone) {
 }
 
 // What a jump costs, at 30 Hz on a microsecond clock (intervals of 33,334,
-// 33,333 and 33,333 us, as the simulator's cameras; B-frames shift decoding
-// times by two frames, 66,667 us, and a key frame's by 66,666): a key frame ahead
-// decodes alone, not from the key frame before it; the frame before the next
+// 33,333 and 33,333 us, as the simulator's cameras; B-frames make the
+// demuxer shift decoding times by the first frames' 66,667 us, a later key
+// frame's own shift is 66,666): a jump to a key frame ahead starts decoding
+// at that key frame, not at the one before it; the frame before the next
 // key frame decodes its references, not the B-frames shown before it that
 // nothing refers to; every frame still comes out exact.
 TEST(Video, AJumpDecodesOnlyWhatTheFrameNeeds) {
   const fs::path folder = scratch("jump_cost") / "cam";
-  makeCameraVideo(folder, 120, "container", "--keyint 30",
-                  [](int i) -> TimeNs { return (i * 100'000'000LL + 2) / 3 * 1000; });
+  // Key frames every 30 frames only; up to 3 B-frames in a row (libx264's
+  // pyramid makes the middle one a reference, the others not).
+  makeCameraVideo(folder, 120, "container", "--keyint 30 --bframes 3 --no-scene-cuts",
+                  [](int i) -> TimeNs { return (i * 100'000LL + 2) / 3 * 1000; });
   VideoDecoder every(folder / "video.mp4");
   std::vector<cv::Mat> frames;
   for (int i = 0; i < 120; ++i) frames.push_back(every.frame(i, false));
-  EXPECT_EQ(every.framesDecoded(), 120);
+  EXPECT_EQ(every.framesOutput(), 120);
   VideoDecoder jumping(folder / "video.mp4");
   const std::vector<std::int64_t> keys = jumping.keyFrames();
-  // Every 30 frames, and where libx264 sees a scene cut.
-  ASSERT_GE(keys.size(), 4u);
-  ASSERT_LE(keys.back(), 100);
+  ASSERT_EQ(keys, (std::vector<std::int64_t>{0, 30, 60, 90}));
   for (const std::int64_t key : keys) {
-    const std::int64_t before = jumping.framesDecoded();
+    const std::int64_t before = jumping.framesOutput();
     const cv::Mat grey = jumping.frame(key, false);
     ASSERT_FALSE(grey.empty()) << key;
     EXPECT_EQ(cv::norm(grey, frames[static_cast<std::size_t>(key)], cv::NORM_INF), 0.0) << key;
-    EXPECT_EQ(jumping.framesDecoded() - before, 1) << "jump to key frame " << key;
+    EXPECT_EQ(jumping.framesOutput() - before, 1) << "jump to key frame " << key;
   }
-  const std::int64_t before = jumping.framesDecoded();
+  const std::int64_t before = jumping.framesOutput();
   const cv::Mat last = jumping.frame(119, false);
   ASSERT_FALSE(last.empty());
   EXPECT_EQ(cv::norm(last, frames[119], cv::NORM_INF), 0.0);
-  EXPECT_LT(jumping.framesDecoded() - before, 119 - keys.back()) << "B-frames decoded on the way";
+  EXPECT_LT(jumping.framesOutput() - before, 119 - 90) << "B-frames decoded on the way";
   // The frames after the one asked for are decoded: the next is exact.
   const cv::Mat after = jumping.frame(45, false);
+  ASSERT_FALSE(after.empty());
   for (std::int64_t i = 46; i < 54; ++i) {
     const cv::Mat grey = jumping.frame(i, false);
     ASSERT_FALSE(grey.empty()) << i;

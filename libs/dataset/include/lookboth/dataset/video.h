@@ -86,11 +86,13 @@ class VideoDecoder {
   /// predicted from unfiltered pixels.
   cv::Mat keyFramePreview(std::int64_t index);
 
-  /// Frames the codec has decoded since the file was opened, those returned
-  /// and those decoded only on the way to them: what the requests cost. A
-  /// frame shown before the one asked for, that no other frame is predicted
-  /// from (a B-frame no other refers to), is not decoded at all.
-  std::int64_t framesDecoded() const;
+  /// Frames the codec has put out since this decoder was made: those
+  /// returned and those decoded on the way to them, what the requests cost
+  /// (not counted: frames a seek drops from the codec's reordering delay).
+  /// On the way to a frame of H.264, MPEG-1/2/4 part 2, VP8 or VP9, the
+  /// frames shown before it that no other frame is predicted from (B-frames
+  /// no other refers to) are not decoded at all.
+  std::int64_t framesOutput() const;
 
  private:
   struct Impl;
