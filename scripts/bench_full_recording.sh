@@ -83,17 +83,17 @@ ffmpeg_each='for input in "$@"; do
     *) ffmpeg -v error -threads 1 -pattern_type glob -i "$input/*.png" -f null - ;;
   esac
 done'
-# The work `register` cannot leave out, each part alone on one core: the
-# cameras the robot passes (every frame of their passes decoded and
-# searched; their coarse frames too), the fisheye's odometry, its blob search;
-# less the fisheye's decoding (done once in register, twice here: `ffmpeg`'s
-# figure, with its own start-up, so the floor errs low) and the start-up of
-# the program (`lookboth --version`) but one.
 # passed_cameras SEPARATOR: the cameras in which examining every frame of
 # the videos found the marker.
 passed_cameras() {
   tail -n +2 "$work/det_video_every/detections/markers.csv" | cut -d, -f2 | sort -u | paste -sd"$1" -
 }
+# A floor of `register` from the videos, each part alone on one core: its
+# work on the cameras the robot passes (every frame of their passes decoded
+# and searched, and their coarse frames), the fisheye's odometry and its blob
+# search; less the fisheye's decoding (once in register, twice here:
+# `ffmpeg`'s figure, with its own start-up, so the floor errs low) and the
+# program's start-up (`lookboth --version`) but one.
 register_floor_runs() {
   local passed
   passed=$(passed_cameras ,)
